@@ -1,0 +1,147 @@
+//! The camera model, pure math shared by every CPU and GPU path (DESIGN.md, "Camera model").
+//!
+//! One formula everywhere: a point of disparity `d` (inverse depth) is blurred into a circle
+//! of confusion of signed radius `K * (d - d_f)` pixels, positive when nearer than focus.
+//! Everything that turns a lens into pixels goes through [`CocModel`].
+mod aperture;
+
+pub use aperture::{Aperture, ApertureGpu, KernelImage};
+
+use crate::{Error, Result};
+
+/// Depths at or beyond this many scene units are "infinitely far" (Blender writes 1e10).
+pub const FAR_DEPTH_SENTINEL: f32 = 1.0e9;
+
+/// A physical thin-lens camera as Blender/Cycles models it: an aperture disk of radius
+/// `f / 2N` at the pinhole, field of view from `f` and the sensor width.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PhysicalCamera {
+    pub focal_length_mm: f32,
+    pub sensor_width_mm: f32,
+    pub fstop: f32,
+    /// Distance of the plane in focus, in scene units (metres).
+    pub focus_distance: f32,
+}
+
+impl PhysicalCamera {
+    pub fn validate(&self) -> Result<()> {
+        let checks = [
+            ("focal length", self.focal_length_mm),
+            ("sensor width", self.sensor_width_mm),
+            ("f-stop", self.fstop),
+            ("focus distance", self.focus_distance),
+        ];
+        for (name, value) in checks {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(Error::param(format!("{name} must be a positive number, got {value}")));
+            }
+        }
+        Ok(())
+    }
+
+    /// Aperture radius in scene units (metres): `f / 2N`.
+    pub fn aperture_radius(&self) -> f32 {
+        self.focal_length_mm * 1.0e-3 / (2.0 * self.fstop)
+    }
+
+    /// Focal length expressed in pixels of an image `image_width_px` wide.
+    pub fn focal_length_px(&self, image_width_px: usize) -> f32 {
+        self.focal_length_mm / self.sensor_width_mm * image_width_px as f32
+    }
+}
+
+/// Circle-of-confusion model: `r(d) = K |d - d_f|` pixels.
+///
+/// With a physical camera `d = 1/z` (z in metres) and
+/// `K = (f / 2N) * (f / sensor_width) * image_width_px`; with normalised input `d` is the
+/// file's disparity in [0, 1] (1 = near) and `K` is given directly in pixels per unit.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CocModel {
+    /// Pixels of CoC radius per unit of disparity.
+    pub k_px: f32,
+    /// Disparity of the plane in focus.
+    pub focus_disparity: f32,
+}
+
+impl CocModel {
+    pub fn new(k_px: f32, focus_disparity: f32) -> Result<Self> {
+        if !(k_px.is_finite() && k_px >= 0.0) {
+            return Err(Error::param(format!("blur K must be a non-negative number, got {k_px}")));
+        }
+        if !focus_disparity.is_finite() {
+            return Err(Error::param(format!("focus disparity must be finite, got {focus_disparity}")));
+        }
+        Ok(Self { k_px, focus_disparity })
+    }
+
+    pub fn from_physical(camera: &PhysicalCamera, image_width_px: usize) -> Result<Self> {
+        camera.validate()?;
+        let k = camera.aperture_radius() * camera.focal_length_px(image_width_px);
+        Self::new(k, 1.0 / camera.focus_distance)
+    }
+
+    /// Signed relative disparity `d - d_f` (positive = nearer than focus).
+    #[inline]
+    pub fn relative_disparity(&self, disparity: f32) -> f32 {
+        disparity - self.focus_disparity
+    }
+
+    /// Signed CoC radius in pixels (positive = nearer than focus).
+    #[inline]
+    pub fn signed_radius(&self, disparity: f32) -> f32 {
+        self.k_px * (disparity - self.focus_disparity)
+    }
+
+    /// CoC radius in pixels.
+    #[inline]
+    pub fn radius(&self, disparity: f32) -> f32 {
+        self.signed_radius(disparity).abs()
+    }
+
+    /// Largest CoC radius over a disparity range.
+    pub fn max_radius(&self, min_disparity: f32, max_disparity: f32) -> f32 {
+        self.radius(min_disparity).max(self.radius(max_disparity))
+    }
+}
+
+/// Disparity (inverse depth) of a planar depth `z`; the far sentinel and infinity map to 0.
+#[inline]
+pub fn disparity_from_z(z: f32) -> f32 {
+    if z >= FAR_DEPTH_SENTINEL || z.is_infinite() {
+        0.0
+    } else {
+        1.0 / z
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn physical_k_matches_design_formula() {
+        // 50 mm f/2 on a 36 mm sensor, 1000 px wide: K = (0.05/4) * (50/36) * 1000.
+        let cam = PhysicalCamera { focal_length_mm: 50.0, sensor_width_mm: 36.0, fstop: 2.0, focus_distance: 2.0 };
+        let coc = CocModel::from_physical(&cam, 1000).unwrap();
+        let expected = 0.0125 * (50.0 / 36.0) * 1000.0;
+        assert!((coc.k_px - expected).abs() < 1e-3 * expected);
+        assert_eq!(coc.radius(0.5), 0.0, "the focus plane has no blur");
+        // A point at 1 m: |1 - 0.5| * K.
+        assert!((coc.radius(1.0) - 0.5 * expected).abs() < 1e-3 * expected);
+        assert!(coc.signed_radius(1.0) > 0.0, "nearer than focus is positive");
+    }
+
+    #[test]
+    fn far_sentinels_have_zero_disparity() {
+        assert_eq!(disparity_from_z(1.0e10), 0.0);
+        assert_eq!(disparity_from_z(f32::INFINITY), 0.0);
+        assert_eq!(disparity_from_z(4.0), 0.25);
+    }
+
+    #[test]
+    fn invalid_cameras_are_refused() {
+        let cam = PhysicalCamera { focal_length_mm: 50.0, sensor_width_mm: 36.0, fstop: 0.0, focus_distance: 2.0 };
+        assert!(CocModel::from_physical(&cam, 100).is_err());
+        assert!(CocModel::new(f32::NAN, 0.0).is_err());
+    }
+}

@@ -1,0 +1,32 @@
+//! The library's one error type. The CLI adds `anyhow` context on top of it.
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A Vulkan call failed; `call` names the entry point so the message says what broke.
+    #[error("Vulkan call {call} failed: {result:?}")]
+    Vulkan { call: &'static str, result: ash::vk::Result },
+    #[error("Vulkan is not available: {0}")]
+    NoVulkan(String),
+    #[error("Vulkan validation reported {count} message(s); first: {first}")]
+    Validation { count: usize, first: String },
+    #[error("GPU memory allocation failed: {0}")]
+    Allocation(#[from] gpu_allocator::AllocationError),
+    #[error("{path}: {message}")]
+    Input { path: PathBuf, message: String },
+    #[error("invalid parameter: {0}")]
+    Parameter(String),
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    pub fn param(message: impl Into<String>) -> Self {
+        Error::Parameter(message.into())
+    }
+    pub fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        Error::Input { path: path.into(), message: message.into() }
+    }
+}

@@ -1,0 +1,58 @@
+//! The in-memory image: RGBA, 32-bit float, linear light, premultiplied alpha, row-major,
+//! origin top-left. Every renderer consumes and produces this type.
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: usize,
+    pub height: usize,
+    pub pixels: Vec<[f32; 4]>,
+}
+
+impl Image {
+    pub fn new(width: usize, height: usize) -> Self {
+        Self { width, height, pixels: vec![[0.0; 4]; width * height] }
+    }
+
+    pub fn filled(width: usize, height: usize, value: [f32; 4]) -> Self {
+        Self { width, height, pixels: vec![value; width * height] }
+    }
+
+    pub fn from_fn(width: usize, height: usize, mut f: impl FnMut(usize, usize) -> [f32; 4]) -> Self {
+        let mut pixels = Vec::with_capacity(width * height);
+        for y in 0..height {
+            for x in 0..width {
+                pixels.push(f(x, y));
+            }
+        }
+        Self { width, height, pixels }
+    }
+
+    #[inline]
+    pub fn index(&self, x: usize, y: usize) -> usize {
+        y * self.width + x
+    }
+
+    #[inline]
+    pub fn get(&self, x: usize, y: usize) -> [f32; 4] {
+        self.pixels[self.index(x, y)]
+    }
+
+    #[inline]
+    pub fn set(&mut self, x: usize, y: usize, value: [f32; 4]) {
+        let i = self.index(x, y);
+        self.pixels[i] = value;
+    }
+
+    /// Pixel with coordinates clamped to the image (edge extension).
+    #[inline]
+    pub fn get_clamped(&self, x: i64, y: i64) -> [f32; 4] {
+        let xc = x.clamp(0, self.width as i64 - 1) as usize;
+        let yc = y.clamp(0, self.height as i64 - 1) as usize;
+        self.get(xc, yc)
+    }
+
+    /// Flat `f32` view (RGBA interleaved), as uploaded to GPU buffers.
+    pub fn as_flat(&self) -> &[f32] {
+        bytemuck::cast_slice(&self.pixels)
+    }
+}

@@ -1,0 +1,21 @@
+//! lensblur: physically based, occlusion-aware lens blur from layered RGBA + depth stacks,
+//! rendered with Vulkan compute (raw `ash`), with a backward pass for gradients.
+//!
+//! Layout (see README "Architecture"):
+//! - [`vk`]: the only place with raw Vulkan calls and `unsafe`.
+//! - [`camera`]: the circle-of-confusion model and aperture shapes, shared by CPU and GPU paths.
+//! - [`image`]: the in-memory RGBA float image.
+//! - [`stack`]: layer stacks and their file formats (EXR, PNG/JPEG) — I/O lives at the edges.
+//! - [`render`]: one module per rendering method, each with GPU host code and a CPU reference.
+//! - [`raytrace`]: the thin-lens ground-truth ray tracer and the built-in scenes.
+//! - [`metrics`]: image quality metrics used by the benchmark.
+pub mod camera;
+pub mod error;
+pub mod image;
+pub mod metrics;
+pub mod raytrace;
+pub mod render;
+pub mod stack;
+pub mod vk;
+
+pub use error::{Error, Result};

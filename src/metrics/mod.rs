@@ -1,0 +1,1 @@
+//! Image quality metrics (the Dr.Bokeh paper's Table 1).

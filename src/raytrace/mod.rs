@@ -1,0 +1,1 @@
+//! Thin-lens distributed ray tracing of billboard scenes: the ground truth.

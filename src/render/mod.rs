@@ -1,0 +1,10 @@
+//! Rendering methods. One module per method; each has GPU host code (driving its shaders in
+//! `glsl/<method>_<pass>.comp`) and a CPU reference of the same math, used by tests.
+use crate::camera::{Aperture, CocModel};
+
+/// Everything about the lens a renderer needs, in pixels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lens {
+    pub coc: CocModel,
+    pub aperture: Aperture,
+}

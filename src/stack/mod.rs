@@ -1,0 +1,95 @@
+//! Layer stacks: what every renderer consumes, and the file formats that produce them.
+//!
+//! In memory a stack is already normalised: layers ordered front to back, colour linear and
+//! premultiplied, depth converted to *disparity* (inverse depth; 0 = infinitely far, or the
+//! file's normalised disparity). The file's own depth convention is remembered in
+//! [`DepthKind`] so outputs and gradients can be written back in it.
+use crate::image::Image;
+use crate::{Error, Result};
+
+/// How the depth channel of a file is encoded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DepthKind {
+    /// Planar Z in scene units (Blender, Cycles, most renderers); 1e10 or inf = empty/far.
+    #[default]
+    Z,
+    /// Normalised disparity in [0, 1], 1 = near (Dr.Bokeh style).
+    Disparity,
+    /// 1/z (Nuke's `far = 0` convention); 0 = infinitely far.
+    InverseZ,
+}
+
+impl DepthKind {
+    /// Converts one stored depth value to the renderer's disparity.
+    #[inline]
+    pub fn to_disparity(self, stored: f32) -> f32 {
+        match self {
+            DepthKind::Z => crate::camera::disparity_from_z(stored),
+            DepthKind::Disparity | DepthKind::InverseZ => stored,
+        }
+    }
+
+    /// Derivative of disparity with respect to the stored value (chain rule for gradients).
+    #[inline]
+    pub fn disparity_derivative(self, stored: f32) -> f32 {
+        match self {
+            DepthKind::Z if stored < crate::camera::FAR_DEPTH_SENTINEL && stored.is_finite() => -1.0 / (stored * stored),
+            DepthKind::Z => 0.0,
+            DepthKind::Disparity | DepthKind::InverseZ => 1.0,
+        }
+    }
+}
+
+/// One layer of a stack.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layer {
+    pub name: String,
+    /// Linear, premultiplied RGBA.
+    pub rgba: Image,
+    /// Disparity per pixel (see module docs), defined everywhere (also where alpha is 0).
+    pub disparity: Vec<f32>,
+}
+
+/// Layers ordered front to back, all of the same size.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LayerStack {
+    pub width: usize,
+    pub height: usize,
+    pub layers: Vec<Layer>,
+}
+
+impl LayerStack {
+    pub fn new(width: usize, height: usize, layers: Vec<Layer>) -> Result<Self> {
+        for layer in &layers {
+            if layer.rgba.width != width || layer.rgba.height != height || layer.disparity.len() != width * height {
+                return Err(Error::param(format!(
+                    "layer '{}' is {}x{} but the stack is {width}x{height}",
+                    layer.name, layer.rgba.width, layer.rgba.height
+                )));
+            }
+        }
+        Ok(Self { width, height, layers })
+    }
+
+    /// Smallest and largest disparity over all pixels of all layers.
+    pub fn disparity_range(&self) -> (f32, f32) {
+        self.layers
+            .iter()
+            .flat_map(|l| l.disparity.iter().copied())
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| (lo.min(d), hi.max(d)))
+    }
+
+    /// Orders layers front to back by their alpha-weighted mean disparity.
+    pub fn sort_front_to_back(&mut self) {
+        let key = |l: &Layer| {
+            let (mut sum, mut weight) = (0.0f64, 0.0f64);
+            for (p, d) in l.rgba.pixels.iter().zip(&l.disparity) {
+                sum += (p[3] * d) as f64;
+                weight += p[3] as f64;
+            }
+            if weight > 0.0 { sum / weight } else { 0.0 }
+        };
+        self.layers.sort_by(|a, b| key(b).total_cmp(&key(a)));
+    }
+}

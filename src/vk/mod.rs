@@ -1,0 +1,1 @@
+//! Vulkan plumbing on raw `ash`: the only module with Vulkan calls and `unsafe`.
