@@ -2,6 +2,8 @@
 //! `glsl/<method>_<pass>.comp`) and a CPU reference of the same math, used by tests.
 use crate::camera::{Aperture, CocModel};
 
+pub mod disk;
+
 /// Everything about the lens a renderer needs, in pixels.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lens {

@@ -1,0 +1,127 @@
+//! Constant-radius disk convolution of an RGBA image: the first compute operation of the
+//! platform, the exact per-layer blur of the layered oracle, and a building block of the
+//! baselines. GPU path: `glsl/disk_blur.comp`; CPU reference: [`disk_blur_cpu`].
+//!
+//! The kernel is the *anti-aliased* disk: each tap weighs the fraction of its pixel square that
+//! lies inside the circle of radius `r` (what a thin lens does to a fronto-parallel plane at
+//! constant CoC, up to the pixel box filter). Taps falling outside the image are dropped and
+//! the rest renormalised, so a constant image stays constant up to its borders.
+use rayon::prelude::*;
+
+use crate::image::Image;
+
+/// Sub-samples per pixel side used to integrate the disk's coverage of a pixel square.
+const COVERAGE_SUBSAMPLES: usize = 8;
+
+/// A square kernel of side `2 * half_extent + 1`, row-major, weights summing to 1.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiskKernel {
+    pub half_extent: usize,
+    pub weights: Vec<f32>,
+}
+
+impl DiskKernel {
+    /// Anti-aliased disk of `radius` pixels; a radius below half a pixel is (nearly) identity.
+    pub fn new(radius: f32) -> Self {
+        let radius = radius.max(0.0);
+        let half_extent = (radius + 0.5).ceil() as usize;
+        let side = 2 * half_extent + 1;
+        let mut weights = vec![0.0f32; side * side];
+        let n = COVERAGE_SUBSAMPLES;
+        // A radius under one sub-sample would miss every sample: treat it as a point.
+        let effective = radius.max(1.0 / n as f32);
+        for (i, w) in weights.iter_mut().enumerate() {
+            let dx = (i % side) as f32 - half_extent as f32;
+            let dy = (i / side) as f32 - half_extent as f32;
+            let mut inside = 0usize;
+            for sy in 0..n {
+                for sx in 0..n {
+                    let px = dx - 0.5 + (sx as f32 + 0.5) / n as f32;
+                    let py = dy - 0.5 + (sy as f32 + 0.5) / n as f32;
+                    if px * px + py * py <= effective * effective {
+                        inside += 1;
+                    }
+                }
+            }
+            *w = inside as f32;
+        }
+        let total: f32 = weights.iter().sum();
+        weights.iter_mut().for_each(|w| *w /= total);
+        Self { half_extent, weights }
+    }
+
+    pub fn side(&self) -> usize {
+        2 * self.half_extent + 1
+    }
+}
+
+/// CPU reference of `glsl/disk_blur.comp`: same taps, same order, same renormalisation.
+pub fn disk_blur_cpu(image: &Image, kernel: &DiskKernel) -> Image {
+    let (w, h) = (image.width as i64, image.height as i64);
+    let side = kernel.side() as i64;
+    let half = kernel.half_extent as i64;
+    let mut out = Image::new(image.width, image.height);
+    out.pixels.par_chunks_mut(image.width).enumerate().for_each(|(y, row)| {
+        for (x, pixel) in row.iter_mut().enumerate() {
+            let mut sum = [0.0f32; 4];
+            let mut weight = 0.0f32;
+            for ky in 0..side {
+                let sy = y as i64 + ky - half;
+                if sy < 0 || sy >= h {
+                    continue;
+                }
+                for kx in 0..side {
+                    let sx = x as i64 + kx - half;
+                    let k = kernel.weights[(ky * side + kx) as usize];
+                    if sx < 0 || sx >= w || k == 0.0 {
+                        continue;
+                    }
+                    let p = image.get(sx as usize, sy as usize);
+                    for c in 0..4 {
+                        sum[c] += k * p[c];
+                    }
+                    weight += k;
+                }
+            }
+            *pixel = sum.map(|s| if weight > 0.0 { s / weight } else { 0.0 });
+        }
+    });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kernel_area_matches_disk_area() {
+        // Unnormalised coverage sums to pi r^2 up to the sub-sampling error (~1 / n per edge px).
+        for r in [2.0f32, 5.5, 17.0] {
+            let k = DiskKernel::new(r);
+            let nonzero = k.weights.iter().filter(|&&w| w > 0.0).count() as f32;
+            let peak = k.weights.iter().cloned().fold(0.0, f32::max);
+            let area = k.weights.iter().map(|w| w / peak).sum::<f32>();
+            let expected = std::f32::consts::PI * r * r;
+            assert!((area - expected).abs() < 0.02 * expected + 1.0, "r={r}: {area} vs {expected}");
+            assert!(nonzero <= ((2.0 * r + 3.0) * (2.0 * r + 3.0)), "r={r}");
+        }
+    }
+
+    #[test]
+    fn zero_radius_is_identity() {
+        let img = Image::from_fn(7, 5, |x, y| [x as f32, y as f32, 1.0, 0.5]);
+        assert_eq!(disk_blur_cpu(&img, &DiskKernel::new(0.0)), img);
+    }
+
+    #[test]
+    fn constant_image_stays_constant_including_borders() {
+        let img = Image::filled(20, 13, [0.25, 0.5, 4.0, 1.0]);
+        let out = disk_blur_cpu(&img, &DiskKernel::new(6.3));
+        for p in &out.pixels {
+            for c in 0..4 {
+                // Renormalisation by the in-image weight: exact up to f32 rounding.
+                assert!((p[c] - img.pixels[0][c]).abs() < 1e-5 * img.pixels[0][c].abs().max(1.0));
+            }
+        }
+    }
+}
