@@ -1,8 +1,14 @@
-//! Subcommands. Each one parses its flags, calls the library, and reports.
+//! Subcommands. Each one lives in its own file, parses its flags, calls the library, reports.
+//! This file only lists them; errors get `anyhow` context here and become exit code 1.
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "lensblur", version, about = "Physically based, occlusion-aware lens blur on Vulkan compute")]
+#[command(
+    name = "lensblur",
+    version,
+    about = "Physically based, occlusion-aware lens blur on Vulkan compute",
+    after_help = "Examples:\n  lensblur devices\n  lensblur example -o out/"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -13,5 +19,12 @@ enum Command {}
 
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    match cli.command {}
+    let result: anyhow::Result<()> = match cli.command {};
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("lensblur: error: {error:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
 }
