@@ -15,6 +15,7 @@ pub mod image;
 pub mod metrics;
 pub mod raytrace;
 pub mod render;
+pub mod shaders;
 pub mod stack;
 pub mod vk;
 

@@ -2,24 +2,34 @@
 //! This file only lists them; errors get `anyhow` context here and become exit code 1.
 use clap::{Parser, Subcommand};
 
+mod devices;
+
+const EXAMPLES: &str = "\
+Examples:
+  lensblur devices                      list Vulkan devices, mark the one in use
+  LENSBLUR_DEVICE=1 lensblur devices    pick a device by index or name substring
+  LENSBLUR_VALIDATION=1 lensblur ...    any Vulkan validation message becomes an error";
+
 #[derive(Parser)]
-#[command(
-    name = "lensblur",
-    version,
-    about = "Physically based, occlusion-aware lens blur on Vulkan compute",
-    after_help = "Examples:\n  lensblur devices\n  lensblur example -o out/"
-)]
+#[command(name = "lensblur", version, about = "Physically based, occlusion-aware lens blur on Vulkan compute", after_help = EXAMPLES)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// List the Vulkan devices and the one lensblur would use.
+    Devices(devices::Args),
+}
 
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    let result: anyhow::Result<()> = match cli.command {};
+    let result = match cli.command {
+        Command::Devices(args) => devices::run(args),
+    };
+    // Validation messages raised while contexts were torn down fail the command too.
+    let result = result.and_then(|()| Ok(lensblur::vk::validation::check_unreported()?));
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(error) => {

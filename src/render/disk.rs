@@ -9,6 +9,9 @@
 use rayon::prelude::*;
 
 use crate::image::Image;
+use crate::shaders;
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
+use crate::Result;
 
 /// Sub-samples per pixel side used to integrate the disk's coverage of a pixel square.
 const COVERAGE_SUBSAMPLES: usize = 8;
@@ -87,6 +90,49 @@ pub fn disk_blur_cpu(image: &Image, kernel: &DiskKernel) -> Image {
         }
     });
     out
+}
+
+/// Push constants of `glsl/disk_blur.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct DiskBlurPush {
+    width: i32,
+    height: i32,
+    half_extent: i32,
+    pad: i32,
+}
+const _: () = assert!(std::mem::size_of::<DiskBlurPush>() == 16);
+
+/// Disk convolution on the GPU: uploads the image and kernel, dispatches, reads back.
+pub struct DiskBlur {
+    ctx: Context,
+    pipeline: ComputePipeline,
+}
+
+impl DiskBlur {
+    pub fn new(ctx: &Context) -> Result<Self> {
+        let pipeline = ComputePipeline::new(ctx, &shaders::DISK_BLUR, 3, std::mem::size_of::<DiskBlurPush>())?;
+        Ok(Self { ctx: ctx.clone(), pipeline })
+    }
+
+    pub fn run(&self, image: &Image, kernel: &DiskKernel) -> Result<Image> {
+        let ctx = &self.ctx;
+        let source = Buffer::from_slice(ctx, "disk_blur source", &image.pixels)?;
+        let weights = Buffer::from_slice(ctx, "disk_blur kernel", &kernel.weights)?;
+        let result = Buffer::zeroed(ctx, "disk_blur result", std::mem::size_of_val(image.pixels.as_slice()) as u64)?;
+        let push = DiskBlurPush {
+            width: image.width as i32,
+            height: image.height as i32,
+            half_extent: kernel.half_extent as i32,
+            pad: 0,
+        };
+        let groups = self.pipeline.groups_for([image.width as u32, image.height as u32, 1]);
+        let mut batch = CommandBatch::new(ctx)?;
+        batch.dispatch(&self.pipeline, &[source.all(), weights.all(), result.all()], &push, groups)?;
+        batch.submit_and_wait()?;
+        let pixels: Vec<[f32; 4]> = result.read(ctx)?;
+        Ok(Image { width: image.width, height: image.height, pixels })
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,180 @@
+//! Storage buffers and their memory (gpu-allocator). A [`Buffer`] is a cheap handle; the
+//! memory and the `VkBuffer` are freed when the last handle drops — including the handles a
+//! [`super::CommandBatch`] keeps until its fence signals.
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+
+use super::device::Device;
+use super::error::VkCall;
+use super::{CommandBatch, Context};
+use crate::{Error, Result};
+
+struct BufferInner {
+    device: Arc<Device>,
+    raw: vk::Buffer,
+    allocation: Option<Allocation>,
+    size: u64,
+    name: String,
+}
+
+impl Drop for BufferInner {
+    fn drop(&mut self) {
+        if let Some(allocation) = self.allocation.take() {
+            let _ = self.device.allocator().free(allocation);
+        }
+        // SAFETY: the last handle is gone, so no pending submission references the buffer
+        // (batches hold handles until their fence signals); its memory was freed just above.
+        unsafe { self.device.raw.destroy_buffer(self.raw, None) };
+    }
+}
+
+/// A device buffer usable as a storage buffer and as a transfer source/destination.
+#[derive(Clone)]
+pub struct Buffer(Arc<BufferInner>);
+
+/// A range of a buffer bound to one descriptor (tiles bind sub-ranges of big buffers).
+#[derive(Clone, Copy)]
+pub struct Binding<'a> {
+    pub buffer: &'a Buffer,
+    pub offset: u64,
+    pub range: u64,
+}
+
+const USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
+    vk::BufferUsageFlags::STORAGE_BUFFER.as_raw()
+        | vk::BufferUsageFlags::TRANSFER_SRC.as_raw()
+        | vk::BufferUsageFlags::TRANSFER_DST.as_raw(),
+);
+
+impl Buffer {
+    fn create(ctx: &Context, name: &str, size: u64, location: MemoryLocation) -> Result<Self> {
+        let device = &ctx.device;
+        // Zero-sized buffers are invalid in Vulkan; a 4-byte one keeps callers branch-free.
+        let size = size.max(4);
+        let info = vk::BufferCreateInfo::default().size(size).usage(USAGE).sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: valid create info on a live device.
+        let raw = unsafe { device.raw.create_buffer(&info, None) }.call("vkCreateBuffer")?;
+        // SAFETY: `raw` was just created on this device.
+        let requirements = unsafe { device.raw.get_buffer_memory_requirements(raw) };
+        let desc = AllocationCreateDesc {
+            name,
+            requirements,
+            location,
+            linear: true,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        };
+        let allocation = match device.allocator().allocate(&desc) {
+            Ok(a) => a,
+            Err(e) => {
+                // SAFETY: the buffer has no memory and was never used.
+                unsafe { device.raw.destroy_buffer(raw, None) };
+                return Err(Error::Allocation(e));
+            }
+        };
+        // SAFETY: a live allocation of this device; read before it moves into the handle.
+        let (memory, offset) = unsafe { (allocation.memory(), allocation.offset()) };
+        // From here on, dropping `inner` frees the memory and destroys the buffer.
+        let inner = BufferInner { device: device.clone(), raw, allocation: Some(allocation), size, name: name.to_string() };
+        // SAFETY: the allocation satisfies the buffer's requirements and is bound exactly once.
+        unsafe { device.raw.bind_buffer_memory(raw, memory, offset) }.call("vkBindBufferMemory")?;
+        device.set_name(raw, name);
+        Ok(Self(Arc::new(inner)))
+    }
+
+    /// A device-local buffer of `size` bytes, zero-filled.
+    pub fn zeroed(ctx: &Context, name: &str, size: u64) -> Result<Self> {
+        let buffer = Self::create(ctx, name, size, MemoryLocation::GpuOnly)?;
+        let mut batch = CommandBatch::new(ctx)?;
+        batch.fill_zero(&buffer)?;
+        batch.submit_and_wait()?;
+        Ok(buffer)
+    }
+
+    /// A device-local buffer holding `data`.
+    pub fn from_slice<T: bytemuck::Pod>(ctx: &Context, name: &str, data: &[T]) -> Result<Self> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let buffer = Self::create(ctx, name, bytes.len() as u64, MemoryLocation::GpuOnly)?;
+        buffer.write(ctx, bytes)?;
+        Ok(buffer)
+    }
+
+    /// Size in bytes.
+    pub fn size(&self) -> u64 {
+        self.0.size
+    }
+
+    pub fn name(&self) -> &str {
+        &self.0.name
+    }
+
+    pub(crate) fn raw(&self) -> vk::Buffer {
+        self.0.raw
+    }
+
+    /// The whole buffer as one binding.
+    pub fn all(&self) -> Binding<'_> {
+        Binding { buffer: self, offset: 0, range: self.size() }
+    }
+
+    /// `range` bytes from `offset` as one binding.
+    pub fn range(&self, offset: u64, range: u64) -> Binding<'_> {
+        Binding { buffer: self, offset, range }
+    }
+
+    /// Host-coherent mapped memory, if the device memory is host-visible (lavapipe, ReBAR,
+    /// integrated GPUs): uploads and read-backs then skip the staging copy.
+    fn mapped(&self) -> Option<*mut u8> {
+        let allocation = self.0.allocation.as_ref()?;
+        let coherent = allocation.memory_properties().contains(vk::MemoryPropertyFlags::HOST_COHERENT);
+        allocation.mapped_ptr().filter(|_| coherent).map(|p| p.as_ptr().cast::<u8>())
+    }
+
+    /// Copies `bytes` to the start of the buffer. Waits: no submission uses the buffer after.
+    pub fn write(&self, ctx: &Context, bytes: &[u8]) -> Result<()> {
+        self.check_len(bytes.len())?;
+        if let Some(ptr) = self.mapped() {
+            // SAFETY: the mapping covers `size` bytes, `bytes` fits (checked), and no GPU work
+            // uses this buffer now: every batch waits for its fence before returning.
+            unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), ptr, bytes.len()) };
+            return Ok(());
+        }
+        let staging = Self::create(ctx, "staging upload", bytes.len() as u64, MemoryLocation::CpuToGpu)?;
+        let ptr = staging.mapped().ok_or_else(|| Error::param("staging memory is not host-visible"))?;
+        // SAFETY: the staging mapping holds `bytes.len()` bytes and is not in use.
+        unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), ptr, bytes.len()) };
+        let mut batch = CommandBatch::new(ctx)?;
+        batch.copy(&staging, self, bytes.len() as u64)?;
+        batch.submit_and_wait()
+    }
+
+    /// Reads the whole buffer back as `T`s (after the batches that wrote it have waited).
+    pub fn read<T: bytemuck::Pod>(&self, ctx: &Context) -> Result<Vec<T>> {
+        let count = self.size() as usize / std::mem::size_of::<T>();
+        let mut out = vec![T::zeroed(); count];
+        let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut out);
+        if let Some(ptr) = self.mapped() {
+            // SAFETY: mapped, coherent, `bytes` is within the buffer, and the writing batch has
+            // waited on its fence after a shader-write -> host-read barrier.
+            unsafe { std::ptr::copy_nonoverlapping(ptr, bytes.as_mut_ptr(), bytes.len()) };
+            return Ok(out);
+        }
+        let staging = Self::create(ctx, "staging read-back", bytes.len() as u64, MemoryLocation::GpuToCpu)?;
+        let mut batch = CommandBatch::new(ctx)?;
+        batch.copy(self, &staging, bytes.len() as u64)?;
+        batch.submit_and_wait()?;
+        let ptr = staging.mapped().ok_or_else(|| Error::param("staging memory is not host-visible"))?;
+        // SAFETY: as above, for the staging buffer.
+        unsafe { std::ptr::copy_nonoverlapping(ptr, bytes.as_mut_ptr(), bytes.len()) };
+        Ok(out)
+    }
+
+    fn check_len(&self, len: usize) -> Result<()> {
+        if len as u64 > self.size() {
+            return Err(Error::param(format!("{} bytes do not fit buffer '{}' of {} bytes", len, self.name(), self.size())));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,323 @@
+//! Command recording and submission. A [`CommandBatch`] records dispatches and copies into one
+//! command buffer, submits it with a fence, and keeps every buffer, pipeline and descriptor
+//! pool it used alive until that fence has signalled. Reusable: after `submit_and_wait` it is
+//! reset (command pool and descriptor pools) and records the next batch.
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::buffer::{Binding, Buffer};
+use super::device::Device;
+use super::error::VkCall;
+use super::pipeline::ComputePipeline;
+use super::Context;
+use crate::{Error, Result};
+
+/// Descriptor sets per pool; a batch adds pools as it needs them (tiles bind many sets).
+const SETS_PER_POOL: u32 = 64;
+const BUFFERS_PER_SET: u32 = 16;
+
+pub struct CommandBatch {
+    device: Arc<Device>,
+    command_pool: vk::CommandPool,
+    command_buffer: vk::CommandBuffer,
+    fence: vk::Fence,
+    descriptor_pools: Vec<vk::DescriptorPool>,
+    /// Sets handed out from the last pool of `descriptor_pools`.
+    sets_in_last_pool: u32,
+    timestamps: Option<vk::QueryPool>,
+    last_device_time_ns: Option<f64>,
+    in_use_buffers: Vec<Buffer>,
+    in_use_pipelines: Vec<ComputePipeline>,
+    recording: bool,
+    /// True between a submission and the wait on its fence.
+    pending: bool,
+    commands: usize,
+}
+
+impl CommandBatch {
+    pub fn new(ctx: &Context) -> Result<Self> {
+        let device = ctx.device.clone();
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(device.queue_family)
+            .flags(vk::CommandPoolCreateFlags::TRANSIENT);
+        let mut batch = Self {
+            device: device.clone(),
+            command_pool: vk::CommandPool::null(),
+            command_buffer: vk::CommandBuffer::null(),
+            fence: vk::Fence::null(),
+            descriptor_pools: Vec::new(),
+            sets_in_last_pool: SETS_PER_POOL,
+            timestamps: None,
+            last_device_time_ns: None,
+            in_use_buffers: Vec::new(),
+            in_use_pipelines: Vec::new(),
+            recording: false,
+            pending: false,
+            commands: 0,
+        };
+        // SAFETY (this block): create infos are valid; `Drop` destroys whatever got created.
+        unsafe {
+            batch.command_pool = device.raw.create_command_pool(&pool_info, None).call("vkCreateCommandPool")?;
+            let alloc = vk::CommandBufferAllocateInfo::default()
+                .command_pool(batch.command_pool)
+                .level(vk::CommandBufferLevel::PRIMARY)
+                .command_buffer_count(1);
+            batch.command_buffer = device.raw.allocate_command_buffers(&alloc).call("vkAllocateCommandBuffers")?[0];
+            batch.fence = device.raw.create_fence(&vk::FenceCreateInfo::default(), None).call("vkCreateFence")?;
+            if device.info.timestamp_period_ns.is_some() {
+                let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2);
+                batch.timestamps = Some(device.raw.create_query_pool(&info, None).call("vkCreateQueryPool")?);
+            }
+        }
+        Ok(batch)
+    }
+
+    fn begin_if_needed(&mut self) -> Result<()> {
+        if self.recording {
+            return Ok(());
+        }
+        let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        // SAFETY: the buffer is not pending (every submission is waited for before reuse).
+        unsafe {
+            self.device.raw.begin_command_buffer(self.command_buffer, &begin).call("vkBeginCommandBuffer")?;
+            if let Some(pool) = self.timestamps {
+                self.device.raw.cmd_reset_query_pool(self.command_buffer, pool, 0, 2);
+                self.device.raw.cmd_write_timestamp(self.command_buffer, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0);
+            }
+        }
+        self.recording = true;
+        Ok(())
+    }
+
+    /// Makes every earlier shader/transfer write visible to every later command (and the host).
+    fn barrier(&mut self) {
+        let all_writes = vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE;
+        let all_access = vk::AccessFlags::SHADER_READ
+            | vk::AccessFlags::SHADER_WRITE
+            | vk::AccessFlags::TRANSFER_READ
+            | vk::AccessFlags::TRANSFER_WRITE
+            | vk::AccessFlags::HOST_READ;
+        let stages = vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER;
+        let barrier = vk::MemoryBarrier::default().src_access_mask(all_writes).dst_access_mask(all_access);
+        // SAFETY: recording is active.
+        unsafe {
+            self.device.raw.cmd_pipeline_barrier(
+                self.command_buffer,
+                stages,
+                stages | vk::PipelineStageFlags::HOST,
+                vk::DependencyFlags::empty(),
+                &[barrier],
+                &[],
+                &[],
+            )
+        };
+    }
+
+    fn allocate_set(&mut self, pipeline: &ComputePipeline) -> Result<vk::DescriptorSet> {
+        if self.sets_in_last_pool >= SETS_PER_POOL {
+            let sizes = [vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(SETS_PER_POOL * BUFFERS_PER_SET)];
+            let info = vk::DescriptorPoolCreateInfo::default().max_sets(SETS_PER_POOL).pool_sizes(&sizes);
+            // SAFETY: valid create info; destroyed in `Drop`.
+            let pool = unsafe { self.device.raw.create_descriptor_pool(&info, None) }.call("vkCreateDescriptorPool")?;
+            self.descriptor_pools.push(pool);
+            self.sets_in_last_pool = 0;
+        }
+        let layouts = [pipeline.0.set_layout];
+        let pool = *self.descriptor_pools.last().expect("a pool was just ensured");
+        let info = vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&layouts);
+        // SAFETY: the pool has room for one more set of at most BUFFERS_PER_SET buffers.
+        let set = unsafe { self.device.raw.allocate_descriptor_sets(&info) }.call("vkAllocateDescriptorSets")?[0];
+        self.sets_in_last_pool += 1;
+        Ok(set)
+    }
+
+    /// Records one dispatch of `pipeline` over `groups` workgroups with `bindings` at set 0
+    /// (binding i = `bindings[i]`) and `push` as push constants, followed by a barrier.
+    pub fn dispatch<P: bytemuck::Pod>(
+        &mut self,
+        pipeline: &ComputePipeline,
+        bindings: &[Binding<'_>],
+        push: &P,
+        groups: [u32; 3],
+    ) -> Result<()> {
+        let name = pipeline.shader().name;
+        if bindings.len() != pipeline.0.bindings as usize || bindings.len() > BUFFERS_PER_SET as usize {
+            return Err(Error::param(format!("{name}: {} buffers bound, pipeline declares {}", bindings.len(), pipeline.0.bindings)));
+        }
+        if std::mem::size_of::<P>() != pipeline.0.push_size as usize {
+            return Err(Error::param(format!("{name}: push constants of {} bytes, pipeline declares {}", std::mem::size_of::<P>(), pipeline.0.push_size)));
+        }
+        let limits = &self.device.info;
+        let max_range = u64::from(limits.max_storage_buffer_range);
+        for b in bindings {
+            if b.range > max_range || b.offset + b.range > b.buffer.size() {
+                return Err(Error::param(format!(
+                    "{name}: binding of '{}' ({} bytes at {}) exceeds the buffer or the device's storage range of {max_range} bytes",
+                    b.buffer.name(), b.range, b.offset
+                )));
+            }
+        }
+        if (0..3).any(|i| groups[i] > limits.max_workgroup_count[i]) {
+            return Err(Error::param(format!("{name}: {groups:?} workgroups exceed the device limit {:?}", limits.max_workgroup_count)));
+        }
+        self.begin_if_needed()?;
+        let set = self.allocate_set(pipeline)?;
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = bindings
+            .iter()
+            .map(|b| [vk::DescriptorBufferInfo::default().buffer(b.buffer.raw()).offset(b.offset).range(b.range)])
+            .collect();
+        let writes: Vec<vk::WriteDescriptorSet> = infos
+            .iter()
+            .enumerate()
+            .map(|(i, info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(i as u32)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(info)
+            })
+            .collect();
+        let cmd = self.command_buffer;
+        // SAFETY: the set is fresh (not in use), buffers and pipeline are live and kept alive
+        // by `in_use_*` until the fence signals; sizes were checked above.
+        unsafe {
+            self.device.raw.update_descriptor_sets(&writes, &[]);
+            self.device.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline.0.raw);
+            self.device.raw.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, pipeline.0.layout, 0, &[set], &[]);
+            if pipeline.0.push_size > 0 {
+                self.device.raw.cmd_push_constants(cmd, pipeline.0.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(push));
+            }
+            self.device.raw.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+        }
+        self.barrier();
+        self.in_use_pipelines.push(pipeline.clone());
+        self.in_use_buffers.extend(bindings.iter().map(|b| b.buffer.clone()));
+        self.commands += 1;
+        Ok(())
+    }
+
+    /// Records a copy of the first `bytes` bytes of `src` into `dst`, followed by a barrier.
+    pub fn copy(&mut self, src: &Buffer, dst: &Buffer, bytes: u64) -> Result<()> {
+        if bytes > src.size() || bytes > dst.size() {
+            return Err(Error::param(format!("copy of {bytes} bytes from '{}' to '{}' out of bounds", src.name(), dst.name())));
+        }
+        self.begin_if_needed()?;
+        let region = vk::BufferCopy::default().size(bytes);
+        // SAFETY: both buffers are live, kept alive below, and the region is in bounds.
+        unsafe { self.device.raw.cmd_copy_buffer(self.command_buffer, src.raw(), dst.raw(), &[region]) };
+        self.barrier();
+        self.in_use_buffers.extend([src.clone(), dst.clone()]);
+        self.commands += 1;
+        Ok(())
+    }
+
+    /// Records zero-filling the whole buffer.
+    pub fn fill_zero(&mut self, buffer: &Buffer) -> Result<()> {
+        self.begin_if_needed()?;
+        // SAFETY: the buffer is live and kept alive below; WHOLE_SIZE rounds down to 4 bytes.
+        unsafe { self.device.raw.cmd_fill_buffer(self.command_buffer, buffer.raw(), 0, vk::WHOLE_SIZE, 0) };
+        self.barrier();
+        self.in_use_buffers.push(buffer.clone());
+        self.commands += 1;
+        Ok(())
+    }
+
+    /// Commands recorded since the last submission.
+    pub fn len(&self) -> usize {
+        self.commands
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.commands == 0
+    }
+
+    /// Submits what was recorded, waits for it, checks validation, and resets for reuse.
+    pub fn submit_and_wait(&mut self) -> Result<()> {
+        if !self.recording {
+            return Ok(());
+        }
+        let cmd = self.command_buffer;
+        // SAFETY: recording is active; ending it and submitting with our unsignalled fence.
+        unsafe {
+            if let Some(pool) = self.timestamps {
+                self.device.raw.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, 1);
+            }
+            self.device.raw.end_command_buffer(cmd).call("vkEndCommandBuffer")?;
+            self.recording = false;
+            let buffers = [cmd];
+            let submit = vk::SubmitInfo::default().command_buffers(&buffers);
+            let queue = self.device.queue();
+            self.device.raw.queue_submit(*queue, &[submit], self.fence).call("vkQueueSubmit")?;
+        }
+        self.pending = true;
+        // SAFETY: the fence belongs to this device and was submitted just above.
+        unsafe { self.device.raw.wait_for_fences(&[self.fence], true, u64::MAX) }.call("vkWaitForFences")?;
+        self.pending = false;
+        self.last_device_time_ns = self.read_timestamps();
+        self.reset()?;
+        self.device.check_validation()
+    }
+
+    fn read_timestamps(&self) -> Option<f64> {
+        let pool = self.timestamps?;
+        let period = self.device.info.timestamp_period_ns? as f64;
+        let mut ticks = [0u64; 2];
+        // SAFETY: both queries were written by the submission that has completed.
+        unsafe { self.device.raw.get_query_pool_results(pool, 0, &mut ticks, vk::QueryResultFlags::TYPE_64) }.ok()?;
+        Some(ticks[1].saturating_sub(ticks[0]) as f64 * period)
+    }
+
+    /// Device time of the last submission (timestamp queries), if the queue supports them.
+    pub fn last_device_time_ns(&self) -> Option<f64> {
+        self.last_device_time_ns
+    }
+
+    fn reset(&mut self) -> Result<()> {
+        // SAFETY: the fence has signalled, so nothing recorded is pending any more.
+        unsafe {
+            self.device.raw.reset_fences(&[self.fence]).call("vkResetFences")?;
+            self.device
+                .raw
+                .reset_command_pool(self.command_pool, vk::CommandPoolResetFlags::empty())
+                .call("vkResetCommandPool")?;
+            for &pool in &self.descriptor_pools {
+                self.device.raw.reset_descriptor_pool(pool, vk::DescriptorPoolResetFlags::empty()).call("vkResetDescriptorPool")?;
+            }
+        }
+        // Keep the first pool for the next batch; extra ones were for an unusually big batch.
+        if self.descriptor_pools.len() > 1 {
+            for pool in self.descriptor_pools.drain(1..) {
+                // SAFETY: reset above and no longer referenced by any pending work.
+                unsafe { self.device.raw.destroy_descriptor_pool(pool, None) };
+            }
+        }
+        self.sets_in_last_pool = if self.descriptor_pools.is_empty() { SETS_PER_POOL } else { 0 };
+        self.in_use_buffers.clear();
+        self.in_use_pipelines.clear();
+        self.commands = 0;
+        Ok(())
+    }
+}
+
+impl Drop for CommandBatch {
+    fn drop(&mut self) {
+        // SAFETY: if a submission may still run (its wait failed), wait before destroying
+        // anything it uses; then destroy in reverse order of creation. Null handles are no-ops.
+        unsafe {
+            if self.pending {
+                let _ = self.device.raw.wait_for_fences(&[self.fence], true, u64::MAX);
+            }
+            if let Some(pool) = self.timestamps {
+                self.device.raw.destroy_query_pool(pool, None);
+            }
+            for &pool in &self.descriptor_pools {
+                self.device.raw.destroy_descriptor_pool(pool, None);
+            }
+            self.device.raw.destroy_fence(self.fence, None);
+            self.device.raw.destroy_command_pool(self.command_pool, None);
+        }
+    }
+}

@@ -1,0 +1,291 @@
+//! Physical-device choice and the logical device: the [`Context`] every GPU path runs on.
+//!
+//! Choice: discrete > integrated > virtual > CPU, overridable with `LENSBLUR_DEVICE=<index|name
+//! substring>`. One compute queue. The allocator lives inside the device and is dropped before
+//! `vkDestroyDevice`; the device waits idle first, so nothing dies under a running submission.
+use std::mem::ManuallyDrop;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+
+use super::error::VkCall;
+use super::instance::Instance;
+use crate::{Error, Result};
+
+/// How to open the GPU: validation on/off and which device.
+#[derive(Clone, Debug, Default)]
+pub struct ContextOptions {
+    pub validation: bool,
+    /// A device index (as `lensblur devices` lists them) or a case-insensitive name substring.
+    pub device: Option<String>,
+}
+
+impl ContextOptions {
+    /// `LENSBLUR_VALIDATION=1` and `LENSBLUR_DEVICE=<index|name>`.
+    pub fn from_env() -> Self {
+        let validation = std::env::var("LENSBLUR_VALIDATION").is_ok_and(|v| !v.is_empty() && v != "0");
+        let device = std::env::var("LENSBLUR_DEVICE").ok().filter(|v| !v.is_empty());
+        Self { validation, device }
+    }
+}
+
+/// What `lensblur devices` shows, and what the tiler and benchmarks need to know.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DeviceInfo {
+    pub index: usize,
+    pub name: String,
+    pub kind: String,
+    pub driver: String,
+    pub api_version: String,
+    pub device_local_bytes: u64,
+    pub max_allocation_bytes: u64,
+    pub max_workgroup_invocations: u32,
+    pub max_workgroup_size: [u32; 3],
+    pub max_workgroup_count: [u32; 3],
+    pub max_storage_buffer_range: u32,
+    pub max_push_constants_size: u32,
+    pub max_shared_memory_bytes: u32,
+    pub has_compute_queue: bool,
+    /// Nanoseconds per timestamp tick, if the compute queue supports timestamps.
+    pub timestamp_period_ns: Option<f32>,
+}
+
+fn kind_rank(kind: vk::PhysicalDeviceType) -> u32 {
+    match kind {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+fn kind_name(kind: vk::PhysicalDeviceType) -> &'static str {
+    match kind {
+        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
+        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
+        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
+        vk::PhysicalDeviceType::CPU => "CPU",
+        _ => "other",
+    }
+}
+
+fn compute_queue_family(instance: &Instance, device: vk::PhysicalDevice) -> Option<(u32, u32)> {
+    // SAFETY: `device` was enumerated from this live instance.
+    let families = unsafe { instance.raw.get_physical_device_queue_family_properties(device) };
+    families
+        .iter()
+        .enumerate()
+        .find(|(_, f)| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+        .map(|(i, f)| (i as u32, f.timestamp_valid_bits))
+}
+
+fn describe(instance: &Instance, index: usize, device: vk::PhysicalDevice) -> DeviceInfo {
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+    // SAFETY: `device` belongs to this live instance; the chained struct outlives the call.
+    let (memory, props) = unsafe {
+        instance.raw.get_physical_device_properties2(device, &mut props2);
+        (instance.raw.get_physical_device_memory_properties(device), props2.properties)
+    };
+    let mut maintenance3 = vk::PhysicalDeviceMaintenance3Properties::default();
+    let mut props2b = vk::PhysicalDeviceProperties2::default().push_next(&mut maintenance3);
+    // SAFETY: as above.
+    unsafe { instance.raw.get_physical_device_properties2(device, &mut props2b) };
+    let limits = props.limits;
+    let heaps = &memory.memory_heaps[..memory.memory_heap_count as usize];
+    let device_local_bytes =
+        heaps.iter().filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL)).map(|h| h.size).max().unwrap_or(0);
+    let queue = compute_queue_family(instance, device);
+    let text = |s: Result<&std::ffi::CStr, std::ffi::FromBytesUntilNulError>| {
+        s.map(|c| c.to_string_lossy().into_owned()).unwrap_or_default()
+    };
+    let v = props.api_version;
+    DeviceInfo {
+        index,
+        name: text(props.device_name_as_c_str()),
+        kind: kind_name(props.device_type).to_string(),
+        driver: format!("{} {}", text(driver.driver_name_as_c_str()), text(driver.driver_info_as_c_str())).trim().to_string(),
+        api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
+        device_local_bytes,
+        max_allocation_bytes: maintenance3.max_memory_allocation_size,
+        max_workgroup_invocations: limits.max_compute_work_group_invocations,
+        max_workgroup_size: limits.max_compute_work_group_size,
+        max_workgroup_count: limits.max_compute_work_group_count,
+        max_storage_buffer_range: limits.max_storage_buffer_range,
+        max_push_constants_size: limits.max_push_constants_size,
+        max_shared_memory_bytes: limits.max_compute_shared_memory_size,
+        has_compute_queue: queue.is_some(),
+        timestamp_period_ns: queue
+            .filter(|&(_, bits)| bits > 0 && limits.timestamp_period > 0.0)
+            .map(|_| limits.timestamp_period),
+    }
+}
+
+/// Picks the device index to use: the override if given, else the best-ranked with compute.
+fn choose(instance: &Instance, devices: &[vk::PhysicalDevice], infos: &[DeviceInfo], wanted: Option<&str>) -> Result<usize> {
+    let usable: Vec<usize> = (0..infos.len()).filter(|&i| infos[i].has_compute_queue).collect();
+    if let Some(wanted) = wanted {
+        let found = match wanted.trim().parse::<usize>() {
+            Ok(index) => usable.iter().copied().find(|&i| i == index),
+            Err(_) => {
+                let needle = wanted.to_lowercase();
+                usable.iter().copied().find(|&i| infos[i].name.to_lowercase().contains(&needle))
+            }
+        };
+        let list: Vec<String> = infos.iter().map(|d| format!("{}: {}", d.index, d.name)).collect();
+        return found.ok_or_else(|| {
+            Error::NoVulkan(format!("LENSBLUR_DEVICE={wanted} matches no Vulkan device with compute; devices: [{}]", list.join(", ")))
+        });
+    }
+    usable
+        .into_iter()
+        .min_by_key(|&i| {
+            // SAFETY: enumerated from this live instance.
+            let props = unsafe { instance.raw.get_physical_device_properties(devices[i]) };
+            (kind_rank(props.device_type), i)
+        })
+        .ok_or_else(|| Error::NoVulkan("no Vulkan device with a compute queue was found (install mesa-vulkan-drivers for lavapipe)".into()))
+}
+
+/// Lists every Vulkan device, and the index the options would choose (if any).
+pub fn list_devices(options: &ContextOptions) -> Result<(Vec<DeviceInfo>, Option<usize>)> {
+    let instance = Instance::new(options.validation)?;
+    let devices = instance.physical_devices()?;
+    let infos: Vec<DeviceInfo> = devices.iter().enumerate().map(|(i, &d)| describe(&instance, i, d)).collect();
+    let chosen = choose(&instance, &devices, &infos, options.device.as_deref()).ok();
+    instance.log.check()?;
+    Ok((infos, chosen))
+}
+
+pub(crate) struct Device {
+    allocator: ManuallyDrop<Mutex<Allocator>>,
+    pub(crate) raw: ash::Device,
+    debug_utils: Option<ash::ext::debug_utils::Device>,
+    queue: Mutex<vk::Queue>,
+    pub(crate) queue_family: u32,
+    pub(crate) info: DeviceInfo,
+    pub(crate) instance: Arc<Instance>,
+}
+
+impl Device {
+    pub(crate) fn allocator(&self) -> MutexGuard<'_, Allocator> {
+        self.allocator.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    pub(crate) fn queue(&self) -> MutexGuard<'_, vk::Queue> {
+        self.queue.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Errors out if the validation layer said anything since the last check.
+    pub(crate) fn check_validation(&self) -> Result<()> {
+        self.instance.log.check()
+    }
+
+    /// Names a Vulkan object so validation messages say which buffer or pipeline they mean.
+    pub(crate) fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        let Some(debug_utils) = &self.debug_utils else { return };
+        let Ok(name) = std::ffi::CString::new(name) else { return };
+        let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&name);
+        // SAFETY: `handle` is a live object of this device; naming is advisory, errors ignored.
+        let _ = unsafe { debug_utils.set_debug_utils_object_name(&info) };
+    }
+}
+
+impl Drop for Device {
+    fn drop(&mut self) {
+        // SAFETY: every object of this device holds an Arc to it, so they are all gone; waiting
+        // idle covers submissions whose fence nobody waited for. The allocator frees its memory
+        // blocks before the device is destroyed.
+        unsafe {
+            let _ = self.raw.device_wait_idle();
+            ManuallyDrop::drop(&mut self.allocator);
+            self.raw.destroy_device(None);
+        }
+    }
+}
+
+/// An open GPU: cheap to clone, every Vulkan object made from it keeps it alive.
+#[derive(Clone)]
+pub struct Context {
+    pub(crate) device: Arc<Device>,
+}
+
+impl Context {
+    pub fn new(options: &ContextOptions) -> Result<Self> {
+        let instance = Arc::new(Instance::new(options.validation)?);
+        let devices = instance.physical_devices()?;
+        let infos: Vec<DeviceInfo> = devices.iter().enumerate().map(|(i, &d)| describe(&instance, i, d)).collect();
+        let index = choose(&instance, &devices, &infos, options.device.as_deref())?;
+        let physical = devices[index];
+        let (queue_family, _) = compute_queue_family(&instance, physical).expect("chosen devices have a compute queue");
+        let priorities = [1.0f32];
+        let queues = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let info = vk::DeviceCreateInfo::default().queue_create_infos(&queues);
+        // SAFETY: `physical` belongs to `instance`; `info` points to locals that outlive the call.
+        let raw = unsafe { instance.raw.create_device(physical, &info, None) }.call("vkCreateDevice")?;
+        // SAFETY: the family was requested with one queue above.
+        let queue = unsafe { raw.get_device_queue(queue_family, 0) };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.raw.clone(),
+            device: raw.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        });
+        let allocator = match allocator {
+            Ok(a) => a,
+            Err(e) => {
+                // SAFETY: nothing was created on the device yet.
+                unsafe { raw.destroy_device(None) };
+                return Err(e.into());
+            }
+        };
+        let debug_utils = instance.validation_enabled().then(|| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
+        let device = Device {
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            raw,
+            debug_utils,
+            queue: Mutex::new(queue),
+            queue_family,
+            info: infos[index].clone(),
+            instance,
+        };
+        device.check_validation()?;
+        log::info!("Vulkan device: {} ({})", device.info.name, device.info.driver);
+        Ok(Self { device: Arc::new(device) })
+    }
+
+    /// Opens the device chosen by `LENSBLUR_DEVICE` / `LENSBLUR_VALIDATION`.
+    pub fn from_env() -> Result<Self> {
+        Self::new(&ContextOptions::from_env())
+    }
+
+    pub fn info(&self) -> &DeviceInfo {
+        &self.device.info
+    }
+
+    pub fn validation_enabled(&self) -> bool {
+        self.device.instance.validation_enabled()
+    }
+
+    /// Errors out if the validation layer reported anything since the last check.
+    pub fn check_validation(&self) -> Result<()> {
+        self.device.check_validation()
+    }
+
+    /// Drops this handle and reports validation messages raised while tearing the device down
+    /// (object leaks, destruction order). Call it last in a command or a test.
+    pub fn finish(self) -> Result<()> {
+        self.check_validation()?;
+        drop(self);
+        super::validation::check_unreported()
+    }
+
+    /// Bytes currently allocated on the device by this context.
+    pub fn allocated_bytes(&self) -> u64 {
+        self.device.allocator().generate_report().total_allocated_bytes
+    }
+}

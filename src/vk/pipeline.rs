@@ -1,0 +1,104 @@
+//! Compute pipelines: shader module, a descriptor-set layout of N storage buffers (set 0,
+//! bindings 0..N), and one push-constant range.
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::device::Device;
+use super::error::VkCall;
+use super::Context;
+use crate::shaders::ShaderSource;
+use crate::{Error, Result};
+
+pub(crate) struct PipelineInner {
+    device: Arc<Device>,
+    pub(crate) raw: vk::Pipeline,
+    pub(crate) layout: vk::PipelineLayout,
+    pub(crate) set_layout: vk::DescriptorSetLayout,
+    pub(crate) bindings: u32,
+    pub(crate) push_size: u32,
+    pub(crate) shader: ShaderSource,
+}
+
+impl Drop for PipelineInner {
+    fn drop(&mut self) {
+        // SAFETY: the last handle is gone (batches hold one until their fence signals).
+        unsafe {
+            self.device.raw.destroy_pipeline(self.raw, None);
+            self.device.raw.destroy_pipeline_layout(self.layout, None);
+            self.device.raw.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+/// A compute pipeline for one `glsl/*.comp` entry point.
+#[derive(Clone)]
+pub struct ComputePipeline(pub(crate) Arc<PipelineInner>);
+
+impl ComputePipeline {
+    /// `storage_buffers`: how many buffers the shader binds (set 0, bindings 0..n);
+    /// `push_size`: `size_of` the push-constant struct (a multiple of 4, at most 128).
+    pub fn new(ctx: &Context, shader: &ShaderSource, storage_buffers: u32, push_size: usize) -> Result<Self> {
+        let device = &ctx.device;
+        let limit = device.info.max_push_constants_size.min(128) as usize;
+        if push_size % 4 != 0 || push_size > limit {
+            return Err(Error::param(format!("{}: push constants of {push_size} bytes (must be a multiple of 4, <= {limit})", shader.name)));
+        }
+        let bindings: Vec<_> = (0..storage_buffers)
+            .map(|b| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let set_info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: valid create info on a live device.
+        let set_layout = unsafe { device.raw.create_descriptor_set_layout(&set_info, None) }.call("vkCreateDescriptorSetLayout")?;
+        let ranges = [vk::PushConstantRange::default().stage_flags(vk::ShaderStageFlags::COMPUTE).size(push_size as u32)];
+        let set_layouts = [set_layout];
+        let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+        if push_size > 0 {
+            layout_info = layout_info.push_constant_ranges(&ranges);
+        }
+        // From here on, dropping `inner` destroys whatever was created.
+        let mut inner = PipelineInner {
+            device: device.clone(),
+            raw: vk::Pipeline::null(),
+            layout: vk::PipelineLayout::null(),
+            set_layout,
+            bindings: storage_buffers,
+            push_size: push_size as u32,
+            shader: *shader,
+        };
+        // SAFETY: `set_layout` is live; infos point to locals.
+        inner.layout = unsafe { device.raw.create_pipeline_layout(&layout_info, None) }.call("vkCreatePipelineLayout")?;
+        let module_info = vk::ShaderModuleCreateInfo::default().code(shader.spirv);
+        // SAFETY: SPIR-V produced by shaderc at build time.
+        let module = unsafe { device.raw.create_shader_module(&module_info, None) }.call("vkCreateShaderModule")?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(inner.layout);
+        // SAFETY: module and layout are live; the module may be destroyed once the pipeline exists.
+        let created = unsafe { device.raw.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) };
+        // SAFETY: no longer needed by anything after pipeline creation.
+        unsafe { device.raw.destroy_shader_module(module, None) };
+        inner.raw = created.map_err(|(_, r)| r).call("vkCreateComputePipelines")?[0];
+        device.set_name(inner.raw, shader.name);
+        device.check_validation()?;
+        Ok(Self(Arc::new(inner)))
+    }
+
+    pub fn shader(&self) -> &ShaderSource {
+        &self.0.shader
+    }
+
+    /// Workgroup counts covering `extent` invocations (div_ceil by the shader's local size).
+    pub fn groups_for(&self, extent: [u32; 3]) -> [u32; 3] {
+        let local = self.0.shader.local_size;
+        [0, 1, 2].map(|i| extent[i].div_ceil(local[i]).max(1))
+    }
+}
