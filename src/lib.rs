@@ -17,6 +17,7 @@ pub mod raytrace;
 pub mod render;
 pub mod shaders;
 pub mod stack;
+pub mod tiling;
 pub mod vk;
 
 pub use error::{Error, Result};

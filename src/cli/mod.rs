@@ -2,6 +2,7 @@
 //! This file only lists them; errors get `anyhow` context here and become exit code 1.
 use clap::{Parser, Subcommand};
 
+mod camera_args;
 mod devices;
 
 const EXAMPLES: &str = "\
