@@ -12,7 +12,9 @@ mod sheet;
 mod table;
 // `scenes.rs` obtains the ground truths from the ray tracer
 // (`crate::raytrace::{builtin_scenes, render_ground_truth, TraceOptions}`), which is written
-// on another branch; it joins the module tree when that branch is merged:
+// on another branch; it joins the module tree when that branch is merged, together with the
+// `lensblur bench` subcommand (src/cli/bench.rs, three commented lines in src/cli/mod.rs).
+// Both were compiled and run here against a stand-in with that API before being commented out.
 // pub mod scenes;
 
 pub use methods::{cpu_methods, select_methods, BenchCase, InputKind, Method};

@@ -2,6 +2,9 @@
 //! This file only lists them; errors get `anyhow` context here and become exit code 1.
 use clap::{Parser, Subcommand};
 
+// `lensblur bench` needs `bench::scenes` (see src/bench/mod.rs): uncomment at merge.
+// mod bench;
+
 #[derive(Parser)]
 #[command(
     name = "lensblur",
@@ -15,11 +18,16 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    // /// Score every rendering method against ray-traced ground truth (metrics table, JSON, PNG sheet).
+    // Bench(bench::Args),
+}
 
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    let result: anyhow::Result<()> = match cli.command {};
+    let result: anyhow::Result<()> = match cli.command {
+        // Command::Bench(args) => bench::run(args),
+    };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(error) => {

@@ -89,9 +89,9 @@ mod tests {
         let disparity: Vec<f32> = (0..img.pixels.len()).map(|i| (i % 13) as f32 / 12.0).collect();
         let out = render_gather_cpu(&img, &disparity, &lens(12.0, 0.3));
         for p in &out.pixels {
-            for c in 0..4 {
+            for (got, want) in p.iter().zip(img.pixels[0]) {
                 // A normalised average of equal values: exact up to f32 rounding.
-                assert!((p[c] - img.pixels[0][c]).abs() < 1e-5);
+                assert!((got - want).abs() < 1e-5);
             }
         }
     }
