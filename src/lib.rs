@@ -9,9 +9,11 @@
 //! - [`render`]: one module per rendering method, each with GPU host code and a CPU reference.
 //! - [`raytrace`]: the thin-lens ground-truth ray tracer and the built-in scenes.
 //! - [`metrics`]: image quality metrics used by the benchmark.
+//! - [`bench`]: the method registry, benchmark runner, report table and contact sheet.
 pub mod camera;
 pub mod error;
 pub mod image;
+pub mod bench;
 pub mod metrics;
 pub mod raytrace;
 pub mod render;

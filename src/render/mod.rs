@@ -3,6 +3,9 @@
 use crate::camera::{Aperture, CocModel};
 
 pub mod disk;
+pub mod gather;
+pub mod oracle;
+pub mod scatter;
 
 /// Everything about the lens a renderer needs, in pixels.
 #[derive(Clone, Debug, PartialEq)]

@@ -1,0 +1,88 @@
+//! The method registry: a name, the input a method is entitled to, and a render closure.
+use crate::camera::disparity_from_z;
+use crate::image::Image;
+use crate::raytrace::GroundTruth;
+use crate::render::gather::render_gather_cpu;
+use crate::render::oracle::render_oracle;
+use crate::render::scatter::render_scatter_cpu;
+use crate::render::Lens;
+use crate::{Error, Result};
+
+/// What a method may look at. Single-image methods must not read the true layers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum InputKind {
+    /// The true layer stack (`truth.layers`).
+    Layers,
+    /// The pinhole image and its disparity (`truth.pinhole`, `pinhole_disparity`).
+    SingleImage,
+}
+
+/// One scene as handed to a method.
+pub struct BenchCase<'a> {
+    pub truth: &'a GroundTruth,
+    /// The ray tracer's camera in pixels, with a disk aperture (what the ray tracer traces).
+    pub lens: &'a Lens,
+    /// `1 / pinhole_depth` per pixel, 0 where nothing was hit.
+    pub pinhole_disparity: &'a [f32],
+}
+
+impl<'a> BenchCase<'a> {
+    /// Pinhole disparity as every single-image method reads it.
+    pub fn disparity_of(truth: &GroundTruth) -> Vec<f32> {
+        truth.pinhole_depth.iter().map(|&z| disparity_from_z(z)).collect()
+    }
+
+    /// The single-image input, checked for consistent sizes.
+    pub fn single_image(&self) -> Result<(&'a Image, &'a [f32])> {
+        let image = &self.truth.pinhole;
+        if self.pinhole_disparity.len() != image.pixels.len() {
+            return Err(Error::param(format!(
+                "scene '{}': {} disparity values for a {}x{} pinhole image",
+                self.truth.name,
+                self.pinhole_disparity.len(),
+                image.width,
+                image.height
+            )));
+        }
+        Ok((image, self.pinhole_disparity))
+    }
+}
+
+pub type RenderFn = Box<dyn Fn(&BenchCase) -> Result<Image> + Send + Sync>;
+
+pub struct Method {
+    pub name: &'static str,
+    pub input: InputKind,
+    pub render: RenderFn,
+}
+
+impl Method {
+    pub fn new(name: &'static str, input: InputKind, render: impl Fn(&BenchCase) -> Result<Image> + Send + Sync + 'static) -> Self {
+        Self { name, input, render: Box::new(render) }
+    }
+}
+
+/// The CPU references: the layered oracle and the two single-image baselines.
+pub fn cpu_methods() -> Vec<Method> {
+    vec![
+        Method::new("oracle", InputKind::Layers, |case| Ok(render_oracle(&case.truth.layers, &case.lens.coc))),
+        Method::new("gather", InputKind::SingleImage, |case| {
+            let (image, disparity) = case.single_image()?;
+            Ok(render_gather_cpu(image, disparity, case.lens))
+        }),
+        Method::new("scatter", InputKind::SingleImage, |case| {
+            let (image, disparity) = case.single_image()?;
+            Ok(render_scatter_cpu(image, disparity, case.lens))
+        }),
+    ]
+}
+
+/// Keeps the methods named in `names` (in the registry's order); all of them for no names.
+pub fn select_methods(methods: Vec<Method>, names: &[String]) -> Result<Vec<Method>> {
+    if let Some(unknown) = names.iter().find(|n| !methods.iter().any(|m| m.name == n.as_str())) {
+        let known: Vec<&str> = methods.iter().map(|m| m.name).collect();
+        return Err(Error::param(format!("unknown method '{unknown}' (available: {})", known.join(", "))));
+    }
+    Ok(methods.into_iter().filter(|m| names.is_empty() || names.iter().any(|n| n == m.name)).collect())
+}

@@ -1,0 +1,108 @@
+//! The benchmark runner on synthetic ground truths whose "defocused" image is the layered
+//! oracle itself: proves the registry, the metrics table, the JSON report and the contact
+//! sheet work end to end, and that the scoring ranks a perfect method first.
+use lensblur::bench::{contact_sheet, cpu_methods, run, select_methods, write_png, InputKind};
+use lensblur::camera::{CocModel, PhysicalCamera};
+use lensblur::image::Image;
+use lensblur::raytrace::GroundTruth;
+use lensblur::render::oracle::render_oracle;
+use lensblur::stack::{Layer, LayerStack};
+
+const W: usize = 96;
+const H: usize = 64;
+
+/// A textured opaque background at `back_z` metres behind a semi-opaque square at 0.4 m.
+fn synthetic_truth(name: &str, fstop: f32, back_z: f32) -> GroundTruth {
+    let camera = PhysicalCamera { focal_length_mm: 85.0, sensor_width_mm: 36.0, fstop, focus_distance: 2.0 };
+    let coc = CocModel::from_physical(&camera, W).expect("valid camera");
+    let back = Image::from_fn(W, H, |x, y| {
+        let v = if (x / 6 + y / 6) % 2 == 0 { 0.8 } else { 0.1 };
+        [v, 0.5 * v, 0.3, 1.0]
+    });
+    let inside = |x: usize, y: usize| (30..60).contains(&x) && (16..46).contains(&y);
+    let front = Image::from_fn(W, H, |x, y| if inside(x, y) { [0.9, 0.9, 0.2, 1.0] } else { [0.0; 4] });
+    let layers = vec![
+        Layer { name: "front".into(), rgba: front.clone(), disparity: vec![1.0 / 0.4; W * H] },
+        Layer { name: "back".into(), rgba: back.clone(), disparity: vec![1.0 / back_z; W * H] },
+    ];
+    let layers = LayerStack::new(W, H, layers).expect("consistent layers");
+    let pinhole = Image::from_fn(W, H, |x, y| if inside(x, y) { front.get(x, y) } else { back.get(x, y) });
+    let pinhole_depth = (0..W * H).map(|i| if inside(i % W, i / W) { 0.4 } else { back_z }).collect();
+    let defocused = render_oracle(&layers, &coc);
+    GroundTruth { name: name.into(), camera, coc, pinhole, pinhole_depth, layers, defocused }
+}
+
+fn scenes() -> Vec<GroundTruth> {
+    // f/4 is the easy scene, f/1.4 blurs 2.9x more and must be every baseline's worst.
+    vec![synthetic_truth("mild", 4.0, 5.0), synthetic_truth("strong", 1.4, 5.0)]
+}
+
+#[test]
+fn oracle_scores_best_on_its_own_truth() {
+    let scenes = scenes();
+    let report = run(&scenes, &cpu_methods()).expect("benchmark runs");
+    let oracle = report.methods.iter().find(|m| m.name == "oracle").expect("oracle registered");
+    assert_eq!(oracle.input, InputKind::Layers);
+    assert_eq!((oracle.mean.rmse, oracle.mean.psnr), (0.0, f64::INFINITY), "the truth is the oracle itself");
+    for other in report.methods.iter().filter(|m| m.name != "oracle") {
+        assert_eq!(other.input, InputKind::SingleImage);
+        assert!(other.mean.rmse > 1e-3 && other.mean.si_rmse > 0.0, "{}: {:?}", other.name, other.mean);
+        assert!(other.mean.psnr < 60.0, "{}", other.name);
+        assert!(other.mean.ssim < oracle.mean.ssim && other.mean.zncc < oracle.mean.zncc, "{}", other.name);
+        for worst in &other.worst {
+            assert_eq!(worst.scene, "strong", "{}: worst {} on {}", other.name, worst.metric, worst.scene);
+        }
+    }
+    assert_eq!(report.cases.len(), 6);
+    assert!(report.cases.iter().all(|c| c.seconds >= 0.0 && c.seconds.is_finite()));
+}
+
+#[test]
+fn report_serialises_to_json_and_prints_one_table() {
+    let scenes = scenes();
+    let report = run(&scenes, &cpu_methods()).expect("benchmark runs");
+    let json = serde_json::to_value(&report).expect("serialisable");
+    assert_eq!(json["scenes"].as_array().map(Vec::len), Some(2));
+    assert_eq!(json["cases"].as_array().map(Vec::len), Some(6));
+    assert!(json.get("renders").is_none(), "images stay out of the JSON");
+    let oracle = &json["methods"][0];
+    assert_eq!(oracle["name"], "oracle");
+    assert!(oracle["mean"]["psnr"].is_null(), "infinite PSNR is written as null");
+    assert_eq!(oracle["worst"].as_array().map(Vec::len), Some(5));
+    let table = report.to_string();
+    for needle in ["oracle", "gather", "scatter", "RMSE-s", "PSNR", "SSIM", "ZNCC", "inf", "mild, strong"] {
+        assert!(table.contains(needle), "table lacks '{needle}':\n{table}");
+    }
+    assert_eq!(table.lines().count(), 1 + 3 + 2, "header, one row per method, two legend lines:\n{table}");
+}
+
+#[test]
+fn contact_sheet_has_a_column_per_method_and_round_trips_as_png() {
+    let scenes = scenes();
+    let report = run(&scenes, &cpu_methods()).expect("benchmark runs");
+    let sheet = contact_sheet(&scenes, &report).expect("sheet");
+    // Columns: pinhole, truth, 3 methods; each 96 px tile plus 4 px gaps.
+    assert_eq!(sheet.width(), 4 + 5 * (96 + 4));
+    assert!(sheet.height() > 2 * 2 * 64, "two scenes of two tile rows each");
+    let path = std::env::temp_dir().join(format!("lensblur-bench-sheet-{}.png", std::process::id()));
+    write_png(&sheet, &path).expect("PNG written");
+    let back = image::open(&path).expect("PNG readable").to_rgb8();
+    let _ = std::fs::remove_file(&path);
+    assert_eq!(back, sheet, "PNG is lossless");
+}
+
+#[test]
+fn contact_sheet_refuses_renders_of_another_run() {
+    let scenes = scenes();
+    let report = run(&scenes[..1], &cpu_methods()).expect("benchmark runs");
+    assert!(contact_sheet(&scenes, &report).is_err());
+}
+
+#[test]
+fn methods_are_selected_by_name_and_unknown_names_are_refused() {
+    let picked = select_methods(cpu_methods(), &["scatter".into(), "oracle".into()]).expect("known names");
+    let names: Vec<&str> = picked.iter().map(|m| m.name).collect();
+    assert_eq!(names, ["oracle", "scatter"], "registry order is kept");
+    let error = select_methods(cpu_methods(), &["nope".into()]).err().expect("unknown name refused");
+    assert!(error.to_string().contains("gather"), "the message lists what exists: {error}");
+}
