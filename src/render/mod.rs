@@ -3,6 +3,7 @@
 use crate::camera::{Aperture, CocModel};
 
 pub mod disk;
+pub mod drbokeh;
 
 /// Everything about the lens a renderer needs, in pixels.
 #[derive(Clone, Debug, PartialEq)]
