@@ -3,6 +3,7 @@
 use crate::camera::{Aperture, CocModel};
 
 pub mod disk;
+pub mod drbokeh;
 pub mod gather;
 pub mod oracle;
 pub mod scatter;

@@ -1,0 +1,72 @@
+// Aperture shapes: the lens term K(y, x). Mirrors src/camera/aperture.rs (`polygon_gauge`,
+// `Aperture::gauge`, `Aperture::to_aperture_coords`, `KernelImage::sample`); the f64 mirror
+// used by the CPU reference is src/render/drbokeh/math.rs.
+//
+// The aperture arrives as `Aperture::gpu_params`: vec4(blades (0 = disk), rotation (rad),
+// roundness, kernel (1 = sample the kernel buffer)).
+//
+// A shader that calls `aperture_kernel_sample` must define
+//     float aperture_kernel_texel(int index);
+// returning element `index` of its kernel buffer (row-major, size x size): GLSL cannot pass
+// buffers to functions.
+#ifndef LENSBLUR_APERTURE_GLSL
+#define LENSBLUR_APERTURE_GLSL
+
+const float APERTURE_PI = 3.14159265358979323846;
+
+float aperture_kernel_texel(int index);
+
+// Near sources (positive relative disparity) project the aperture mirrored through its centre.
+vec2 aperture_coords(vec2 offset, float relative_disparity) {
+    return relative_disparity > 0.0 ? -offset : offset;
+}
+
+// Gauge of a regular n-gon inscribed in the unit circle, blended toward the disk by roundness.
+// floor(x + 0.5) stands for Rust's round(): they differ only at exact half sectors, where the
+// folded angle is +-sector/2 and cos gives the same value.
+float aperture_polygon_gauge(vec2 p, float n, float rotation, float roundness) {
+    float len = length(p);
+    if (len == 0.0) {
+        return 0.0; // atan(0, 0) is undefined in GLSL
+    }
+    float sector = 2.0 * APERTURE_PI / n;
+    float theta = atan(p.y, p.x) - rotation;
+    float folded = theta - sector * floor(theta / sector + 0.5);
+    float poly = len * cos(folded) / cos(APERTURE_PI / n);
+    return poly + (len - poly) * roundness;
+}
+
+// The aperture's gauge of an offset in aperture coordinates (Euclidean for disks and kernels).
+float aperture_gauge(vec2 p, vec4 aperture) {
+    if (aperture.x < 3.0) {
+        return length(p);
+    }
+    return aperture_polygon_gauge(p, aperture.x, aperture.y, aperture.z);
+}
+
+float aperture_kernel_at(float x, float y, int size) {
+    float n = float(size);
+    if (x < 0.0 || y < 0.0 || x >= n || y >= n) {
+        return 0.0;
+    }
+    return aperture_kernel_texel(int(y) * size + int(x));
+}
+
+// Bilinear sample of the size x size kernel image at uv in [-1, 1]^2; zero outside.
+float aperture_kernel_sample(vec2 uv, int size) {
+    float n = float(size);
+    float fx = (uv.x * 0.5 + 0.5) * n - 0.5;
+    float fy = (uv.y * 0.5 + 0.5) * n - 0.5;
+    if (!(fx > -1.0 && fy > -1.0 && fx < n && fy < n)) {
+        return 0.0;
+    }
+    float x0 = floor(fx);
+    float y0 = floor(fy);
+    float tx = fx - x0;
+    float ty = fy - y0;
+    float top = aperture_kernel_at(x0, y0, size) * (1.0 - tx) + aperture_kernel_at(x0 + 1.0, y0, size) * tx;
+    float bottom = aperture_kernel_at(x0, y0 + 1.0, size) * (1.0 - tx) + aperture_kernel_at(x0 + 1.0, y0 + 1.0, size) * tx;
+    return top * (1.0 - ty) + bottom * ty;
+}
+
+#endif

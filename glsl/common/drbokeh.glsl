@@ -1,0 +1,142 @@
+// Dr.Bokeh forward renderer: push constants and per-term math shared by the
+// glsl/drbokeh_*.comp passes. Mirrors src/render/drbokeh/math.rs (f64) term for term; the
+// push block mirrors `DrBokehPush` in src/render/drbokeh/mod.rs (80 bytes).
+//
+// Units: r = CoC radius in pixels, s = signed CoC radius (positive = nearer than focus),
+// g = aperture gauge of an offset in pixels, rel = relative disparity d - d_f.
+// A shader that calls `drbokeh_area` must define  float drbokeh_area_lut(int index);
+#ifndef LENSBLUR_DRBOKEH_GLSL
+#define LENSBLUR_DRBOKEH_GLSL
+
+#include "aperture.glsl"
+
+const int DRBOKEH_TILE = 16;
+const int DRBOKEH_MODEL_DRBOKEH = 0;
+const int DRBOKEH_MODEL_COMPAT = 1;
+const float DRBOKEH_COMPAT_TAIL_PX = 4.0;
+const float DRBOKEH_KERNEL_FADE_START_PX = 0.5;
+const float DRBOKEH_KERNEL_FADE_END_PX = 1.5;
+
+layout(push_constant) uniform DrBokehPush {
+    int width;            // 0
+    int height;           // 4
+    int tiles_x;          // 8
+    int tiles_y;          // 12
+    int layer;            // 16  layer of this dispatch (0 = front)
+    int layer_count;      // 20
+    int model;            // 24  DRBOKEH_MODEL_*
+    int kernel_size;      // 28  side of the kernel buffer, 0 = none
+    float k_px;           // 32  CoC pixels per unit disparity
+    float focus_disparity;// 36
+    float max_support;    // 40  largest support / gather radius in the stack (px)
+    float area_step;      // 44  px of radius per area-table entry
+    int area_count;       // 48  entries in the area table
+    int pad0;             // 52
+    int pad1;             // 56
+    int pad2;             // 60
+    vec4 aperture;        // 64  Aperture::gpu_params
+} pc;
+
+float drbokeh_area_lut(int index);
+
+bool drbokeh_inside(ivec2 p) {
+    return p.x >= 0 && p.y >= 0 && p.x < pc.width && p.y < pc.height;
+}
+
+// ---------------------------------------------------------------- default model
+
+// Hermite-rimmed disk coverage: exactly 0 for g >= r + 1/2, 1/2 at the centre when r = 0.
+float drbokeh_scatter(float r, float g) {
+    return smoothstep(0.0, 1.0, r + 0.5 - g);
+}
+
+float drbokeh_support(float r) {
+    return r + 0.5;
+}
+
+// In-layer occlusion in CoC pixels: an (almost) in-focus, present x blocks a y behind it.
+float drbokeh_occlusion(float s_y, float s_x, float r_x, float alpha_x, bool is_self) {
+    if (is_self) {
+        return 1.0;
+    }
+    float in_focus = 1.0 - smoothstep(0.5, 1.5, r_x);
+    float behind = 1.0 - smoothstep(-0.5, 0.0, s_y - s_x);
+    return 1.0 - alpha_x * in_focus * behind;
+}
+
+// Area normalisation: exact lattice sums tabulated on the host, linear between entries,
+// then the r^2 + 1/20 growth of the continuous integral.
+float drbokeh_area(float r) {
+    int last = pc.area_count - 1;
+    float r_last = float(last) * pc.area_step;
+    if (r >= r_last) {
+        return drbokeh_area_lut(last) * (r * r + 0.05) / (r_last * r_last + 0.05);
+    }
+    float f = r / pc.area_step;
+    int i = min(int(floor(f)), last - 1);
+    float t = f - float(i);
+    return drbokeh_area_lut(i) * (1.0 - t) + drbokeh_area_lut(i + 1) * t;
+}
+
+// Drops the coverage V claims where no source of the layer reaches x (W = 0).
+float drbokeh_existence_gate(float w) {
+    return smoothstep(0.0, 1.0e-3, w);
+}
+
+// ---------------------------------------------------------------- compat model (released)
+
+float drbokeh_softstep(float a, float b) {
+    return 0.1 / (0.1 + exp(-(a - b) * 3.0) + 1.0e-6);
+}
+
+float drbokeh_support_compat(float r) {
+    return r + 1.0 + DRBOKEH_COMPAT_TAIL_PX;
+}
+
+float drbokeh_scatter_compat(float r, float g) {
+    return g >= drbokeh_support_compat(r) ? 0.0 : drbokeh_softstep(r + 1.0, g);
+}
+
+float drbokeh_area_compat(float r) {
+    return (r + 1.0) * (r + 1.0);
+}
+
+// Released constants 10 and 0.1 are in disparity units, applied to relative disparities.
+float drbokeh_occlusion_compat(float rel_y, float rel_x, float r_x, bool is_self) {
+    if (is_self) {
+        return 1.0;
+    }
+    float in_focal = 1.0 - exp(-3.0 * r_x * r_x);
+    float rel = 0.5 + 0.5 * tanh(clamp(10.0 * (rel_y - rel_x - 0.1), -15.0, 15.0));
+    return (1.0 - in_focal) * rel + in_focal;
+}
+
+int drbokeh_visibility_box_compat(float r_x) {
+    return int(floor((r_x + 1.0) * 0.5));
+}
+
+// ---------------------------------------------------------------- shared
+
+float drbokeh_support_for(float r) {
+    return pc.model == DRBOKEH_MODEL_COMPAT ? drbokeh_support_compat(r) : drbokeh_support(r);
+}
+
+float drbokeh_area_for(float r) {
+    return pc.model == DRBOKEH_MODEL_COMPAT ? drbokeh_area_compat(r) : drbokeh_area(r);
+}
+
+// Gauge (x) and kernel weight (y) of the offset x - y seen through a CoC of radius r at
+// relative disparity rel. Kernel weights fade in over 0.5..1.5 px (sub-pixel kernels
+// integrate to a point); the kernel covers the soft disk of radius r + 1/2.
+vec2 drbokeh_lens(vec2 offset, float r, float rel) {
+    vec2 p = aperture_coords(offset, rel);
+    float g = aperture_gauge(p, pc.aperture);
+    if (pc.aperture.w < 0.5 || pc.kernel_size == 0) {
+        return vec2(g, 1.0);
+    }
+    float sample_weight = aperture_kernel_sample(p / (r + 0.5), pc.kernel_size);
+    float blend = smoothstep(DRBOKEH_KERNEL_FADE_START_PX, DRBOKEH_KERNEL_FADE_END_PX, r);
+    return vec2(g, 1.0 + (sample_weight - 1.0) * blend);
+}
+
+#endif

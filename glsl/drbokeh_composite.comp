@@ -1,0 +1,51 @@
+// Dr.Bokeh pass 4 of 4: front-to-back composite
+// B = sum_l V_l prod_{k<l} (1 - V_k) C_l / W_l, alpha = sum_l V_l prod_{k<l} (1 - V_k);
+// the default model gates V_l by the layer's existence (W_l > 0). Premultiplied, unclamped.
+// CPU reference: src/render/drbokeh/cpu.rs `composite_pixel`.
+//
+// Bindings (set 0, std430):
+//   0: layer_cw   readonly  vec4[layer_count * width * height]  (C_l.rgb, W_l)
+//   1: layer_vis  readonly  float[layer_count * width * height] V_l
+//   2: result     writeonly vec4[width * height]                premultiplied RGBA
+// Push constants: DrBokehPush; reads width, height, layer_count, model.
+// Dispatch: (ceil(width / 16), ceil(height / 16), 1), once, after every layer pass.
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "drbokeh.glsl"
+
+layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
+
+layout(std430, set = 0, binding = 0) readonly buffer LayerCw { vec4 layer_cw[]; };
+layout(std430, set = 0, binding = 1) readonly buffer LayerVis { float layer_vis[]; };
+layout(std430, set = 0, binding = 2) writeonly buffer Result { vec4 result[]; };
+
+float drbokeh_area_lut(int index) {
+    return 1.0; // not used by this pass
+}
+
+float aperture_kernel_texel(int index) {
+    return 0.0; // not used by this pass
+}
+
+void main() {
+    ivec2 x = ivec2(gl_GlobalInvocationID.xy);
+    if (!drbokeh_inside(x)) {
+        return;
+    }
+    int n = pc.width * pc.height;
+    int i = x.y * pc.width + x.x;
+    vec4 outp = vec4(0.0);
+    float transmittance = 1.0;
+    for (int l = 0; l < pc.layer_count; ++l) {
+        vec4 cw = layer_cw[l * n + i];
+        float v = layer_vis[l * n + i];
+        if (pc.model == DRBOKEH_MODEL_DRBOKEH) {
+            v *= drbokeh_existence_gate(cw.w);
+        }
+        vec3 colour = cw.w > 0.0 ? cw.xyz / cw.w : vec3(0.0);
+        outp.xyz += transmittance * v * colour;
+        outp.w += transmittance * v;
+        transmittance *= 1.0 - v;
+    }
+    result[i] = outp;
+}

@@ -1,0 +1,70 @@
+//! Search windows: CPU reference of `drbokeh_tile_bounds.comp` and `drbokeh_tile_window.comp`.
+//!
+//! Each 16x16 output tile loops over a square window of half-width `h_T` pixels around each
+//! of its pixels. A source y of radius r reaches x only if `|x - y| < support(r)` (every
+//! aperture gauge is at least the Euclidean length), and V at x gathers over
+//! `|x - y| < r_x + 1/2`. So `h_T = ceil(reach_T) - 1` with
+//! `reach_T = max(gather_T, max { support_U : tile U's support reaches tile T })` covers both.
+use super::{math, Model, Params, TILE};
+use crate::stack::Layer;
+
+/// Per tile `[scatter support, gather radius]` (mirrors the `tile_bounds` vec2 buffer):
+/// support = max over pixels with alpha > 0 (transparent sources scatter nothing),
+/// gather = max over all pixels of `r + 1/2` (V is evaluated everywhere).
+pub fn tile_bounds_cpu(params: &Params, layer: &Layer) -> Vec<[f64; 2]> {
+    let mut bounds = vec![[0.0f64; 2]; params.tiles_x * params.tiles_y];
+    for (t, bound) in bounds.iter_mut().enumerate() {
+        let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
+        let mut support = 0.0f64;
+        let mut gather = 0.0f64;
+        for py in ty * TILE..((ty + 1) * TILE).min(params.height) {
+            for px in tx * TILE..((tx + 1) * TILE).min(params.width) {
+                let i = py * params.width + px;
+                let r = params.lens.signed_radius(layer.disparity[i]).abs();
+                gather = gather.max(r + 0.5);
+                if layer.rgba.pixels[i][3] > 0.0 {
+                    let s = match params.model {
+                        Model::DrBokeh => math::support(r),
+                        Model::Compat => math::support_compat(r),
+                    };
+                    support = support.max(s);
+                }
+            }
+        }
+        *bound = [support, gather];
+    }
+    bounds
+}
+
+/// Pixel gap along one axis between two tiles `k` tiles apart: `16k - 15`, or 0 for the same.
+#[inline]
+fn tile_gap(k: i64) -> f64 {
+    if k == 0 {
+        0.0
+    } else {
+        (k.abs() * TILE as i64 - (TILE as i64 - 1)) as f64
+    }
+}
+
+/// Window half-width per tile (mirrors the `tile_window` int buffer).
+pub fn tile_window_cpu(params: &Params, bounds: &[[f64; 2]]) -> Vec<i32> {
+    let (tiles_x, tiles_y) = (params.tiles_x as i64, params.tiles_y as i64);
+    // Tiles farther than this cannot be reached by any support in the stack.
+    let range = (params.max_support / TILE as f64).ceil() as i64 + 1;
+    let mut windows = vec![0i32; bounds.len()];
+    for (t, window) in windows.iter_mut().enumerate() {
+        let (tx, ty) = (t as i64 % tiles_x, t as i64 / tiles_x);
+        let mut reach = bounds[t][1];
+        for uy in (ty - range).max(0)..=(ty + range).min(tiles_y - 1) {
+            for ux in (tx - range).max(0)..=(tx + range).min(tiles_x - 1) {
+                let support = bounds[(uy * tiles_x + ux) as usize][0];
+                let gap = tile_gap(ux - tx).max(tile_gap(uy - ty));
+                if gap < support {
+                    reach = reach.max(support);
+                }
+            }
+        }
+        *window = (reach.ceil() as i32 - 1).max(0);
+    }
+    windows
+}

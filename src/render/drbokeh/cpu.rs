@@ -1,0 +1,167 @@
+//! f64 CPU reference of the Dr.Bokeh passes, shaped like the shaders: `layer_pixel` is the
+//! body of `drbokeh_layer.comp`, `composite_pixel` the body of `drbokeh_composite.comp`, with
+//! the same loops in the same order, so each pair can be diffed by eye.
+use rayon::prelude::*;
+
+use super::bounds::{tile_bounds_cpu, tile_window_cpu};
+use super::{math, Model, Params, TILE};
+use crate::image::Image;
+use crate::render::Lens;
+use crate::stack::{Layer, LayerStack};
+use crate::Result;
+
+/// Which source window each output pixel loops over.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Window {
+    /// The per-tile windows of the bounds passes (what the shaders do).
+    Tiled,
+    /// Every pixel of the image (the unwindowed sum, for tests).
+    Full,
+}
+
+/// Intermediates of one layer, per pixel: `cw = [C_l.rgb, W_l]` (the `layer_cw` buffer) and
+/// `visibility = V_l` (the `layer_vis` buffer), plus the window half-width per tile.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LayerTerms {
+    pub cw: Vec<[f64; 4]>,
+    pub visibility: Vec<f64>,
+    pub window: Vec<i32>,
+}
+
+/// Everything a render computes: per-layer terms, the f64 composite and the output image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Terms {
+    pub params: Params,
+    pub layers: Vec<LayerTerms>,
+    pub composite: Vec<[f64; 4]>,
+    pub image: Image,
+}
+
+/// Renders `stack` through `lens`: premultiplied linear RGBA, HDR unclamped, alpha = coverage.
+pub fn render_cpu(stack: &LayerStack, lens: &Lens, model: Model) -> Result<Image> {
+    Ok(render_cpu_terms(stack, lens, model, Window::Tiled)?.image)
+}
+
+/// [`render_cpu`] keeping every intermediate (for tests and the backward pass).
+pub fn render_cpu_terms(stack: &LayerStack, lens: &Lens, model: Model, window: Window) -> Result<Terms> {
+    let params = Params::new(stack, lens, model)?;
+    let layers: Vec<LayerTerms> = stack
+        .layers
+        .iter()
+        .map(|layer| {
+            let windows = match window {
+                Window::Tiled => tile_window_cpu(&params, &tile_bounds_cpu(&params, layer)),
+                Window::Full => vec![params.width.max(params.height) as i32; params.tiles_x * params.tiles_y],
+            };
+            layer_cpu(&params, layer, windows)
+        })
+        .collect();
+    let composite: Vec<[f64; 4]> =
+        (0..params.width * params.height).map(|i| composite_pixel(&params, &layers, i)).collect();
+    let mut image = Image::new(params.width, params.height);
+    for (out, c) in image.pixels.iter_mut().zip(&composite) {
+        *out = c.map(|v| v as f32);
+    }
+    Ok(Terms { params, layers, composite, image })
+}
+
+/// One dispatch of `drbokeh_layer.comp` on `layer`.
+pub fn layer_cpu(params: &Params, layer: &Layer, window: Vec<i32>) -> LayerTerms {
+    let n = params.width * params.height;
+    let per_pixel: Vec<([f64; 4], f64)> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % params.width) as i64, (i / params.width) as i64);
+            let tile = (y as usize / TILE) * params.tiles_x + x as usize / TILE;
+            layer_pixel(params, layer, x, y, window[tile] as i64)
+        })
+        .collect();
+    let (cw, visibility) = per_pixel.into_iter().unzip();
+    LayerTerms { cw, visibility, window }
+}
+
+/// `[C.rgb, W]` and `V` of output pixel (x, y) over the square window of half-width `h`.
+fn layer_pixel(params: &Params, layer: &Layer, x: i64, y: i64, h: i64) -> ([f64; 4], f64) {
+    let (width, height) = (params.width as i64, params.height as i64);
+    let lens = &params.lens;
+    let ix = (y * width + x) as usize;
+    let rel_x = lens.rel(layer.disparity[ix]);
+    let s_x = lens.k_px * rel_x;
+    let r_x = s_x.abs();
+    let alpha_x = layer.rgba.pixels[ix][3] as f64;
+    let box_half = math::visibility_box_compat(r_x);
+
+    let mut cw = [0.0f64; 4];
+    let (mut vis_sum, mut vis_weight) = (0.0f64, 0.0f64);
+    for oy in -h..=h {
+        let sy = y + oy;
+        if sy < 0 || sy >= height {
+            continue;
+        }
+        for ox in -h..=h {
+            let sx = x + ox;
+            if sx < 0 || sx >= width {
+                continue;
+            }
+            let iy = (sy * width + sx) as usize;
+            let p = layer.rgba.pixels[iy];
+            let alpha_y = p[3] as f64;
+            let rel_y = lens.rel(layer.disparity[iy]);
+            let s_y = lens.k_px * rel_y;
+            let r_y = s_y.abs();
+            // Offset x - y: the lens term is evaluated where the source lands.
+            let (dx, dy) = (-ox as f64, -oy as f64);
+            let is_self = ox == 0 && oy == 0;
+
+            if alpha_y > 0.0 {
+                let (g, k) = lens.lens(dx, dy, r_y, rel_y);
+                let (s, o) = match params.model {
+                    Model::DrBokeh => (math::scatter(r_y, g), math::occlusion(s_y, s_x, r_x, alpha_x, is_self)),
+                    Model::Compat => (math::scatter_compat(r_y, g), math::occlusion_compat(rel_y, rel_x, r_x, is_self)),
+                };
+                let weight = s * k * o / params.area(r_y);
+                for c in 0..3 {
+                    cw[c] += p[c] as f64 * weight;
+                }
+                cw[3] += alpha_y * weight;
+            }
+
+            match params.model {
+                Model::DrBokeh => {
+                    let (g, k) = lens.lens(dx, dy, r_x, rel_x);
+                    let d = math::scatter(r_x, g) * k;
+                    vis_sum += alpha_y * d;
+                    vis_weight += d;
+                }
+                Model::Compat => {
+                    if ox.abs() <= box_half && oy.abs() <= box_half {
+                        vis_sum += alpha_y;
+                        vis_weight += 1.0;
+                    }
+                }
+            }
+        }
+    }
+    let visibility = if vis_weight > 0.0 { vis_sum / vis_weight } else { 0.0 };
+    (cw, visibility)
+}
+
+/// Body of `drbokeh_composite.comp`: front-to-back blend of the layer colours `C_l / W_l`.
+fn composite_pixel(params: &Params, layers: &[LayerTerms], i: usize) -> [f64; 4] {
+    let mut out = [0.0f64; 4];
+    let mut transmittance = 1.0f64;
+    for terms in layers {
+        let [c0, c1, c2, w] = terms.cw[i];
+        let mut v = terms.visibility[i];
+        if params.model == Model::DrBokeh {
+            v *= math::existence_gate(w);
+        }
+        let colour = if w > 0.0 { [c0 / w, c1 / w, c2 / w] } else { [0.0; 3] };
+        for c in 0..3 {
+            out[c] += transmittance * v * colour[c];
+        }
+        out[3] += transmittance * v;
+        transmittance *= 1.0 - v;
+    }
+    out
+}

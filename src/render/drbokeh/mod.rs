@@ -1,0 +1,144 @@
+//! Dr.Bokeh forward renderer (paper Sec. 3.3, Eq. 3-8; DESIGN.md "Dr.Bokeh forward").
+//!
+//! Per layer l, output pixel x, source pixel y (all in pixels, layers front to back):
+//! `C_l(x) = sum_y P_l(y) S K O / A`, `W_l(x) = sum_y a_l(y) S K O / A` with `P = I a` the
+//! premultiplied colour; layer colour `C_l / W_l`; visibility `V_l(x)`; composite
+//! `B(x) = sum_l V_l prod_{k<l} (1 - V_k) C_l / W_l`, alpha = `sum_l V_l prod_{k<l} (1 - V_k)`.
+//!
+//! Two models share every pass ([`Model`]); the per-term math is in [`math`].
+//!
+//! Passes (GPU: `glsl/drbokeh_<pass>.comp`; CPU reference: [`cpu`], same loops, same order):
+//! 1. `tile_bounds` (per layer): per 16x16 tile, the largest scatter support of a source with
+//!    alpha > 0, and the largest gather radius (for V) of any pixel.
+//! 2. `tile_window` (per layer): dilation — a tile's window half-width covers every source tile
+//!    whose support reaches it, and its own gather radius.
+//! 3. `layer` (per layer): C_l, W_l and V_l of every pixel over its tile's window.
+//! 4. `composite`: front-to-back blend of all layers.
+use crate::camera::{Aperture, CocModel};
+
+pub mod bounds;
+pub mod cpu;
+pub mod math;
+mod params;
+
+#[cfg(test)]
+mod compat_direct;
+#[cfg(test)]
+mod tests;
+
+pub use cpu::{render_cpu, render_cpu_terms, LayerTerms, Terms, Window};
+pub use params::Params;
+
+/// Side of the square output tile a workgroup owns, in pixels (`local_size` 16x16).
+pub const TILE: usize = 16;
+/// Compat scatter tail cut, in pixels past the released plateau edge `r + 1`: beyond it the
+/// released soft step is below `0.1 e^-12 ~ 6e-7` of its plateau value.
+pub const COMPAT_TAIL_PX: f64 = 4.0;
+/// CoC range over which kernel-image weights fade in (below it the kernel is sub-pixel).
+pub const KERNEL_FADE_START_PX: f64 = 0.5;
+pub const KERNEL_FADE_END_PX: f64 = 1.5;
+/// Step of the area table in pixels of CoC radius, and the radius it covers.
+pub const AREA_STEP_PX: f64 = 1.0 / 16.0;
+pub const AREA_TABLE_RADIUS_PX: f64 = 16.0;
+
+/// Which formulas the renderer evaluates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Model {
+    /// Fixes the released code's defects (DESIGN.md): exact in-focus pixels, occlusion in CoC
+    /// pixels, visibility over the full soft CoC disk, in-image normalisation at borders.
+    #[default]
+    DrBokeh,
+    /// The authors' released formulas, for comparison with the published method.
+    Compat,
+}
+
+impl Model {
+    /// The push-constant flag (`DRBOKEH_MODEL_*` in `drbokeh.glsl`).
+    pub fn flag(self) -> i32 {
+        match self {
+            Model::DrBokeh => 0,
+            Model::Compat => 1,
+        }
+    }
+}
+
+/// Push constants shared by every `drbokeh_*.comp` pass; mirrors `DrBokehPush` in
+/// `glsl/common/drbokeh.glsl` (std430 offsets in the comments).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct DrBokehPush {
+    pub width: i32, // 0
+    pub height: i32, // 4
+    pub tiles_x: i32, // 8
+    pub tiles_y: i32, // 12
+    /// Layer this dispatch works on (0 = front); unused by `composite`.
+    pub layer: i32, // 16
+    pub layer_count: i32, // 20
+    /// [`Model::flag`].
+    pub model: i32, // 24
+    /// Side of the kernel image buffer (0 = no kernel image).
+    pub kernel_size: i32, // 28
+    pub k_px: f32, // 32
+    pub focus_disparity: f32, // 36
+    /// Largest scatter support / gather radius over the stack, bounds the dilation loop.
+    pub max_support: f32, // 40
+    pub area_step: f32, // 44
+    pub area_count: i32, // 48
+    pub pad: [i32; 3], // 52
+    /// [`Aperture::gpu_params`]: blades (0 = disk), rotation (rad), roundness, kernel flag.
+    pub aperture: [f32; 4], // 64
+}
+
+const _: () = assert!(std::mem::size_of::<DrBokehPush>() == 80);
+const _: () = assert!(std::mem::size_of::<DrBokehPush>() <= 128);
+
+/// The lens as the renderer reads it, in f64 (GPU-form aperture plus kernel weights).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LensView {
+    pub k_px: f64,
+    pub focus_disparity: f64,
+    pub aperture: [f64; 4],
+    pub kernel: Vec<f64>,
+    pub kernel_size: usize,
+}
+
+impl LensView {
+    pub fn new(coc: &CocModel, aperture: &Aperture) -> Self {
+        let (kernel, kernel_size) = match aperture {
+            Aperture::Kernel(k) => (k.weights.iter().map(|&w| w as f64).collect(), k.size),
+            _ => (Vec::new(), 0),
+        };
+        Self {
+            k_px: coc.k_px as f64,
+            focus_disparity: coc.focus_disparity as f64,
+            aperture: aperture.gpu_params().map(|v| v as f64),
+            kernel,
+            kernel_size,
+        }
+    }
+
+    /// Signed relative disparity `d - d_f`.
+    #[inline]
+    pub fn rel(&self, disparity: f32) -> f64 {
+        disparity as f64 - self.focus_disparity
+    }
+
+    /// Signed CoC radius in pixels (positive = nearer than focus).
+    #[inline]
+    pub fn signed_radius(&self, disparity: f32) -> f64 {
+        self.k_px * self.rel(disparity)
+    }
+
+    /// Gauge and kernel weight of the offset `x - y` seen through a CoC of radius `r` at
+    /// relative disparity `rel` (mirrors `drbokeh_lens` in `drbokeh.glsl`).
+    pub fn lens(&self, dx: f64, dy: f64, r: f64, rel: f64) -> (f64, f64) {
+        let (u, v) = math::to_aperture_coords(dx, dy, rel);
+        let g = math::gauge(&self.aperture, u, v);
+        if self.aperture[3] < 0.5 || self.kernel_size == 0 {
+            return (g, 1.0);
+        }
+        let scale = 1.0 / (r + 0.5);
+        let sample = math::kernel_sample(&self.kernel, self.kernel_size, u * scale, v * scale);
+        (g, 1.0 + (sample - 1.0) * math::kernel_blend(r))
+    }
+}

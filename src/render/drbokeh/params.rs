@@ -1,0 +1,124 @@
+//! Host-side parameters of one render: validated sizes, the lens in f64, the global bound of
+//! the dilation loop, and the area table — everything both the CPU reference and the GPU
+//! host code derive from a stack and a lens, computed in one place.
+use super::{math, DrBokehPush, LensView, Model, AREA_STEP_PX, AREA_TABLE_RADIUS_PX, TILE};
+use crate::render::Lens;
+use crate::stack::LayerStack;
+use crate::{Error, Result};
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    pub model: Model,
+    pub width: usize,
+    pub height: usize,
+    pub tiles_x: usize,
+    pub tiles_y: usize,
+    pub layer_count: usize,
+    pub lens: LensView,
+    /// Largest scatter support or gather radius of any pixel of any layer, in pixels.
+    pub max_support: f64,
+    /// `A(r)` at `r = i * AREA_STEP_PX`: exact lattice sums of the default model's `S K`.
+    pub area_lut: Vec<f64>,
+}
+
+impl Params {
+    pub fn new(stack: &LayerStack, lens: &Lens, model: Model) -> Result<Self> {
+        if stack.layers.is_empty() {
+            return Err(Error::param("Dr.Bokeh needs at least one layer"));
+        }
+        if stack.width == 0 || stack.height == 0 {
+            return Err(Error::param("Dr.Bokeh needs a non-empty image"));
+        }
+        if stack.width > i32::MAX as usize / 2 || stack.height > i32::MAX as usize / 2 {
+            return Err(Error::param("image too large for 32-bit pixel indices"));
+        }
+        let (lo, hi) = stack.disparity_range();
+        if !(lo.is_finite() && hi.is_finite()) {
+            return Err(Error::param("layer disparities must be finite"));
+        }
+        let view = LensView::new(&lens.coc, &lens.aperture);
+        let max_radius = view.signed_radius(lo).abs().max(view.signed_radius(hi).abs());
+        let max_support = match model {
+            Model::DrBokeh => math::support(max_radius),
+            Model::Compat => math::support_compat(max_radius),
+        };
+        let area_lut = area_table(&view);
+        Ok(Self {
+            model,
+            width: stack.width,
+            height: stack.height,
+            tiles_x: stack.width.div_ceil(TILE),
+            tiles_y: stack.height.div_ceil(TILE),
+            layer_count: stack.layers.len(),
+            lens: view,
+            max_support,
+            area_lut,
+        })
+    }
+
+    /// Area normalisation of a source of CoC radius `r` under this model.
+    #[inline]
+    pub fn area(&self, r: f64) -> f64 {
+        match self.model {
+            Model::DrBokeh => math::area_from_lut(&self.area_lut, AREA_STEP_PX, r),
+            Model::Compat => math::area_compat(r),
+        }
+    }
+
+    /// Push constants for a dispatch on `layer`.
+    pub fn push(&self, layer: usize) -> DrBokehPush {
+        DrBokehPush {
+            width: self.width as i32,
+            height: self.height as i32,
+            tiles_x: self.tiles_x as i32,
+            tiles_y: self.tiles_y as i32,
+            layer: layer as i32,
+            layer_count: self.layer_count as i32,
+            model: self.model.flag(),
+            kernel_size: self.lens.kernel_size as i32,
+            k_px: self.lens.k_px as f32,
+            focus_disparity: self.lens.focus_disparity as f32,
+            max_support: self.max_support as f32,
+            area_step: AREA_STEP_PX as f32,
+            area_count: self.area_lut.len() as i32,
+            pad: [0; 3],
+            aperture: self.lens.aperture.map(|v| v as f32),
+        }
+    }
+
+    /// The area table as the `area_lut` buffer of `drbokeh_layer.comp`.
+    pub fn area_lut_f32(&self) -> Vec<f32> {
+        self.area_lut.iter().map(|&a| a as f32).collect()
+    }
+
+    /// The kernel image as the `kernel` buffer (one dummy element when there is none, since
+    /// Vulkan buffers cannot be empty).
+    pub fn kernel_f32(&self) -> Vec<f32> {
+        if self.lens.kernel.is_empty() {
+            vec![0.0]
+        } else {
+            self.lens.kernel.iter().map(|&w| w as f32).collect()
+        }
+    }
+}
+
+/// `A(r) = sum over integer offsets o of S(r, gauge(o)) K(o, r)`: the exact discrete energy of
+/// a source's footprint, so a source of tabulated radius spreads exactly its own energy. The
+/// lattice is symmetric under `o -> -o`, so the near-source mirror does not change the sum.
+fn area_table(lens: &LensView) -> Vec<f64> {
+    let count = (AREA_TABLE_RADIUS_PX / AREA_STEP_PX).round() as usize + 1;
+    (0..count)
+        .map(|i| {
+            let r = i as f64 * AREA_STEP_PX;
+            let half = math::support(r).ceil() as i64;
+            let mut sum = 0.0;
+            for oy in -half..=half {
+                for ox in -half..=half {
+                    let (g, k) = lens.lens(ox as f64, oy as f64, r, -1.0);
+                    sum += math::scatter(r, g) * k;
+                }
+            }
+            sum.max(f64::MIN_POSITIVE)
+        })
+        .collect()
+}

@@ -1,0 +1,93 @@
+//! Unit tests that need the crate-private released-formula evaluation and mirrors.
+use super::compat_direct::render_released;
+use super::{math, render_cpu_terms, DrBokehPush, LensView, Model, Params, Window};
+use crate::camera::{Aperture, CocModel, KernelImage};
+use crate::image::Image;
+use crate::render::Lens;
+use crate::stack::{Layer, LayerStack};
+
+fn scene() -> (LayerStack, Lens) {
+    let (w, h) = (40, 36);
+    let coc = CocModel::new(10.0, 0.5).unwrap();
+    let front = Layer {
+        name: "front".into(),
+        rgba: Image::from_fn(w, h, |x, y| {
+            let a = if (x as i64 - 15).abs() < 7 && (y as i64 - 17).abs() < 9 { 1.0 } else if x % 7 == 0 { 0.4 } else { 0.0 };
+            [0.8 * a, 0.2 * a, 3.0 * a, a]
+        }),
+        disparity: (0..w * h).map(|i| 0.5 + 0.05 * ((i % w) as f32 / 8.0)).collect(),
+    };
+    let back = Layer {
+        name: "back".into(),
+        rgba: Image::from_fn(w, h, |x, y| [((x * 7 + y * 3) % 11) as f32 / 5.0, 0.3, (y % 5) as f32, 1.0]),
+        disparity: (0..w * h).map(|i| if i % w < 20 { 0.5 } else { 0.5 - 0.04 * ((i / w) as f32 / 6.0) }).collect(),
+    };
+    (LayerStack::new(w, h, vec![front, back]).unwrap(), Lens { coc, aperture: Aperture::Disk })
+}
+
+#[test]
+fn compat_equals_released_formulas() {
+    let (stack, lens) = scene();
+    let ours = render_cpu_terms(&stack, &lens, Model::Compat, Window::Tiled).unwrap();
+    // The released window must hold every term our cut keeps; beyond r + 1 + 12 the soft
+    // step is below 0.1 e^-36 and the two sums agree to rounding but for our tail cut.
+    let max_r = 10.0f64 * 0.05 * 39.0 / 8.0;
+    let released = render_released(&stack, &lens.coc, (max_r + 14.0).ceil() as i64);
+    let mut worst = 0.0f64;
+    for (a, b) in ours.composite.iter().zip(&released) {
+        for c in 0..4 {
+            worst = worst.max((a[c] - b[c]).abs() / b[c].abs().max(1.0));
+        }
+    }
+    // Our cut drops soft-step taps below ~6e-7 of the plateau (COMPAT_TAIL_PX); they carry a
+    // small fraction of W, so colour ratios move by well under 1e-5.
+    assert!(worst < 1e-5, "compat vs released: {worst}");
+    assert!(worst > 0.0 || ours.composite.iter().all(|p| p[3] == 1.0));
+}
+
+#[test]
+fn aperture_mirrors_match_the_camera_module() {
+    let aperture = Aperture::polygon(7, 20.0, 0.35).unwrap();
+    let lens = LensView::new(&CocModel::new(1.0, 0.0).unwrap(), &aperture);
+    for i in 0..200 {
+        let (u, v) = ((i as f64 * 0.37).sin() * 3.0, (i as f64 * 0.91).cos() * 2.0);
+        let ours = math::gauge(&lens.aperture, u, v);
+        let theirs = aperture.gauge(u as f32, v as f32) as f64;
+        // f32 reference: relative rounding ~1e-6 of a gauge of a few units.
+        assert!((ours - theirs).abs() < 1e-5 * theirs.max(1.0), "{u},{v}: {ours} vs {theirs}");
+    }
+    let weights: Vec<f32> = (0..36).map(|i| ((i * 5) % 7) as f32 + 1.0).collect();
+    let kernel = KernelImage::from_weights(6, weights).unwrap();
+    let k64: Vec<f64> = kernel.weights.iter().map(|&w| w as f64).collect();
+    for i in 0..200 {
+        let (u, v) = ((i as f64 * 0.13).sin() * 1.2, (i as f64 * 0.29).cos() * 1.2);
+        let ours = math::kernel_sample(&k64, 6, u, v);
+        let theirs = kernel.sample(u as f32, v as f32) as f64;
+        assert!((ours - theirs).abs() < 1e-5, "{u},{v}: {ours} vs {theirs}");
+    }
+}
+
+#[test]
+fn push_constants_match_the_glsl_layout() {
+    assert_eq!(std::mem::size_of::<DrBokehPush>(), 80);
+    assert_eq!(std::mem::offset_of!(DrBokehPush, k_px), 32);
+    assert_eq!(std::mem::offset_of!(DrBokehPush, area_count), 48);
+    // vec4 members must sit on a 16-byte boundary in the push-constant block.
+    assert_eq!(std::mem::offset_of!(DrBokehPush, aperture), 64);
+}
+
+#[test]
+fn area_table_is_the_exact_footprint_energy() {
+    let (stack, lens) = scene();
+    let params = Params::new(&stack, &lens, Model::DrBokeh).unwrap();
+    // r = 0 reaches only its own pixel, where the Hermite rim is exactly 1/2.
+    assert_eq!(params.area(0.0), 0.5);
+    // Large radii approach the continuous integral pi (r^2 + 1/20) (lattice error ~ r^-1/2).
+    for r in [6.0, 11.5, 15.9375] {
+        let ratio = params.area(r) / (std::f64::consts::PI * (r * r + 0.05));
+        assert!((ratio - 1.0).abs() < 0.01, "r={r}: {ratio}");
+    }
+    // Continuous where the table hands over to the r^2 growth.
+    let edge = super::AREA_TABLE_RADIUS_PX;
+    assert!((params.area(edge - 1e-9) - params.area(edge + 1e-9)).abs() < 1e-6);
+}
