@@ -18,6 +18,7 @@ use crate::camera::{Aperture, CocModel};
 
 pub mod bounds;
 pub mod cpu;
+mod gpu;
 pub mod math;
 mod params;
 
@@ -27,6 +28,7 @@ mod compat_direct;
 mod tests;
 
 pub use cpu::{render_cpu, render_cpu_terms, LayerTerms, Terms, Window};
+pub use gpu::{DrBokehGpu, RenderStats};
 pub use params::Params;
 
 /// Side of the square output tile a workgroup owns, in pixels (`local_size` 16x16).
