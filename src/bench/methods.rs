@@ -86,3 +86,21 @@ pub fn select_methods(methods: Vec<Method>, names: &[String]) -> Result<Vec<Meth
     }
     Ok(methods.into_iter().filter(|m| names.is_empty() || names.iter().any(|n| n == m.name)).collect())
 }
+
+/// The Vulkan renderers, on one device: Dr.Bokeh (default model) and its released formulas.
+pub fn gpu_methods(ctx: &crate::vk::Context) -> Result<Vec<Method>> {
+    use crate::render::drbokeh::{DrBokehGpu, Model};
+    let drbokeh = std::sync::Arc::new(DrBokehGpu::new(ctx)?);
+    let compat = drbokeh.clone();
+    Ok(vec![
+        Method::new("drbokeh", InputKind::Layers, move |case| drbokeh.render(&case.truth.layers, case.lens, Model::DrBokeh)),
+        Method::new("drbokeh-compat", InputKind::Layers, move |case| compat.render(&case.truth.layers, case.lens, Model::Compat)),
+    ])
+}
+
+/// Every method: the CPU references and, on `ctx`, the Vulkan renderers.
+pub fn all_methods(ctx: &crate::vk::Context) -> Result<Vec<Method>> {
+    let mut methods = cpu_methods();
+    methods.extend(gpu_methods(ctx)?);
+    Ok(methods)
+}

@@ -17,6 +17,6 @@ mod table;
 // Both were compiled and run here against a stand-in with that API before being commented out.
 // pub mod scenes;
 
-pub use methods::{cpu_methods, select_methods, BenchCase, InputKind, Method};
+pub use methods::{all_methods, cpu_methods, gpu_methods, select_methods, BenchCase, InputKind, Method};
 pub use runner::{run, run_with_progress, BenchReport, CaseResult, MethodSummary, Worst};
 pub use sheet::{contact_sheet, write_png, HEAT_MAX};
