@@ -2,6 +2,8 @@
 //! This file only lists them; errors get `anyhow` context here and become exit code 1.
 use clap::{Parser, Subcommand};
 
+mod raytrace;
+
 #[derive(Parser)]
 #[command(
     name = "lensblur",
@@ -15,11 +17,16 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Ray-trace a built-in scene's ground truth (pinhole, true layers, thin-lens defocus).
+    Raytrace(raytrace::Args),
+}
 
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    let result: anyhow::Result<()> = match cli.command {};
+    let result: anyhow::Result<()> = match cli.command {
+        Command::Raytrace(args) => raytrace::run(args),
+    };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(error) => {
