@@ -153,7 +153,7 @@ mod tests {
     fn strokes_cover_their_centre_lines_and_nothing_far_away() {
         let s = Strokes::new(fence(-1.0, 1.0, -0.5, 0.5, 0.25, 0.02));
         assert!(s.covers(0.0, 0.1), "a bar at u = 0");
-        assert!(s.covers(0.125, 0.0), "the lower rail at v = 0");
+        assert!(s.covers(0.125, 0.25), "the lower rail at v = 0.25");
         assert!(!s.covers(0.125, 0.1), "gap between bars, between rails");
         assert!(!s.covers(0.0, 0.6), "below the fence");
     }
