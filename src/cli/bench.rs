@@ -4,7 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use lensblur::bench::{contact_sheet, cpu_methods, run_with_progress, scenes, select_methods, write_png, HEAT_MAX};
+use lensblur::bench::{all_methods, contact_sheet, run_with_progress, scenes, select_methods, write_png, HEAT_MAX};
+use lensblur::vk::Context as GpuContext;
 
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  lensblur bench --quick\n  lensblur bench --methods oracle,scatter --scenes fence,branches\n  \
@@ -34,7 +35,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let methods = select_methods(cpu_methods(), &args.methods)?;
+    let gpu = GpuContext::from_env().context("opening the Vulkan device")?;
+    let methods = select_methods(all_methods(&gpu)?, &args.methods)?;
     let tracing = bar("ray tracing {msg}", "rows")?;
     let truths = scenes::ground_truths(&args.scenes, args.quick, Some(tracing.clone())).context("ray tracing the scenes")?;
     tracing.finish_and_clear();

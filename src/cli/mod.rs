@@ -2,12 +2,17 @@
 //! This file only lists them; errors get `anyhow` context here and become exit code 1.
 use clap::{Parser, Subcommand};
 
+mod bench;
 mod camera_args;
 mod devices;
+mod raytrace;
 
 const EXAMPLES: &str = "\
 Examples:
   lensblur devices                      list Vulkan devices, mark the one in use
+  lensblur raytrace --list              the built-in ground-truth scenes
+  lensblur raytrace fence -o out/fence  ray-trace one scene: pinhole, true layers, defocus
+  lensblur bench --quick --sheet b.png  score every method against ray-traced truth
   LENSBLUR_DEVICE=1 lensblur devices    pick a device by index or name substring
   LENSBLUR_VALIDATION=1 lensblur ...    any Vulkan validation message becomes an error";
 
@@ -22,12 +27,18 @@ struct Cli {
 enum Command {
     /// List the Vulkan devices and the one lensblur would use.
     Devices(devices::Args),
+    /// Ray-trace a built-in scene's ground truth (pinhole, true layers, thin-lens defocus).
+    Raytrace(raytrace::Args),
+    /// Score every rendering method against ray-traced ground truth (metrics table, JSON, PNG sheet).
+    Bench(bench::Args),
 }
 
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Devices(args) => devices::run(args),
+        Command::Raytrace(args) => raytrace::run(args),
+        Command::Bench(args) => bench::run(args),
     };
     // Validation messages raised while contexts were torn down fail the command too.
     let result = result.and_then(|()| Ok(lensblur::vk::validation::check_unreported()?));

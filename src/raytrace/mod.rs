@@ -1,5 +1,26 @@
 //! Thin-lens distributed ray tracing of billboard scenes: the ground truth every quality claim
 //! is measured against (Dr.Bokeh paper, Sec. 5.2.1 and Appendix 7.2).
+//!
+//! - [`scene`]: textured planes (billboards, tilted planes) and the camera frame;
+//! - [`texture`], [`shape`], [`strokes`], [`noise`]: procedural content, nothing downloaded;
+//! - [`trace`]: the thin-lens ray model and per-ray compositing; [`render`]: the passes;
+//! - [`scenes`]: the built-in scene set; [`output`]: files written by `lensblur raytrace`.
+pub mod noise;
+pub mod output;
+mod render;
+pub mod sampling;
+pub mod scene;
+mod scenes;
+pub mod shape;
+pub mod strokes;
+pub mod texture;
+mod trace;
+
+pub use render::{render_ground_truth, EMPTY_DEPTH};
+pub use scene::{Scene, Surface};
+pub use scenes::{builtin_scene, builtin_scenes};
+pub use trace::TraceOptions;
+
 use crate::camera::{CocModel, PhysicalCamera};
 use crate::image::Image;
 use crate::stack::LayerStack;
