@@ -4,6 +4,21 @@
 //! premultiplied, depth converted to *disparity* (inverse depth; 0 = infinitely far, or the
 //! file's normalised disparity). The file's own depth convention is remembered in
 //! [`DepthKind`] so outputs and gradients can be written back in it.
+pub mod autolayer;
+pub mod exr_read;
+pub mod exr_write;
+pub mod fill;
+pub mod info;
+pub mod ldr;
+pub mod naming;
+
+pub use autolayer::{split_into_layers, AutoLayerOptions};
+pub use exr_read::{read_parts, read_stack, ReadOptions};
+pub use exr_write::{write_image, write_stack, StackNaming, WriteOptions};
+pub use info::{ExtraChannel, LayerInfo, SampleType, StackFile, StackInfo, Window};
+pub use ldr::{read_ldr, write_png_preview, LdrInput};
+pub use naming::Convention;
+
 use crate::image::Image;
 use crate::{Error, Result};
 
@@ -27,6 +42,17 @@ impl DepthKind {
         match self {
             DepthKind::Z => crate::camera::disparity_from_z(stored),
             DepthKind::Disparity | DepthKind::InverseZ => stored,
+        }
+    }
+
+    /// The stored value for a disparity (inverse of [`Self::to_disparity`]); disparity 0
+    /// becomes the far sentinel 1e10 for planar Z, as Blender writes it.
+    #[inline]
+    pub fn from_disparity(self, disparity: f32) -> f32 {
+        match self {
+            DepthKind::Z if disparity > 0.0 => 1.0 / disparity,
+            DepthKind::Z => 1.0e10,
+            DepthKind::Disparity | DepthKind::InverseZ => disparity,
         }
     }
 
