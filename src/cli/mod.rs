@@ -2,6 +2,8 @@
 //! This file only lists them; errors get `anyhow` context here and become exit code 1.
 use clap::{Parser, Subcommand};
 
+mod info;
+
 #[derive(Parser)]
 #[command(
     name = "lensblur",
@@ -15,11 +17,16 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Describe an EXR stack: parts, channels, layers, depth ranges, camera attributes.
+    Info(info::InfoArgs),
+}
 
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    let result: anyhow::Result<()> = match cli.command {};
+    let result: anyhow::Result<()> = match cli.command {
+        Command::Info(args) => info::run(args),
+    };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(error) => {

@@ -67,6 +67,18 @@ impl DepthKind {
     }
 }
 
+impl std::str::FromStr for DepthKind {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "z" => Ok(DepthKind::Z),
+            "disparity" => Ok(DepthKind::Disparity),
+            "inverse-z" | "inverse_z" | "1/z" => Ok(DepthKind::InverseZ),
+            other => Err(Error::param(format!("unknown depth kind '{other}' (expected z, disparity or inverse-z)"))),
+        }
+    }
+}
+
 /// One layer of a stack.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Layer {
