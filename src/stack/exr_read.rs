@@ -342,6 +342,11 @@ fn depth_to_disparity(
         }
         let z = depth[i];
         let d = kind.to_disparity(z);
+        // A partially covered pixel whose depth says "nothing here" (Cycles writes 1e10
+        // when the depth sample missed the surface) takes its depth from its neighbours.
+        if d == 0.0 && alpha[i] < 1.0 {
+            continue;
+        }
         if z.is_nan() || !d.is_finite() || (kind == DepthKind::Z && z <= 0.0) {
             invalid += 1;
             continue;
