@@ -60,7 +60,10 @@ fn two_depths_split_into_two_layers_whose_over_composite_is_the_input() {
     let err = max_diff(&composite(&stack), &image);
     assert!(err < 1e-5, "composite differs from the input by {err}");
     assert!(stack.layers[0].disparity.iter().all(|&d| (d - 1.0).abs() < 1e-6), "front layer keeps the square's depth");
-    assert!(stack.layers[1].disparity.iter().all(|&d| (d - 0.25).abs() < 1e-6), "back layer keeps the background depth");
+    assert!(
+        stack.layers[1].disparity.iter().all(|&d| (d - 0.25).abs() < 1e-6),
+        "back layer keeps the background depth"
+    );
 }
 
 #[test]
@@ -101,7 +104,15 @@ fn every_farther_layer_is_filled_under_every_nearer_one() {
             0.25
         }
     };
-    let colour = |d: f32| if d == 1.0 { FG } else if d == 0.6 { MID } else { BG };
+    let colour = |d: f32| {
+        if d == 1.0 {
+            FG
+        } else if d == 0.6 {
+            MID
+        } else {
+            BG
+        }
+    };
     let image = Image::from_fn(32, 32, |x, y| colour(disp(x, y)));
     let disparity: Vec<f32> = (0..32 * 32).map(|i| disp(i % 32, i / 32)).collect();
     let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());

@@ -2,12 +2,15 @@
 //! our writers read back by our reader, and every documented error.
 use std::path::{Path, PathBuf};
 
-use exr::prelude::{f16, AnyChannel, AnyChannels, Encoding, FlatSamples, ImageAttributes, IntegerBounds, LayerAttributes, Vec2, WritableImage};
+use exr::prelude::{
+    f16, AnyChannel, AnyChannels, Encoding, FlatSamples, ImageAttributes, IntegerBounds, LayerAttributes, Vec2,
+    WritableImage,
+};
 use lensblur::image::Image;
 use lensblur::stack::naming::Convention;
 use lensblur::stack::{
-    read_ldr, read_stack, write_image, write_png_preview, write_stack, DepthKind, ExtraChannel, Layer, LayerStack, ReadOptions,
-    SampleType, StackNaming, WriteOptions,
+    read_ldr, read_stack, write_image, write_png_preview, write_stack, DepthKind, ExtraChannel, Layer, LayerStack,
+    ReadOptions, SampleType, StackNaming, WriteOptions,
 };
 
 const W: usize = 8;
@@ -55,7 +58,13 @@ fn colour(l: usize, i: usize, c: usize) -> f32 {
 }
 
 /// Channels of one layer: RGBA with names from `names`, half colour; depth float.
-fn layer_channels(l: usize, names: [&str; 5], depth: impl Fn(usize) -> f32, alpha: impl Fn(usize) -> f32, n: usize) -> Vec<(String, FlatSamples)> {
+fn layer_channels(
+    l: usize,
+    names: [&str; 5],
+    depth: impl Fn(usize) -> f32,
+    alpha: impl Fn(usize) -> f32,
+    n: usize,
+) -> Vec<(String, FlatSamples)> {
     let mut out: Vec<(String, FlatSamples)> =
         (0..3).map(|c| (names[c].to_string(), half((0..n).map(|i| colour(l, i, c) * alpha(i))))).collect();
     out.push((names[3].to_string(), half((0..n).map(&alpha))));
@@ -65,7 +74,13 @@ fn layer_channels(l: usize, names: [&str; 5], depth: impl Fn(usize) -> f32, alph
 
 fn names(prefix: &str, long: bool, depth: &str) -> [String; 5] {
     let base = if long { ["red", "green", "blue", "alpha"] } else { ["R", "G", "B", "A"] };
-    [0, 1, 2, 3].map(|i| format!("{prefix}{}", base[i])).into_iter().chain([format!("{prefix}{depth}")]).collect::<Vec<_>>().try_into().unwrap()
+    [0, 1, 2, 3]
+        .map(|i| format!("{prefix}{}", base[i]))
+        .into_iter()
+        .chain([format!("{prefix}{depth}")])
+        .collect::<Vec<_>>()
+        .try_into()
+        .unwrap()
 }
 
 fn as_refs(n: &[String; 5]) -> [&str; 5] {
@@ -95,8 +110,20 @@ fn blender_multilayer_with_half_colour_and_float_depth() {
     // with Z = 1e10 where it is empty, as Cycles writes it.
     let front_alpha = |i: usize| if i % W < W / 2 { 1.0 } else { 0.0 };
     let front_depth = |i: usize| if i % W < W / 2 { 2.0 } else { 1.0e10 };
-    let mut channels = layer_channels(0, as_refs(&names("Front.Combined.", false, "Z").map(|s| s.replace("Combined.Z", "Depth.Z"))), front_depth, front_alpha, n);
-    channels.extend(layer_channels(1, as_refs(&names("Back.Combined.", false, "Z").map(|s| s.replace("Combined.Z", "Depth.Z"))), |_| 10.0, opaque, n));
+    let mut channels = layer_channels(
+        0,
+        as_refs(&names("Front.Combined.", false, "Z").map(|s| s.replace("Combined.Z", "Depth.Z"))),
+        front_depth,
+        front_alpha,
+        n,
+    );
+    channels.extend(layer_channels(
+        1,
+        as_refs(&names("Back.Combined.", false, "Z").map(|s| s.replace("Combined.Z", "Depth.Z"))),
+        |_| 10.0,
+        opaque,
+        n,
+    ));
     channels.push(("Back.Normal.X".into(), float((0..n).map(|i| i as f32))));
     channels.push(("Back.Normal.Z".into(), float((0..n).map(|_| 1.0))));
     write_parts(&path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
@@ -202,7 +229,11 @@ fn transparent_pixels_get_depth_from_nearby_opaque_ones() {
     let path = dir.join("fill.exr");
     // Left column at z = 1, right column at z = 4, the middle transparent with junk Z.
     let alpha = |i: usize| if i % W == 0 || i % W == W - 1 { 1.0 } else { 0.0 };
-    let depth = |i: usize| match i % W { 0 => 1.0, x if x == W - 1 => 4.0, _ => -3.0 };
+    let depth = |i: usize| match i % W {
+        0 => 1.0,
+        x if x == W - 1 => 4.0,
+        _ => -3.0,
+    };
     let channels = layer_channels(0, as_refs(&names("a.", false, "Z")), depth, alpha, W * H);
     write_parts(&path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
@@ -220,7 +251,13 @@ fn layer_selection_by_name_and_glob_in_any_order() {
     let path = dir.join("sel.exr");
     let mut channels = Vec::new();
     for (l, name) in ["fg_hair", "fg_body", "bg"].iter().enumerate() {
-        channels.extend(layer_channels(l, as_refs(&names(&format!("{name}."), false, "Z")), move |_| 1.0 + l as f32, opaque, W * H));
+        channels.extend(layer_channels(
+            l,
+            as_refs(&names(&format!("{name}."), false, "Z")),
+            move |_| 1.0 + l as f32,
+            opaque,
+            W * H,
+        ));
     }
     write_parts(&path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
     let options = ReadOptions { layers: Some(vec!["bg".into(), "fg_h*".into()]), ..ReadOptions::default() };
@@ -232,7 +269,10 @@ fn layer_selection_by_name_and_glob_in_any_order() {
 
     let options = ReadOptions { layers: Some(vec!["nope".into()]), ..ReadOptions::default() };
     let message = read_stack(&path, &options).unwrap_err().to_string();
-    assert!(message.contains("no layer matches 'nope'") && ["fg_hair", "fg_body", "bg"].iter().all(|n| message.contains(n)), "{message}");
+    assert!(
+        message.contains("no layer matches 'nope'") && ["fg_hair", "fg_body", "bg"].iter().all(|n| message.contains(n)),
+        "{message}"
+    );
 }
 
 #[test]
@@ -251,7 +291,10 @@ fn errors_name_the_problem() {
     channels.retain(|(n, _)| n != "fg.Z");
     write_parts(&no_depth, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
     let message = read_stack(&no_depth, &ReadOptions::default()).unwrap_err().to_string();
-    assert!(message.contains("no layer has both colour and depth") && message.contains("'fg' [fg.R, fg.G, fg.B, fg.A]"), "{message}");
+    assert!(
+        message.contains("no layer has both colour and depth") && message.contains("'fg' [fg.R, fg.G, fg.B, fg.A]"),
+        "{message}"
+    );
     let options = ReadOptions { layers: Some(vec!["fg".into()]), ..ReadOptions::default() };
     let message = read_stack(&no_depth, &options).unwrap_err().to_string();
     assert!(message.contains("layer 'fg' has no depth") && message.contains("fg.R"), "{message}");
@@ -269,7 +312,15 @@ fn errors_name_the_problem() {
 }
 
 fn sample_stack() -> LayerStack {
-    let front = Image::from_fn(W, H, |x, _| if x < 4 { [0.5, 0.25, 0.125, 1.0] } else if x == 4 { [0.25, 0.0, 0.5, 0.5] } else { [0.0; 4] });
+    let front = Image::from_fn(W, H, |x, _| {
+        if x < 4 {
+            [0.5, 0.25, 0.125, 1.0]
+        } else if x == 4 {
+            [0.25, 0.0, 0.5, 0.5]
+        } else {
+            [0.0; 4]
+        }
+    });
     let back = Image::from_fn(W, H, |x, y| [x as f32 / 8.0, y as f32 / 8.0, 0.75, 1.0]);
     let layers = vec![
         Layer { name: "fg".into(), rgba: front, disparity: vec![0.5; W * H] },
@@ -298,7 +349,11 @@ fn written_stacks_read_back_identically_in_every_naming_and_depth_kind() {
                     }
                 }
             }
-            let expected = if naming == StackNaming::BlenderMultilayer { Convention::BlenderMultilayer } else { Convention::LayerDotChannel };
+            let expected = if naming == StackNaming::BlenderMultilayer {
+                Convention::BlenderMultilayer
+            } else {
+                Convention::LayerDotChannel
+            };
             assert!(back.info.layers.iter().all(|l| l.convention == expected));
         }
     }
@@ -308,14 +363,25 @@ fn written_stacks_read_back_identically_in_every_naming_and_depth_kind() {
 fn written_images_carry_names_precision_and_pass_through_channels() {
     let dir = temp_dir("image_rt");
     let image = Image::from_fn(W, H, |x, y| [x as f32 / 3.0, y as f32 / 7.0, 0.1, 1.0]);
-    let extra = ExtraChannel { name: "CryptoObject00.R".into(), sample_type: SampleType::Float, values: (0..W * H).map(|i| i as f32 * 1.5).collect() };
-    let options = WriteOptions { output_layer: Some("Blurred".into()), sample_type: SampleType::Half, extra_channels: vec![extra] };
+    let extra = ExtraChannel {
+        name: "CryptoObject00.R".into(),
+        sample_type: SampleType::Float,
+        values: (0..W * H).map(|i| i as f32 * 1.5).collect(),
+    };
+    let options = WriteOptions {
+        output_layer: Some("Blurred".into()),
+        sample_type: SampleType::Half,
+        extra_channels: vec![extra],
+    };
     let path = dir.join("out.exr");
     write_image(&path, &image, &options).unwrap();
     let read = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
     let channels = &read.layer_data[0].channel_data.list;
     let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
-    assert_eq!(names, ["Blurred.Combined.A", "Blurred.Combined.B", "Blurred.Combined.G", "Blurred.Combined.R", "CryptoObject00.R"]);
+    assert_eq!(
+        names,
+        ["Blurred.Combined.A", "Blurred.Combined.B", "Blurred.Combined.G", "Blurred.Combined.R", "CryptoObject00.R"]
+    );
     assert!(matches!(channels[3].sample_data, FlatSamples::F16(_)), "colour written as half");
     let red: Vec<f32> = channels[3].sample_data.values_as_f32().collect();
     // Half precision: relative error below 2^-11.
@@ -337,10 +403,13 @@ fn failed_writes_leave_nothing_behind() {
     let image = Image::new(W, H);
     let bad = ExtraChannel { name: "R".into(), sample_type: SampleType::Float, values: vec![0.0; W * H] };
     let path = dir.join("collide.exr");
-    let error = write_image(&path, &image, &WriteOptions { extra_channels: vec![bad], ..WriteOptions::default() }).unwrap_err();
+    let error =
+        write_image(&path, &image, &WriteOptions { extra_channels: vec![bad], ..WriteOptions::default() }).unwrap_err();
     assert!(error.to_string().contains("collides"), "{error}");
     let short = ExtraChannel { name: "X".into(), sample_type: SampleType::Float, values: vec![0.0; 3] };
-    assert!(write_image(&path, &image, &WriteOptions { extra_channels: vec![short], ..WriteOptions::default() }).is_err());
+    assert!(
+        write_image(&path, &image, &WriteOptions { extra_channels: vec![short], ..WriteOptions::default() }).is_err()
+    );
     assert!(write_image(&dir.join("no/such/dir/x.exr"), &image, &WriteOptions::default()).is_err());
     let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
     assert!(left.is_empty(), "no partial or temporary files: {left:?}");
@@ -351,7 +420,8 @@ fn ldr_inputs_are_decoded_to_linear_and_depth_images_follow_the_depth_kind() {
     let dir = temp_dir("ldr");
     let colour = image::RgbImage::from_fn(4, 2, |x, _| image::Rgb([(x * 80) as u8, 128, 255]));
     colour.save(dir.join("photo.png")).unwrap();
-    let depth16 = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(4, 2, |x, _| image::Luma([(x * 20000) as u16]));
+    let depth16 =
+        image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(4, 2, |x, _| image::Luma([(x * 20000) as u16]));
     depth16.save(dir.join("depth.png")).unwrap();
     let input = read_ldr(&dir.join("photo.png"), &dir.join("depth.png"), DepthKind::Disparity).unwrap();
     // sRGB 128/255 is 0.2158 linear (IEC 61966-2-1).

@@ -6,7 +6,10 @@ use std::process::Command;
 
 use lensblur::image::Image;
 use lensblur::stack::naming::Convention;
-use lensblur::stack::{read_stack, write_image, write_stack, DepthKind, Layer, LayerStack, ReadOptions, SampleType, StackNaming, WriteOptions};
+use lensblur::stack::{
+    read_stack, write_image, write_stack, DepthKind, Layer, LayerStack, ReadOptions, SampleType, StackNaming,
+    WriteOptions,
+};
 
 fn temp_dir(test: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("lensblur-oiio-{}-{test}", std::process::id()));
@@ -16,10 +19,9 @@ fn temp_dir(test: &str) -> PathBuf {
 
 /// Runs a tool and returns its stdout; panics (test failure) if it is missing or fails.
 fn tool(program: &str, args: &[&str]) -> String {
-    let output = Command::new(program)
-        .args(args)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run {program} ({e}); install it with: apt-get install -y openimageio-tools"));
+    let output = Command::new(program).args(args).output().unwrap_or_else(|e| {
+        panic!("cannot run {program} ({e}); install it with: apt-get install -y openimageio-tools")
+    });
     assert!(output.status.success(), "{program} {args:?} failed: {}", String::from_utf8_lossy(&output.stderr));
     String::from_utf8_lossy(&output.stdout).into_owned()
 }
@@ -114,7 +116,8 @@ fn oiiotool_parts_with_different_data_windows_share_the_display_window() {
 }
 
 fn stats_line(stats: &str, key: &str) -> Vec<f64> {
-    let line = stats.lines().find(|l| l.trim_start().starts_with(key)).unwrap_or_else(|| panic!("no '{key}' in:\n{stats}"));
+    let line =
+        stats.lines().find(|l| l.trim_start().starts_with(key)).unwrap_or_else(|| panic!("no '{key}' in:\n{stats}"));
     line.split_whitespace().filter_map(|w| w.parse().ok()).collect()
 }
 
@@ -131,7 +134,8 @@ fn our_outputs_read_back_in_oiiotool() {
     assert_eq!(stats_line(&stats, "Stats Max:"), [0.25, 0.5, 0.75, 1.0]);
 
     let named = dir.join("named.exr");
-    write_image(&named, &image, &WriteOptions { output_layer: Some("Blur".into()), ..WriteOptions::default() }).unwrap();
+    write_image(&named, &image, &WriteOptions { output_layer: Some("Blur".into()), ..WriteOptions::default() })
+        .unwrap();
     let info = tool("iinfo", &["-v", s(&named)]);
     assert!(info.contains("half openexr") && info.contains("Blur.Combined.R"), "{info}");
 
@@ -141,7 +145,8 @@ fn our_outputs_read_back_in_oiiotool() {
         Layer { name: "bg".into(), rgba: image.clone(), disparity: vec![0.125; 120] },
     ];
     let stack_path = dir.join("stack.exr");
-    write_stack(&stack_path, &LayerStack::new(12, 10, layers).unwrap(), DepthKind::Z, StackNaming::BlenderMultilayer).unwrap();
+    write_stack(&stack_path, &LayerStack::new(12, 10, layers).unwrap(), DepthKind::Z, StackNaming::BlenderMultilayer)
+        .unwrap();
     let info = tool("iinfo", &["-v", s(&stack_path)]);
     for name in ["fg.Combined.R", "fg.Depth.Z", "bg.Combined.A", "bg.Depth.Z"] {
         assert!(info.contains(name), "{name} missing in:\n{info}");

@@ -19,13 +19,16 @@ pub struct InfoArgs {
 
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let options = ReadOptions { depth_kind: args.depth_kind, ..ReadOptions::default() };
-    let (parts, camera) = read_parts(&args.file, options.max_pixels).with_context(|| format!("reading {}", args.file.display()))?;
+    let (parts, camera) =
+        read_parts(&args.file, options.max_pixels).with_context(|| format!("reading {}", args.file.display()))?;
     // A file that is not a usable stack is still described; the reason is reported.
     let stack = read_stack(&args.file, &options).map(|f| f.info);
     if args.json {
         let value = match &stack {
             Ok(info) => serde_json::to_value(info)?,
-            Err(e) => serde_json::json!({ "path": args.file, "parts": parts, "camera": camera, "stack_error": e.to_string() }),
+            Err(e) => {
+                serde_json::json!({ "path": args.file, "parts": parts, "camera": camera, "stack_error": e.to_string() })
+            }
         };
         println!("{}", serde_json::to_string_pretty(&value)?);
         return Ok(());
@@ -59,7 +62,15 @@ fn print_stack(info: &StackInfo) {
         let depth = layer.stored_depth_range.map_or("empty".to_string(), |(lo, hi)| format!("{lo}..{hi}"));
         println!(
             "  '{}' [{:?}] R={} G={} B={} A={} depth={}; stored depth {depth}; disparity {}..{}",
-            layer.name, layer.convention, names[0], names[1], names[2], names[3], names[4], layer.disparity_range.0, layer.disparity_range.1
+            layer.name,
+            layer.convention,
+            names[0],
+            names[1],
+            names[2],
+            names[3],
+            names[4],
+            layer.disparity_range.0,
+            layer.disparity_range.1
         );
     }
     if info.single_image {

@@ -38,7 +38,7 @@ impl Default for AutoLayerOptions {
 fn boundaries(coc: &[f32], options: &AutoLayerOptions) -> Vec<f32> {
     let (lo, hi) = coc.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &s| (lo.min(s), hi.max(s)));
     let spacing = options.coc_spacing_px.max(1e-3);
-    if !(hi - lo > 1e-6) {
+    if lo.is_nan() || hi.is_nan() || hi - lo <= 1e-6 {
         return Vec::new();
     }
     let slices = (((hi - lo) / spacing).ceil() as usize).clamp(1, options.max_layers.max(1));
@@ -57,7 +57,9 @@ fn boundaries(coc: &[f32], options: &AutoLayerOptions) -> Vec<f32> {
         let first = ((target - 0.5 * step - lo) / bin).floor().max(0.0) as usize;
         let last = (((target + 0.5 * step - lo) / bin).ceil() as usize).min(bins - 1);
         let best = (first..=last).min_by(|&a, &b| {
-            (histogram[a], (centre(a) - target).abs()).partial_cmp(&(histogram[b], (centre(b) - target).abs())).unwrap_or(std::cmp::Ordering::Equal)
+            (histogram[a], (centre(a) - target).abs())
+                .partial_cmp(&(histogram[b], (centre(b) - target).abs()))
+                .unwrap_or(std::cmp::Ordering::Equal)
         });
         if let Some(b) = best {
             if !out.iter().any(|&x| (x - centre(b)).abs() < 0.5 * bin) {
@@ -104,7 +106,13 @@ fn dot(a: [f32; 4], b: [f32; 4]) -> f32 {
 
 /// For each pixel: the nearest and farthest other layer across a discontinuity within
 /// `band_px` (the two candidates its colour may be mixed with).
-fn band_pairs(w: usize, h: usize, label: &[usize], coc: &[f32], options: &AutoLayerOptions) -> Vec<Option<(usize, usize)>> {
+fn band_pairs(
+    w: usize,
+    h: usize,
+    label: &[usize],
+    coc: &[f32],
+    options: &AutoLayerOptions,
+) -> Vec<Option<(usize, usize)>> {
     let r = options.band_px as i64;
     let mut out = vec![None; w * h];
     for y in 0..h as i64 {
@@ -129,7 +137,15 @@ fn band_pairs(w: usize, h: usize, label: &[usize], coc: &[f32], options: &AutoLa
 }
 
 /// Mean colour of non-band pixels of layer `l` around (x, y), searching wider if needed.
-fn local_colour(image: &Image, label: &[usize], pairs: &[Option<(usize, usize)>], l: usize, x: usize, y: usize, r0: usize) -> Option<[f32; 4]> {
+fn local_colour(
+    image: &Image,
+    label: &[usize],
+    pairs: &[Option<(usize, usize)>],
+    l: usize,
+    x: usize,
+    y: usize,
+    r0: usize,
+) -> Option<[f32; 4]> {
     let (w, h) = (image.width as i64, image.height as i64);
     for r in [r0, 2 * r0, 4 * r0] {
         let r = r as i64;
@@ -164,7 +180,14 @@ fn split_colour(c: [f32; 4], f: [f32; 4], b: [f32; 4], hard_alpha: f32) -> ([f32
 }
 
 /// The split of pixel `p` against another layer `other`, if both sides have local colour.
-fn band_with(image: &Image, label: &[usize], pairs: &[Option<(usize, usize)>], p: usize, other: usize, radius: usize) -> Option<(Band, f32)> {
+fn band_with(
+    image: &Image,
+    label: &[usize],
+    pairs: &[Option<(usize, usize)>],
+    p: usize,
+    other: usize,
+    radius: usize,
+) -> Option<(Band, f32)> {
     let (x, y) = (p % image.width, p / image.width);
     let (front, back) = (label[p].min(other), label[p].max(other));
     let f = local_colour(image, label, pairs, front, x, y, radius)?;
@@ -174,7 +197,12 @@ fn band_with(image: &Image, label: &[usize], pairs: &[Option<(usize, usize)>], p
     Some((Band { front, back, front_rgba, back_rgba }, residual))
 }
 
-fn bands(image: &Image, label: &[usize], pairs: &[Option<(usize, usize)>], options: &AutoLayerOptions) -> Vec<Option<Band>> {
+fn bands(
+    image: &Image,
+    label: &[usize],
+    pairs: &[Option<(usize, usize)>],
+    options: &AutoLayerOptions,
+) -> Vec<Option<Band>> {
     let radius = options.band_px + 2;
     (0..pairs.len())
         .map(|p| {
@@ -237,7 +265,11 @@ fn build_layer(k: usize, image: &Image, disparity: &[f32], label: &[usize], band
     let mut layer_disparity: Vec<[f32; 1]> = disparity.iter().map(|&d| [d]).collect();
     let depth_weight: Vec<f32> = label.iter().map(|&l| if l == k { 1.0 } else { 0.0 }).collect();
     push_pull(w, h, &mut layer_disparity, &depth_weight);
-    Layer { name: format!("auto{k:02}"), rgba: Image { width: w, height: h, pixels: rgba }, disparity: layer_disparity.into_iter().map(|d| d[0]).collect() }
+    Layer {
+        name: format!("auto{k:02}"),
+        rgba: Image { width: w, height: h, pixels: rgba },
+        disparity: layer_disparity.into_iter().map(|d| d[0]).collect(),
+    }
 }
 
 /// Splits one flat image with per-pixel disparity into a front-to-back layer stack whose
@@ -268,7 +300,10 @@ impl super::StackFile {
                 .layers
                 .iter()
                 .map(|l| {
-                    let range = l.disparity.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &d| (lo.min(d), hi.max(d)));
+                    let range = l
+                        .disparity
+                        .iter()
+                        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &d| (lo.min(d), hi.max(d)));
                     super::LayerInfo { name: l.name.clone(), disparity_range: range, ..template.clone() }
                 })
                 .collect();

@@ -16,6 +16,8 @@ use crate::image::Image;
 use crate::{Error, Result};
 
 type ExrImage = exr::image::Image<exr::image::Layers<AnyChannels<FlatSamples>>>;
+/// Disparity per pixel and the stored depth range over covered pixels.
+type DepthResult = (Vec<f32>, Option<(f32, f32)>);
 type ExrPart = exr::image::Layer<AnyChannels<FlatSamples>>;
 
 /// What to read and how to interpret depth.
@@ -51,7 +53,8 @@ pub fn read_stack(path: &Path, options: &ReadOptions) -> Result<StackFile> {
     let mut layers = Vec::new();
     let mut infos = Vec::new();
     for candidate in &selected {
-        let (layer, info) = build_layer(path, &image.layer_data[candidate.part], candidate, display, options.depth_kind)?;
+        let (layer, info) =
+            build_layer(path, &image.layer_data[candidate.part], candidate, display, options.depth_kind)?;
         layers.push(layer);
         infos.push(info);
     }
@@ -103,7 +106,8 @@ fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
     if !is_exr {
         return Err(Error::input(path, "not an OpenEXR file (missing EXR magic number)"));
     }
-    let meta = MetaData::read_from_file(path, false).map_err(|e| Error::input(path, format!("invalid EXR header: {e}")))?;
+    let meta =
+        MetaData::read_from_file(path, false).map_err(|e| Error::input(path, format!("invalid EXR header: {e}")))?;
     let first = meta.headers.first().ok_or_else(|| Error::input(path, "EXR file has no parts"))?;
     let display = first.shared_attributes.display_window;
     for header in meta.headers.iter() {
@@ -117,7 +121,11 @@ fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
         if areas.iter().any(|&a| a > max_pixels) {
             return Err(Error::input(
                 path,
-                format!("image of {}x{} pixels exceeds the limit of {max_pixels} pixels", display.size.x(), display.size.y()),
+                format!(
+                    "image of {}x{} pixels exceeds the limit of {max_pixels} pixels",
+                    display.size.x(),
+                    display.size.y()
+                ),
             ));
         }
     }
@@ -192,7 +200,12 @@ fn missing_message(candidate: &Candidate) -> Option<String> {
         missing.push("depth (Z, depth or V)");
     }
     (!missing.is_empty()).then(|| {
-        format!("layer '{}' has no {} channel; channels found: {}", candidate.name, missing.join(" or "), ch.all_names().join(", "))
+        format!(
+            "layer '{}' has no {} channel; channels found: {}",
+            candidate.name,
+            missing.join(" or "),
+            ch.all_names().join(", ")
+        )
     })
 }
 
@@ -201,7 +214,10 @@ fn select<'c>(path: &Path, candidates: &'c [Candidate], patterns: Option<&[Strin
         let complete: Vec<&Candidate> = candidates.iter().filter(|c| c.group.channels.is_complete()).collect();
         if complete.is_empty() {
             let all: Vec<&Candidate> = candidates.iter().collect();
-            return Err(Error::input(path, format!("no layer has both colour and depth channels; found {}", describe(&all))));
+            return Err(Error::input(
+                path,
+                format!("no layer has both colour and depth channels; found {}", describe(&all)),
+            ));
         }
         // A flattened `All` beside real layers is the composite, not a layer of the stack.
         if complete.len() > 1 {
@@ -214,7 +230,10 @@ fn select<'c>(path: &Path, candidates: &'c [Candidate], patterns: Option<&[Strin
         let matches: Vec<&Candidate> = candidates.iter().filter(|c| glob_match(pattern, &c.name)).collect();
         if matches.is_empty() {
             let names: Vec<&str> = candidates.iter().map(|c| c.name.as_str()).collect();
-            return Err(Error::input(path, format!("no layer matches '{pattern}'; available layers: {}", names.join(", "))));
+            return Err(Error::input(
+                path,
+                format!("no layer matches '{pattern}'; available layers: {}", names.join(", ")),
+            ));
         }
         for m in matches {
             if let Some(message) = missing_message(m) {
@@ -281,15 +300,25 @@ fn check_finite(path: &Path, layer: &str, channel: &str, samples: &FlatSamples) 
     Ok(())
 }
 
-fn build_layer(path: &Path, part: &ExrPart, candidate: &Candidate, display: Window, kind: DepthKind) -> Result<(Layer, LayerInfo)> {
+fn build_layer(
+    path: &Path,
+    part: &ExrPart,
+    candidate: &Candidate,
+    display: Window,
+    kind: DepthKind,
+) -> Result<(Layer, LayerInfo)> {
     let data = part_window(part);
     if part.channel_data.list.iter().any(|c| c.sampling != exr::prelude::Vec2(1, 1)) {
-        return Err(Error::input(path, format!("layer '{}' uses subsampled channels, which are not supported", candidate.name)));
+        return Err(Error::input(
+            path,
+            format!("layer '{}' uses subsampled channels, which are not supported", candidate.name),
+        ));
     }
     let ch = &candidate.group.channels;
     let fetch = |name: &Option<String>, outside: f32, finite: bool| -> Result<Option<Vec<f32>>> {
         let Some(name) = name else { return Ok(None) };
-        let channel = find_channel(part, name).ok_or_else(|| Error::input(path, format!("channel '{name}' vanished")))?;
+        let channel =
+            find_channel(part, name).ok_or_else(|| Error::input(path, format!("channel '{name}' vanished")))?;
         if finite {
             check_finite(path, &candidate.name, name, &channel.sample_data)?;
         }
@@ -307,9 +336,11 @@ fn build_layer(path: &Path, part: &ExrPart, candidate: &Candidate, display: Wind
     };
     let pixels: Vec<[f32; 4]> = (0..red.len()).map(|i| [red[i], green[i], blue[i], alpha[i]]).collect();
     let rgba = Image { width: display.width, height: display.height, pixels };
-    let (disparity, stored_depth_range) = depth_to_disparity(path, &candidate.name, (display.width, display.height), &depth, &alpha, kind)?;
+    let (disparity, stored_depth_range) =
+        depth_to_disparity(path, &candidate.name, (display.width, display.height), &depth, &alpha, kind)?;
     let layer = Layer { name: candidate.name.clone(), rgba, disparity };
-    let disparity_range = layer.disparity.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &d| (lo.min(d), hi.max(d)));
+    let disparity_range =
+        layer.disparity.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &d| (lo.min(d), hi.max(d)));
     let info = LayerInfo {
         name: candidate.name.clone(),
         convention: candidate.group.convention,
@@ -331,7 +362,7 @@ fn depth_to_disparity(
     depth: &[f32],
     alpha: &[f32],
     kind: DepthKind,
-) -> Result<(Vec<f32>, Option<(f32, f32)>)> {
+) -> Result<DepthResult> {
     let mut range: Option<(f32, f32)> = None;
     let mut disparity = vec![[0.0f32; 1]; depth.len()];
     let mut weights = vec![0.0f32; depth.len()];

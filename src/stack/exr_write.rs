@@ -3,7 +3,9 @@
 //! Files appear atomically: written to a temporary file beside the target, then renamed.
 use std::path::{Path, PathBuf};
 
-use exr::prelude::{f16, AnyChannel, AnyChannels, Compression, Encoding, FlatSamples, LayerAttributes, LineOrder, WritableImage};
+use exr::prelude::{
+    f16, AnyChannel, AnyChannels, Compression, Encoding, FlatSamples, LayerAttributes, LineOrder, WritableImage,
+};
 
 use super::info::{ExtraChannel, SampleType};
 use super::{DepthKind, LayerStack};
@@ -51,7 +53,11 @@ fn rgba_channels(image: &Image, prefix: &str, sample_type: SampleType) -> Result
 
 fn extra_channel(extra: &ExtraChannel, pixels: usize) -> Result<AnyChannel<FlatSamples>> {
     if extra.values.len() != pixels {
-        return Err(Error::param(format!("pass-through channel '{}' has {} samples, the image {pixels}", extra.name, extra.values.len())));
+        return Err(Error::param(format!(
+            "pass-through channel '{}' has {} samples, the image {pixels}",
+            extra.name,
+            extra.values.len()
+        )));
     }
     let data = match extra.sample_type {
         SampleType::Uint => FlatSamples::U32(extra.values.iter().map(|&v| v as u32).collect()),
@@ -103,10 +109,21 @@ fn write_channels(path: &Path, width: usize, height: usize, channels: Vec<AnyCha
     if let Some(dup) = channels.iter().map(|c| c.name.to_string()).find(|n| !seen.insert(n.clone())) {
         return Err(Error::param(format!("channel '{dup}' would be written twice (duplicate layer names?)")));
     }
-    let encoding = Encoding { compression: Compression::ZIP16, blocks: exr::prelude::Blocks::ScanLines, line_order: LineOrder::Increasing };
-    let layer = exr::prelude::Layer::new((width, height), LayerAttributes::default(), encoding, AnyChannels::sort(channels.into()));
+    let encoding = Encoding {
+        compression: Compression::ZIP16,
+        blocks: exr::prelude::Blocks::ScanLines,
+        line_order: LineOrder::Increasing,
+    };
+    let layer = exr::prelude::Layer::new(
+        (width, height),
+        LayerAttributes::default(),
+        encoding,
+        AnyChannels::sort(channels.into()),
+    );
     let image = exr::prelude::Image::from_layer(layer);
-    write_atomically(path, |tmp| image.write().to_file(tmp).map_err(|e| Error::input(path, format!("cannot write EXR: {e}"))))
+    write_atomically(path, |tmp| {
+        image.write().to_file(tmp).map_err(|e| Error::input(path, format!("cannot write EXR: {e}")))
+    })
 }
 
 /// Runs `write` on a temporary path in the target's directory and renames it into place,
@@ -115,7 +132,8 @@ pub(crate) fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<
     let file_name = path.file_name().ok_or_else(|| Error::input(path, "output path has no file name"))?;
     let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let tmp: PathBuf = dir.join(format!(".{}.{}.tmp", file_name.to_string_lossy(), std::process::id()));
-    let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path).map_err(|source| Error::Io { path: path.to_path_buf(), source }));
+    let result = write(&tmp)
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(|source| Error::Io { path: path.to_path_buf(), source }));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }

@@ -27,8 +27,8 @@ fn pull<const N: usize>(fine: &Level<N>) -> Level<N> {
                         continue; // its value is undefined (may be NaN or infinite)
                     }
                     total += w;
-                    for c in 0..N {
-                        sum[c] += w * fine.values[i][c];
+                    for (s, v) in sum.iter_mut().zip(fine.values[i]) {
+                        *s += w * v;
                     }
                 }
             }
@@ -49,7 +49,9 @@ fn sample_coarse<const N: usize>(coarse: &Level<N>, x: usize, y: usize) -> [f32;
     let (x0, y0) = (cx.floor(), cy.floor());
     let (tx, ty) = (cx - x0, cy - y0);
     let (mut sum, mut total) = ([0.0f32; N], 0.0f32);
-    for (dx, dy, w) in [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)] {
+    for (dx, dy, w) in
+        [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
+    {
         let xi = (x0 as i64 + dx).clamp(0, coarse.width as i64 - 1) as usize;
         let yi = (y0 as i64 + dy).clamp(0, coarse.height as i64 - 1) as usize;
         let i = yi * coarse.width + xi;
@@ -58,14 +60,15 @@ fn sample_coarse<const N: usize>(coarse: &Level<N>, x: usize, y: usize) -> [f32;
             continue;
         }
         total += w;
-        for c in 0..N {
-            sum[c] += w * coarse.values[i][c];
+        for (s, v) in sum.iter_mut().zip(coarse.values[i]) {
+            *s += w * v;
         }
     }
     if total > 0.0 {
         sum.map(|s| s / total)
     } else {
-        coarse.values[(y0.max(0.0) as usize).min(coarse.height - 1) * coarse.width + (x0.max(0.0) as usize).min(coarse.width - 1)]
+        coarse.values[(y0.max(0.0) as usize).min(coarse.height - 1) * coarse.width
+            + (x0.max(0.0) as usize).min(coarse.width - 1)]
     }
 }
 
@@ -76,9 +79,9 @@ fn push<const N: usize>(fine: &mut Level<N>, coarse: &Level<N>) {
             let w = fine.weights[i].clamp(0.0, 1.0);
             if w < 1.0 {
                 let c = sample_coarse(coarse, x, y);
-                for k in 0..N {
-                    let own = if w > 0.0 { w * fine.values[i][k] } else { 0.0 };
-                    fine.values[i][k] = own + (1.0 - w) * c[k];
+                for (v, c) in fine.values[i].iter_mut().zip(c) {
+                    let own = if w > 0.0 { w * *v } else { 0.0 };
+                    *v = own + (1.0 - w) * c;
                 }
                 fine.weights[i] = 1.0;
             }

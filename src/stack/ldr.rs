@@ -19,13 +19,21 @@ pub struct LdrInput {
 /// sRGB transfer function, decode (IEC 61966-2-1).
 #[inline]
 pub fn srgb_to_linear(v: f32) -> f32 {
-    if v <= 0.04045 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
 }
 
 /// sRGB transfer function, encode.
 #[inline]
 pub fn linear_to_srgb(v: f32) -> f32 {
-    if v <= 0.003_130_8 { v * 12.92 } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
+    if v <= 0.003_130_8 {
+        v * 12.92
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 fn open(path: &Path) -> Result<image::DynamicImage> {
@@ -57,7 +65,10 @@ pub fn read_ldr(path: &Path, depth_path: &Path, depth_kind: DepthKind) -> Result
     let depth = open(depth_path)?;
     let (w, h) = (colour.width() as usize, colour.height() as usize);
     if (depth.width() as usize, depth.height() as usize) != (w, h) {
-        return Err(Error::input(depth_path, format!("depth is {}x{} but the image is {w}x{h}", depth.width(), depth.height())));
+        return Err(Error::input(
+            depth_path,
+            format!("depth is {}x{} but the image is {w}x{h}", depth.width(), depth.height()),
+        ));
     }
     let pixels = colour
         .pixels()
@@ -83,7 +94,12 @@ pub fn write_png_preview(path: &Path, image: &Image) -> Result<()> {
     for p in &image.pixels {
         let a = p[3].clamp(0.0, 1.0);
         let straight = |c: f32| if a > 0.0 { c / a } else { 0.0 };
-        bytes.extend_from_slice(&[encode(straight(p[0])), encode(straight(p[1])), encode(straight(p[2])), (a * 255.0).round() as u8]);
+        bytes.extend_from_slice(&[
+            encode(straight(p[0])),
+            encode(straight(p[1])),
+            encode(straight(p[2])),
+            (a * 255.0).round() as u8,
+        ]);
     }
     let (w, h) = (image.width as u32, image.height as u32);
     write_atomically(path, |tmp| {

@@ -211,7 +211,12 @@ mod tests {
     #[test]
     fn blender_multilayer_passes_are_stripped() {
         let groups = group_channels(&names(&[
-            "fg.Combined.A", "fg.Combined.B", "fg.Combined.G", "fg.Combined.R", "fg.Depth.Z", "fg.Normal.X",
+            "fg.Combined.A",
+            "fg.Combined.B",
+            "fg.Combined.G",
+            "fg.Combined.R",
+            "fg.Depth.Z",
+            "fg.Normal.X",
             "fg.Normal.Z",
         ]));
         assert_eq!(groups.len(), 2, "{groups:?}");
@@ -234,7 +239,8 @@ mod tests {
 
     #[test]
     fn long_names_and_unprefixed() {
-        let groups = group_channels(&names(&["bg.red", "bg.green", "bg.blue", "bg.alpha", "bg.depth", "R", "G", "B", "Z"]));
+        let groups =
+            group_channels(&names(&["bg.red", "bg.green", "bg.blue", "bg.alpha", "bg.depth", "R", "G", "B", "Z"]));
         assert_eq!(groups[0].layer, "bg");
         assert_eq!(groups[0].convention, Convention::LayerDotChannel);
         assert!(groups[0].channels.is_complete());
