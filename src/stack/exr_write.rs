@@ -33,6 +33,18 @@ pub enum StackNaming {
     LayerDotChannel,
 }
 
+impl StackNaming {
+    /// The naming to write results in for an input read in `convention` (multi-part and
+    /// unprefixed inputs are written single-part as `layer.R...`).
+    pub fn for_convention(convention: super::naming::Convention) -> Self {
+        use super::naming::Convention;
+        match convention {
+            Convention::BlenderMultilayer | Convention::BlenderFileOutput => StackNaming::BlenderMultilayer,
+            Convention::LayerDotChannel | Convention::Unprefixed | Convention::MultiPart => StackNaming::LayerDotChannel,
+        }
+    }
+}
+
 fn samples(values: Vec<f32>, sample_type: SampleType) -> Result<FlatSamples> {
     match sample_type {
         SampleType::Float => Ok(FlatSamples::F32(values)),
