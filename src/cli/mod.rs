@@ -5,11 +5,13 @@ use clap::{Parser, Subcommand};
 mod bench;
 mod camera_args;
 mod devices;
+mod info;
 mod raytrace;
 
 const EXAMPLES: &str = "\
 Examples:
   lensblur devices                      list Vulkan devices, mark the one in use
+  lensblur info shot.exr                every layer and channel of a file, depth ranges
   lensblur raytrace --list              the built-in ground-truth scenes
   lensblur raytrace fence -o out/fence  ray-trace one scene: pinhole, true layers, defocus
   lensblur bench --quick --sheet b.png  score every method against ray-traced truth
@@ -27,6 +29,8 @@ struct Cli {
 enum Command {
     /// List the Vulkan devices and the one lensblur would use.
     Devices(devices::Args),
+    /// Describe a file: layers, channels, data windows, depth ranges, camera attributes.
+    Info(info::InfoArgs),
     /// Ray-trace a built-in scene's ground truth (pinhole, true layers, thin-lens defocus).
     Raytrace(raytrace::Args),
     /// Score every rendering method against ray-traced ground truth (metrics table, JSON, PNG sheet).
@@ -37,6 +41,7 @@ pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Devices(args) => devices::run(args),
+        Command::Info(args) => info::run(args),
         Command::Raytrace(args) => raytrace::run(args),
         Command::Bench(args) => bench::run(args),
     };

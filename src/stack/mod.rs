@@ -4,6 +4,21 @@
 //! premultiplied, depth converted to *disparity* (inverse depth; 0 = infinitely far, or the
 //! file's normalised disparity). The file's own depth convention is remembered in
 //! [`DepthKind`] so outputs and gradients can be written back in it.
+pub mod autolayer;
+pub mod exr_read;
+pub mod exr_write;
+pub mod fill;
+pub mod info;
+pub mod ldr;
+pub mod naming;
+
+pub use autolayer::{split_into_layers, AutoLayerOptions};
+pub use exr_read::{read_parts, read_stack, ReadOptions};
+pub use exr_write::{write_image, write_stack, StackNaming, WriteOptions};
+pub use info::{ExtraChannel, LayerInfo, SampleType, StackFile, StackInfo, Window};
+pub use ldr::{read_ldr, write_png_preview, LdrInput};
+pub use naming::Convention;
+
 use crate::image::Image;
 use crate::{Error, Result};
 
@@ -30,6 +45,17 @@ impl DepthKind {
         }
     }
 
+    /// The stored value for a disparity (inverse of [`Self::to_disparity`]); disparity 0
+    /// becomes the far sentinel 1e10 for planar Z, as Blender writes it.
+    #[inline]
+    pub fn from_disparity(self, disparity: f32) -> f32 {
+        match self {
+            DepthKind::Z if disparity > 0.0 => 1.0 / disparity,
+            DepthKind::Z => 1.0e10,
+            DepthKind::Disparity | DepthKind::InverseZ => disparity,
+        }
+    }
+
     /// Derivative of disparity with respect to the stored value (chain rule for gradients).
     #[inline]
     pub fn disparity_derivative(self, stored: f32) -> f32 {
@@ -37,6 +63,18 @@ impl DepthKind {
             DepthKind::Z if stored < crate::camera::FAR_DEPTH_SENTINEL && stored.is_finite() => -1.0 / (stored * stored),
             DepthKind::Z => 0.0,
             DepthKind::Disparity | DepthKind::InverseZ => 1.0,
+        }
+    }
+}
+
+impl std::str::FromStr for DepthKind {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "z" => Ok(DepthKind::Z),
+            "disparity" => Ok(DepthKind::Disparity),
+            "inverse-z" | "inverse_z" | "1/z" => Ok(DepthKind::InverseZ),
+            other => Err(Error::param(format!("unknown depth kind '{other}' (expected z, disparity or inverse-z)"))),
         }
     }
 }

@@ -1,0 +1,479 @@
+//! Reading layer stacks from EXR files in any of the conventions of [`super::naming`].
+//!
+//! Order of work: cheap checks first (file exists, EXR magic, header sizes against
+//! `max_pixels`), then the pixels; every channel is looked up by name and placed into the
+//! display window (zero / transparent outside its data window).
+use std::collections::{BTreeMap, HashSet};
+use std::path::Path;
+
+use exr::prelude::{AnyChannels, AttributeValue, FlatSamples, IntegerBounds, MetaData, ReadChannels, ReadLayers};
+
+use super::fill::push_pull;
+use super::info::{ChannelInfo, ExtraChannel, LayerInfo, PartInfo, SampleType, StackFile, StackInfo, Window};
+use super::naming::{glob_match, group_channels, ChannelGroup, Convention};
+use super::{DepthKind, Layer, LayerStack};
+use crate::image::Image;
+use crate::{Error, Result};
+
+type ExrImage = exr::image::Image<exr::image::Layers<AnyChannels<FlatSamples>>>;
+/// Disparity per pixel and the stored depth range over covered pixels.
+type DepthResult = (Vec<f32>, Option<(f32, f32)>);
+type ExrPart = exr::image::Layer<AnyChannels<FlatSamples>>;
+
+/// What to read and how to interpret depth.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReadOptions {
+    /// Layer names or shell globs (`fg*`), any order; `None` = every complete layer.
+    pub layers: Option<Vec<String>>,
+    pub depth_kind: DepthKind,
+    /// Refuse files whose headers declare more pixels than this (per window), before allocating.
+    pub max_pixels: u64,
+}
+
+impl Default for ReadOptions {
+    fn default() -> Self {
+        Self { layers: None, depth_kind: DepthKind::Z, max_pixels: 1 << 28 }
+    }
+}
+
+/// A layer name paired with the channel group and part it came from.
+struct Candidate {
+    name: String,
+    part: usize,
+    group: ChannelGroup,
+}
+
+/// Reads a layer stack: layers front to back, premultiplied colour, depth as disparity.
+pub fn read_stack(path: &Path, options: &ReadOptions) -> Result<StackFile> {
+    let meta = read_headers(path, options.max_pixels)?;
+    let image = read_pixels(path)?;
+    let display = window_of(&image.attributes.display_window);
+    let candidates = candidates(&image);
+    let selected = select(path, &candidates, options.layers.as_deref())?;
+    let mut layers = Vec::new();
+    let mut infos = Vec::new();
+    for candidate in &selected {
+        let (layer, info) =
+            build_layer(path, &image.layer_data[candidate.part], candidate, display, options.depth_kind)?;
+        layers.push(layer);
+        infos.push(info);
+    }
+    let single_image = selected.len() == 1;
+    let used: HashSet<(usize, String)> =
+        selected.iter().flat_map(|c| rendered_names(c).into_iter().map(move |n| (c.part, n))).collect();
+    let mut stack = LayerStack::new(display.width, display.height, layers)?;
+    stack.sort_front_to_back();
+    infos.sort_by_key(|info: &LayerInfo| stack.layers.iter().position(|l| l.name == info.name));
+    let info = StackInfo {
+        path: path.to_path_buf(),
+        display_window: display,
+        depth_kind: options.depth_kind,
+        single_image,
+        parts: part_infos(&image),
+        layers: infos,
+        camera: camera_attributes(&meta),
+        extra_channels: extra_channels(&image, display, &used),
+    };
+    Ok(StackFile { stack, info })
+}
+
+/// Header-only view of a file (parts and channels), for `lensblur info` on files that are
+/// not valid stacks.
+pub fn read_parts(path: &Path, max_pixels: u64) -> Result<(Vec<PartInfo>, BTreeMap<String, String>)> {
+    let meta = read_headers(path, max_pixels)?;
+    let parts = meta
+        .headers
+        .iter()
+        .map(|h| PartInfo {
+            name: h.own_attributes.layer_name.as_ref().map(|t| t.to_string()),
+            data_window: window_of(&IntegerBounds::new(h.own_attributes.layer_position, h.layer_size)),
+            compression: format!("{:?}", h.compression),
+            channels: h
+                .channels
+                .list
+                .iter()
+                .map(|c| ChannelInfo { name: c.name.to_string(), sample_type: sample_type_of_desc(c.sample_type) })
+                .collect(),
+        })
+        .collect();
+    Ok((parts, camera_attributes(&meta)))
+}
+
+fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
+    let mut magic = [0u8; 4];
+    let mut file = std::fs::File::open(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let is_exr = std::io::Read::read_exact(&mut file, &mut magic).is_ok() && magic == [0x76, 0x2f, 0x31, 0x01];
+    if !is_exr {
+        return Err(Error::input(path, "not an OpenEXR file (missing EXR magic number)"));
+    }
+    let meta =
+        MetaData::read_from_file(path, false).map_err(|e| Error::input(path, format!("invalid EXR header: {e}")))?;
+    let first = meta.headers.first().ok_or_else(|| Error::input(path, "EXR file has no parts"))?;
+    let display = first.shared_attributes.display_window;
+    for header in meta.headers.iter() {
+        if header.shared_attributes.display_window != display {
+            return Err(Error::input(path, "parts have mismatched display windows (sizes); cannot stack them"));
+        }
+        if header.deep {
+            return Err(Error::input(path, "deep EXR data is not supported"));
+        }
+        let areas = [display.size.area() as u64, header.layer_size.area() as u64];
+        if areas.iter().any(|&a| a > max_pixels) {
+            return Err(Error::input(
+                path,
+                format!(
+                    "image of {}x{} pixels exceeds the limit of {max_pixels} pixels",
+                    display.size.x(),
+                    display.size.y()
+                ),
+            ));
+        }
+    }
+    Ok(meta)
+}
+
+fn read_pixels(path: &Path) -> Result<ExrImage> {
+    exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| Error::input(path, format!("cannot read EXR pixels: {e}")))
+}
+
+fn window_of(bounds: &IntegerBounds) -> Window {
+    Window { x: bounds.position.x(), y: bounds.position.y(), width: bounds.size.x(), height: bounds.size.y() }
+}
+
+fn part_window(part: &ExrPart) -> Window {
+    window_of(&IntegerBounds::new(part.attributes.layer_position, part.size))
+}
+
+fn part_name(part: &ExrPart) -> Option<String> {
+    part.attributes.layer_name.as_ref().map(|t| t.to_string())
+}
+
+/// Every channel group of every part, named as the user will select it.
+fn candidates(image: &ExrImage) -> Vec<Candidate> {
+    let multi_part = image.layer_data.len() > 1;
+    let mut out: Vec<Candidate> = Vec::new();
+    for (index, part) in image.layer_data.iter().enumerate() {
+        let names: Vec<String> = part.channel_data.list.iter().map(|c| c.name.to_string()).collect();
+        for mut group in group_channels(&names) {
+            let part_name = part_name(part).filter(|_| multi_part);
+            let mut name = match (part_name, group.layer.as_str()) {
+                (Some(p), "") => p,
+                (Some(p), l) if l == p => p,
+                (Some(p), l) => format!("{p}.{l}"),
+                (None, "") => "All".to_string(),
+                (None, l) => l.to_string(),
+            };
+            if multi_part {
+                group.convention = Convention::MultiPart;
+            }
+            while out.iter().any(|c| c.name == name) {
+                name.push_str("#2");
+            }
+            out.push(Candidate { name, part: index, group });
+        }
+    }
+    out
+}
+
+fn describe(candidates: &[&Candidate]) -> String {
+    candidates
+        .iter()
+        .map(|c| format!("'{}' [{}]", c.name, c.group.channels.all_names().join(", ")))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+fn missing_message(candidate: &Candidate) -> Option<String> {
+    let ch = &candidate.group.channels;
+    let mut missing = Vec::new();
+    if ch.red.is_none() || ch.green.is_none() || ch.blue.is_none() {
+        missing.push("colour (R, G, B)");
+    }
+    if ch.depth.is_none() {
+        missing.push("depth (Z, depth or V)");
+    }
+    (!missing.is_empty()).then(|| {
+        format!(
+            "layer '{}' has no {} channel; channels found: {}",
+            candidate.name,
+            missing.join(" or "),
+            ch.all_names().join(", ")
+        )
+    })
+}
+
+fn select<'c>(path: &Path, candidates: &'c [Candidate], patterns: Option<&[String]>) -> Result<Vec<&'c Candidate>> {
+    let Some(patterns) = patterns else {
+        let complete: Vec<&Candidate> = candidates.iter().filter(|c| c.group.channels.is_complete()).collect();
+        if complete.is_empty() {
+            let all: Vec<&Candidate> = candidates.iter().collect();
+            return Err(Error::input(
+                path,
+                format!("no layer has both colour and depth channels; found {}", describe(&all)),
+            ));
+        }
+        // A flattened `All` beside real layers is the composite, not a layer of the stack.
+        if complete.len() > 1 {
+            return Ok(complete.into_iter().filter(|c| !c.name.eq_ignore_ascii_case("all")).collect());
+        }
+        return Ok(complete);
+    };
+    let mut chosen: Vec<&Candidate> = Vec::new();
+    for pattern in patterns {
+        let matches: Vec<&Candidate> = candidates.iter().filter(|c| glob_match(pattern, &c.name)).collect();
+        if matches.is_empty() {
+            let names: Vec<&str> = candidates.iter().map(|c| c.name.as_str()).collect();
+            return Err(Error::input(
+                path,
+                format!("no layer matches '{pattern}'; available layers: {}", names.join(", ")),
+            ));
+        }
+        for m in matches {
+            if let Some(message) = missing_message(m) {
+                return Err(Error::input(path, message));
+            }
+            if !chosen.iter().any(|c| std::ptr::eq(*c, m)) {
+                chosen.push(m);
+            }
+        }
+    }
+    Ok(chosen)
+}
+
+fn rendered_names(candidate: &Candidate) -> Vec<String> {
+    let ch = &candidate.group.channels;
+    [&ch.red, &ch.green, &ch.blue, &ch.alpha, &ch.depth].into_iter().flatten().cloned().collect()
+}
+
+fn find_channel<'p>(part: &'p ExrPart, name: &str) -> Option<&'p exr::image::AnyChannel<FlatSamples>> {
+    part.channel_data.list.iter().find(|c| c.name.to_string() == name)
+}
+
+fn sample_type_of(samples: &FlatSamples) -> SampleType {
+    match samples {
+        FlatSamples::F16(_) => SampleType::Half,
+        FlatSamples::F32(_) => SampleType::Float,
+        FlatSamples::U32(_) => SampleType::Uint,
+    }
+}
+
+fn sample_type_of_desc(t: exr::prelude::SampleType) -> SampleType {
+    match t {
+        exr::prelude::SampleType::F16 => SampleType::Half,
+        exr::prelude::SampleType::F32 => SampleType::Float,
+        exr::prelude::SampleType::U32 => SampleType::Uint,
+    }
+}
+
+/// Copies a channel's data window into a display-window-sized buffer, `outside` elsewhere.
+fn place(samples: &FlatSamples, data: Window, display: Window, outside: f32) -> Vec<f32> {
+    let values: Vec<f32> = samples.values_as_f32().collect();
+    let mut out = vec![outside; display.width * display.height];
+    for row in 0..data.height {
+        let y = data.y as i64 + row as i64 - display.y as i64;
+        if y < 0 || y >= display.height as i64 {
+            continue;
+        }
+        for col in 0..data.width {
+            let x = data.x as i64 + col as i64 - display.x as i64;
+            if x >= 0 && x < display.width as i64 {
+                out[y as usize * display.width + x as usize] = values[row * data.width + col];
+            }
+        }
+    }
+    out
+}
+
+/// Refuses NaN/Inf samples in colour or alpha: they would poison every blurred neighbour.
+fn check_finite(path: &Path, layer: &str, channel: &str, samples: &FlatSamples) -> Result<()> {
+    let bad = samples.values_as_f32().filter(|v| !v.is_finite()).count();
+    if bad > 0 {
+        return Err(Error::input(path, format!("layer '{layer}' channel '{channel}' has {bad} NaN/Inf sample(s)")));
+    }
+    Ok(())
+}
+
+fn build_layer(
+    path: &Path,
+    part: &ExrPart,
+    candidate: &Candidate,
+    display: Window,
+    kind: DepthKind,
+) -> Result<(Layer, LayerInfo)> {
+    let data = part_window(part);
+    if part.channel_data.list.iter().any(|c| c.sampling != exr::prelude::Vec2(1, 1)) {
+        return Err(Error::input(
+            path,
+            format!("layer '{}' uses subsampled channels, which are not supported", candidate.name),
+        ));
+    }
+    let ch = &candidate.group.channels;
+    let fetch = |name: &Option<String>, outside: f32, finite: bool| -> Result<Option<Vec<f32>>> {
+        let Some(name) = name else { return Ok(None) };
+        let channel =
+            find_channel(part, name).ok_or_else(|| Error::input(path, format!("channel '{name}' vanished")))?;
+        if finite {
+            check_finite(path, &candidate.name, name, &channel.sample_data)?;
+        }
+        Ok(Some(place(&channel.sample_data, data, display, outside)))
+    };
+    let missing = || Error::input(path, missing_message(candidate).unwrap_or_default());
+    let red = fetch(&ch.red, 0.0, true)?.ok_or_else(missing)?;
+    let green = fetch(&ch.green, 0.0, true)?.ok_or_else(missing)?;
+    let blue = fetch(&ch.blue, 0.0, true)?.ok_or_else(missing)?;
+    let depth = fetch(&ch.depth, f32::INFINITY, false)?.ok_or_else(missing)?;
+    // No alpha channel: opaque inside the data window, transparent outside.
+    let alpha = match fetch(&ch.alpha, 0.0, true)? {
+        Some(a) => a,
+        None => place(&FlatSamples::F32(vec![1.0; data.width * data.height]), data, display, 0.0),
+    };
+    let pixels: Vec<[f32; 4]> = (0..red.len()).map(|i| [red[i], green[i], blue[i], alpha[i]]).collect();
+    let rgba = Image { width: display.width, height: display.height, pixels };
+    let (disparity, stored_depth_range) =
+        depth_to_disparity(path, &candidate.name, (display.width, display.height), &depth, &alpha, kind)?;
+    let layer = Layer { name: candidate.name.clone(), rgba, disparity };
+    let disparity_range =
+        layer.disparity.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &d| (lo.min(d), hi.max(d)));
+    let info = LayerInfo {
+        name: candidate.name.clone(),
+        convention: candidate.group.convention,
+        part: candidate.part,
+        channels: ch.clone(),
+        data_window: data,
+        stored_depth_range,
+        disparity_range,
+    };
+    Ok((layer, info))
+}
+
+/// Converts stored depth to disparity where the layer has coverage, then fills the
+/// (undefined) depth of transparent pixels from nearby covered ones, weighted by alpha.
+fn depth_to_disparity(
+    path: &Path,
+    layer: &str,
+    size: (usize, usize),
+    depth: &[f32],
+    alpha: &[f32],
+    kind: DepthKind,
+) -> Result<DepthResult> {
+    let mut range: Option<(f32, f32)> = None;
+    let mut disparity = vec![[0.0f32; 1]; depth.len()];
+    let mut weights = vec![0.0f32; depth.len()];
+    let mut invalid = 0usize;
+    for i in 0..depth.len() {
+        if alpha[i] <= 0.0 {
+            continue;
+        }
+        let z = depth[i];
+        let d = kind.to_disparity(z);
+        // A partially covered pixel whose depth says "nothing here" (Cycles writes 1e10
+        // when the depth sample missed the surface) takes its depth from its neighbours.
+        if d == 0.0 && alpha[i] < 1.0 {
+            continue;
+        }
+        if z.is_nan() || !d.is_finite() || (kind == DepthKind::Z && z <= 0.0) {
+            invalid += 1;
+            continue;
+        }
+        range = Some(range.map_or((z, z), |(lo, hi)| (lo.min(z), hi.max(z))));
+        disparity[i] = [d];
+        weights[i] = alpha[i].min(1.0);
+    }
+    if invalid > 0 {
+        return Err(Error::input(
+            path,
+            format!("layer '{layer}' has {invalid} covered pixel(s) with invalid depth (NaN, or not positive for depth kind {kind:?})"),
+        ));
+    }
+    // An empty layer has no depth anywhere: it stays at disparity 0 (far) and is invisible.
+    push_pull(size.0, size.1, &mut disparity, &weights);
+    Ok((disparity.into_iter().map(|d| d[0]).collect(), range))
+}
+
+fn part_infos(image: &ExrImage) -> Vec<PartInfo> {
+    image
+        .layer_data
+        .iter()
+        .map(|part| PartInfo {
+            name: part_name(part),
+            data_window: part_window(part),
+            compression: format!("{:?}", part.encoding.compression),
+            channels: part
+                .channel_data
+                .list
+                .iter()
+                .map(|c| ChannelInfo { name: c.name.to_string(), sample_type: sample_type_of(&c.sample_data) })
+                .collect(),
+        })
+        .collect()
+}
+
+fn extra_channels(image: &ExrImage, display: Window, used: &HashSet<(usize, String)>) -> Vec<ExtraChannel> {
+    let multi_part = image.layer_data.len() > 1;
+    let mut out = Vec::new();
+    for (index, part) in image.layer_data.iter().enumerate() {
+        for channel in part.channel_data.list.iter() {
+            let name = channel.name.to_string();
+            if used.contains(&(index, name.clone())) || channel.sampling != exr::prelude::Vec2(1, 1) {
+                continue;
+            }
+            let name = match part_name(part).filter(|_| multi_part) {
+                Some(p) if !name.starts_with(&format!("{p}.")) => format!("{p}.{name}"),
+                _ => name,
+            };
+            let values = place(&channel.sample_data, part_window(part), display, 0.0);
+            out.push(ExtraChannel { name, sample_type: sample_type_of(&channel.sample_data), values });
+        }
+    }
+    out
+}
+
+fn attribute_text(value: &AttributeValue) -> String {
+    match value {
+        AttributeValue::Text(t) => t.to_string(),
+        AttributeValue::F32(v) => v.to_string(),
+        AttributeValue::F64(v) => v.to_string(),
+        AttributeValue::I32(v) => v.to_string(),
+        other => format!("{other:?}"),
+    }
+}
+
+/// Camera-related header attributes: the standard ones and stamped metadata (Blender writes
+/// e.g. `Lens`, `Camera` when stamping is on), keyed by attribute name.
+fn camera_attributes(meta: &MetaData) -> BTreeMap<String, String> {
+    const KEYS: [&str; 9] = ["lens", "focal", "fstop", "f-stop", "aperture", "sensor", "focus", "camera", "fov"];
+    let mut out = BTreeMap::new();
+    for header in meta.headers.iter() {
+        let own = &header.own_attributes;
+        let standard = [
+            ("focus", own.focus),
+            ("aperture", own.aperture),
+            ("horizontalFieldOfView", own.horizontal_field_of_view),
+            ("verticalFieldOfView", own.vertical_field_of_view),
+            ("nearClipPlane", own.near_clip_plane),
+            ("farClipPlane", own.far_clip_plane),
+        ];
+        for (key, value) in standard {
+            if let Some(value) = value {
+                out.insert(key.to_string(), value.to_string());
+            }
+        }
+        if let Some(m) = &own.world_to_camera {
+            out.insert("worldToCamera".to_string(), format!("{m:?}"));
+        }
+        for (key, value) in own.other.iter().chain(header.shared_attributes.other.iter()) {
+            let key = key.to_string();
+            if KEYS.iter().any(|k| key.to_ascii_lowercase().contains(k)) {
+                out.insert(key, attribute_text(value));
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,153 @@
+//! Writing images and stacks as EXR: single part, ZIP scanline compression (what Blender
+//! and OIIO write by default), channel names in the convention the input used.
+//! Files appear atomically: written to a temporary file beside the target, then renamed.
+use std::path::{Path, PathBuf};
+
+use exr::prelude::{
+    f16, AnyChannel, AnyChannels, Compression, Encoding, FlatSamples, LayerAttributes, LineOrder, WritableImage,
+};
+
+use super::info::{ExtraChannel, SampleType};
+use super::{DepthKind, LayerStack};
+use crate::image::Image;
+use crate::{Error, Result};
+
+/// How [`write_image`] names and stores its channels.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WriteOptions {
+    /// `None`: plain `R,G,B,A`. `Some(name)`: `name.Combined.R...` as Blender's Image node reads.
+    pub output_layer: Option<String>,
+    /// Half or float for the colour channels (`Uint` is refused).
+    pub sample_type: SampleType,
+    /// Channels copied through unchanged (never blurred), each display-window sized.
+    pub extra_channels: Vec<ExtraChannel>,
+}
+
+/// Channel naming of a written stack.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StackNaming {
+    /// `<Layer>.Combined.{R,G,B,A}` + `<Layer>.Depth.Z`.
+    #[default]
+    BlenderMultilayer,
+    /// `<Layer>.{R,G,B,A,Z}` (OpenEXR / OIIO / Nuke).
+    LayerDotChannel,
+}
+
+impl StackNaming {
+    /// The naming to write results in for an input read in `convention` (multi-part and
+    /// unprefixed inputs are written single-part as `layer.R...`).
+    pub fn for_convention(convention: super::naming::Convention) -> Self {
+        use super::naming::Convention;
+        match convention {
+            Convention::BlenderMultilayer | Convention::BlenderFileOutput => StackNaming::BlenderMultilayer,
+            Convention::LayerDotChannel | Convention::Unprefixed | Convention::MultiPart => StackNaming::LayerDotChannel,
+        }
+    }
+}
+
+fn samples(values: Vec<f32>, sample_type: SampleType) -> Result<FlatSamples> {
+    match sample_type {
+        SampleType::Float => Ok(FlatSamples::F32(values)),
+        SampleType::Half => Ok(FlatSamples::F16(values.into_iter().map(f16::from_f32).collect())),
+        SampleType::Uint => Err(Error::param("colour cannot be written as unsigned integers; use half or float")),
+    }
+}
+
+fn rgba_channels(image: &Image, prefix: &str, sample_type: SampleType) -> Result<Vec<AnyChannel<FlatSamples>>> {
+    (0..4)
+        .zip(["R", "G", "B", "A"])
+        .map(|(c, name)| {
+            let values = image.pixels.iter().map(|p| p[c]).collect();
+            Ok(AnyChannel::new(format!("{prefix}{name}").as_str(), samples(values, sample_type)?))
+        })
+        .collect()
+}
+
+fn extra_channel(extra: &ExtraChannel, pixels: usize) -> Result<AnyChannel<FlatSamples>> {
+    if extra.values.len() != pixels {
+        return Err(Error::param(format!(
+            "pass-through channel '{}' has {} samples, the image {pixels}",
+            extra.name,
+            extra.values.len()
+        )));
+    }
+    let data = match extra.sample_type {
+        SampleType::Uint => FlatSamples::U32(extra.values.iter().map(|&v| v as u32).collect()),
+        other => samples(extra.values.clone(), other)?,
+    };
+    Ok(AnyChannel::new(extra.name.as_str(), data))
+}
+
+/// Writes one image (plain or Blender-named RGBA plus pass-through channels).
+pub fn write_image(path: &Path, image: &Image, options: &WriteOptions) -> Result<()> {
+    let prefix = options.output_layer.as_ref().map(|n| format!("{n}.Combined.")).unwrap_or_default();
+    let mut channels = rgba_channels(image, &prefix, options.sample_type)?;
+    for extra in &options.extra_channels {
+        if channels.iter().any(|c| c.name.to_string() == extra.name) {
+            return Err(Error::param(format!("pass-through channel '{}' collides with an output channel", extra.name)));
+        }
+        channels.push(extra_channel(extra, image.width * image.height)?);
+    }
+    write_channels(path, image.width, image.height, channels)
+}
+
+/// Writes a layer stack, one named layer per stack layer, depth in `depth_kind`; where a
+/// layer is empty (alpha 0) depth is the far value (Z = 1e10, as Blender writes it).
+pub fn write_stack(path: &Path, stack: &LayerStack, depth_kind: DepthKind, naming: StackNaming) -> Result<()> {
+    let mut channels = Vec::new();
+    for layer in &stack.layers {
+        let (colour, depth) = match naming {
+            StackNaming::BlenderMultilayer => (format!("{}.Combined.", layer.name), format!("{}.Depth.Z", layer.name)),
+            StackNaming::LayerDotChannel => (format!("{}.", layer.name), format!("{}.Z", layer.name)),
+        };
+        channels.extend(rgba_channels(&layer.rgba, &colour, SampleType::Float)?);
+        let stored = layer
+            .rgba
+            .pixels
+            .iter()
+            .zip(&layer.disparity)
+            .map(|(p, &d)| depth_kind.from_disparity(if p[3] > 0.0 { d } else { 0.0 }))
+            .collect();
+        channels.push(AnyChannel::new(depth.as_str(), FlatSamples::F32(stored)));
+    }
+    write_channels(path, stack.width, stack.height, channels)
+}
+
+fn write_channels(path: &Path, width: usize, height: usize, channels: Vec<AnyChannel<FlatSamples>>) -> Result<()> {
+    if width == 0 || height == 0 {
+        return Err(Error::param("cannot write an empty image"));
+    }
+    let mut seen = std::collections::HashSet::new();
+    if let Some(dup) = channels.iter().map(|c| c.name.to_string()).find(|n| !seen.insert(n.clone())) {
+        return Err(Error::param(format!("channel '{dup}' would be written twice (duplicate layer names?)")));
+    }
+    let encoding = Encoding {
+        compression: Compression::ZIP16,
+        blocks: exr::prelude::Blocks::ScanLines,
+        line_order: LineOrder::Increasing,
+    };
+    let layer = exr::prelude::Layer::new(
+        (width, height),
+        LayerAttributes::default(),
+        encoding,
+        AnyChannels::sort(channels.into()),
+    );
+    let image = exr::prelude::Image::from_layer(layer);
+    write_atomically(path, |tmp| {
+        image.write().to_file(tmp).map_err(|e| Error::input(path, format!("cannot write EXR: {e}")))
+    })
+}
+
+/// Runs `write` on a temporary path in the target's directory and renames it into place,
+/// so readers never see a half-written file and failures leave nothing behind.
+pub(crate) fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let file_name = path.file_name().ok_or_else(|| Error::input(path, "output path has no file name"))?;
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let tmp: PathBuf = dir.join(format!(".{}.{}.tmp", file_name.to_string_lossy(), std::process::id()));
+    let result = write(&tmp)
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(|source| Error::Io { path: path.to_path_buf(), source }));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}

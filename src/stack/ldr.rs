@@ -1,0 +1,124 @@
+//! LDR inputs and previews: PNG/JPEG colour is sRGB-encoded, so it is decoded to linear
+//! before any blur (blurring encoded values darkens highlights) and encoded again on output.
+use std::path::Path;
+
+use super::exr_write::write_atomically;
+use super::DepthKind;
+use crate::image::Image;
+use crate::{Error, Result};
+
+/// An LDR photo with its depth map, both already converted for the renderer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LdrInput {
+    /// Linear, premultiplied RGBA.
+    pub image: Image,
+    /// Disparity per pixel (see [`read_ldr`] for how depth images are interpreted).
+    pub disparity: Vec<f32>,
+}
+
+/// sRGB transfer function, decode (IEC 61966-2-1).
+#[inline]
+pub fn srgb_to_linear(v: f32) -> f32 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// sRGB transfer function, encode.
+#[inline]
+pub fn linear_to_srgb(v: f32) -> f32 {
+    if v <= 0.003_130_8 {
+        v * 12.92
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+fn open(path: &Path) -> Result<image::DynamicImage> {
+    if !path.exists() {
+        return Err(Error::input(path, "file not found"));
+    }
+    image::ImageReader::open(path)
+        .map_err(|source| Error::Io { path: path.to_path_buf(), source })?
+        .with_guessed_format()
+        .map_err(|source| Error::Io { path: path.to_path_buf(), source })?
+        .decode()
+        .map_err(|e| Error::input(path, format!("cannot decode image: {e}")))
+}
+
+/// Depth image samples normalised to [0, 1] (8- or 16-bit, first channel of grey images).
+fn depth_values(depth: &image::DynamicImage) -> Vec<f32> {
+    if depth.color().bits_per_pixel() / u16::from(depth.color().channel_count()) > 8 {
+        depth.to_luma16().pixels().map(|p| f32::from(p.0[0]) / 65535.0).collect()
+    } else {
+        depth.to_luma8().pixels().map(|p| f32::from(p.0[0]) / 255.0).collect()
+    }
+}
+
+/// Reads a PNG/JPEG and its depth image. Depth values `v` in [0, 1] mean, by kind:
+/// `disparity` (1 = near, 0 = far), `inverse-z` (1/z, 0 = far), `z` (z = v; 0 = no data,
+/// treated as infinitely far).
+pub fn read_ldr(path: &Path, depth_path: &Path, depth_kind: DepthKind) -> Result<LdrInput> {
+    let colour = open(path)?.to_rgba32f();
+    let depth = open(depth_path)?;
+    let (w, h) = (colour.width() as usize, colour.height() as usize);
+    if (depth.width() as usize, depth.height() as usize) != (w, h) {
+        return Err(Error::input(
+            depth_path,
+            format!("depth is {}x{} but the image is {w}x{h}", depth.width(), depth.height()),
+        ));
+    }
+    let pixels = colour
+        .pixels()
+        .map(|p| {
+            let [r, g, b, a] = p.0;
+            [srgb_to_linear(r) * a, srgb_to_linear(g) * a, srgb_to_linear(b) * a, a]
+        })
+        .collect();
+    let disparity = depth_values(&depth)
+        .into_iter()
+        .map(|v| match depth_kind {
+            DepthKind::Z if v <= 0.0 => 0.0,
+            kind => kind.to_disparity(v),
+        })
+        .collect();
+    Ok(LdrInput { image: Image { width: w, height: h, pixels }, disparity })
+}
+
+/// Writes an 8-bit sRGB PNG preview (un-premultiplied, clipped to [0, 1]).
+pub fn write_png_preview(path: &Path, image: &Image) -> Result<()> {
+    let encode = |v: f32| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0).round() as u8;
+    let mut bytes = Vec::with_capacity(image.pixels.len() * 4);
+    for p in &image.pixels {
+        let a = p[3].clamp(0.0, 1.0);
+        let straight = |c: f32| if a > 0.0 { c / a } else { 0.0 };
+        bytes.extend_from_slice(&[
+            encode(straight(p[0])),
+            encode(straight(p[1])),
+            encode(straight(p[2])),
+            (a * 255.0).round() as u8,
+        ]);
+    }
+    let (w, h) = (image.width as u32, image.height as u32);
+    write_atomically(path, |tmp| {
+        image::save_buffer_with_format(tmp, &bytes, w, h, image::ExtendedColorType::Rgba8, image::ImageFormat::Png)
+            .map_err(|e| Error::input(path, format!("cannot write PNG: {e}")))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_round_trips() {
+        for i in 0..=255 {
+            let v = i as f32 / 255.0;
+            assert!((linear_to_srgb(srgb_to_linear(v)) - v).abs() < 1e-5, "{v}");
+        }
+        // Mid grey 0.5 encoded is about 0.214 linear (the standard's reference value).
+        assert!((srgb_to_linear(0.5) - 0.214_041).abs() < 1e-4);
+    }
+}

@@ -1,0 +1,139 @@
+//! Auto-layering of a flat RGB+Z image: layers in CoC, soft cuts, hidden background fill.
+use lensblur::camera::CocModel;
+use lensblur::image::Image;
+use lensblur::stack::{split_into_layers, AutoLayerOptions, LayerStack};
+
+const BG: [f32; 4] = [0.1, 0.6, 0.3, 1.0];
+const FG: [f32; 4] = [0.9, 0.2, 0.1, 1.0];
+const MID: [f32; 4] = [0.2, 0.2, 0.8, 1.0];
+
+fn mix(f: [f32; 4], b: [f32; 4], a: f32) -> [f32; 4] {
+    [0, 1, 2, 3].map(|k| a * f[k] + (1.0 - a) * b[k])
+}
+
+/// A 32x32 background at disparity 0.25 with a foreground square at disparity 1 whose left
+/// edge column covers 30% of its pixels and right edge column 70% (anti-aliased colour,
+/// depth from the pixel centre, as renderers write it).
+fn square_scene() -> (Image, Vec<f32>) {
+    let coverage = |x: usize, y: usize| -> f32 {
+        if !(8..20).contains(&y) {
+            return 0.0;
+        }
+        match x {
+            10 => 0.3,
+            11..=20 => 1.0,
+            21 => 0.7,
+            _ => 0.0,
+        }
+    };
+    let image = Image::from_fn(32, 32, |x, y| mix(FG, BG, coverage(x, y)));
+    let disparity = (0..32 * 32).map(|i| if coverage(i % 32, i / 32) >= 0.5 { 1.0 } else { 0.25 }).collect();
+    (image, disparity)
+}
+
+fn composite(stack: &LayerStack) -> Image {
+    let mut out = Image::new(stack.width, stack.height);
+    for layer in &stack.layers {
+        for (o, p) in out.pixels.iter_mut().zip(&layer.rgba.pixels) {
+            let t = 1.0 - o[3];
+            *o = [0, 1, 2, 3].map(|k| o[k] + t * p[k]);
+        }
+    }
+    out
+}
+
+fn max_diff(a: &Image, b: &Image) -> f32 {
+    a.pixels.iter().zip(&b.pixels).flat_map(|(p, q)| (0..4).map(move |k| (p[k] - q[k]).abs())).fold(0.0, f32::max)
+}
+
+fn coc() -> CocModel {
+    // K = 20 px per unit disparity, focus on the background: the square has a 15 px CoC.
+    CocModel::new(20.0, 0.25).unwrap()
+}
+
+#[test]
+fn two_depths_split_into_two_layers_whose_over_composite_is_the_input() {
+    let (image, disparity) = square_scene();
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+    assert_eq!(stack.layers.len(), 2);
+    // Exact by construction (front = c - (1-a) B, back = B); 1e-5 covers f32 rounding.
+    let err = max_diff(&composite(&stack), &image);
+    assert!(err < 1e-5, "composite differs from the input by {err}");
+    assert!(stack.layers[0].disparity.iter().all(|&d| (d - 1.0).abs() < 1e-6), "front layer keeps the square's depth");
+    assert!(
+        stack.layers[1].disparity.iter().all(|&d| (d - 0.25).abs() < 1e-6),
+        "back layer keeps the background depth"
+    );
+}
+
+#[test]
+fn filled_background_under_the_square_has_no_foreground_colour() {
+    let (image, disparity) = square_scene();
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+    let back = &stack.layers[1].rgba;
+    for y in 8..20 {
+        for x in 10..=21 {
+            let p = back.get(x, y);
+            // The fill draws only on pure background pixels: 1e-4 is float noise.
+            assert!((0..4).all(|k| (p[k] - BG[k]).abs() < 1e-4), "({x},{y}) = {p:?}");
+        }
+    }
+}
+
+#[test]
+fn silhouette_pixels_get_fractional_alpha_matching_coverage() {
+    let (image, disparity) = square_scene();
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+    let front = &stack.layers[0].rgba;
+    // Colours are exact two-colour mixes, so the projection recovers coverage up to rounding.
+    assert!((front.get(10, 12)[3] - 0.3).abs() < 1e-4, "{:?}", front.get(10, 12));
+    assert!((front.get(21, 12)[3] - 0.7).abs() < 1e-4, "{:?}", front.get(21, 12));
+    assert!((front.get(15, 12)[3] - 1.0).abs() < 1e-6);
+    assert_eq!(front.get(3, 3)[3], 0.0, "far from the square the front layer is empty");
+}
+
+#[test]
+fn every_farther_layer_is_filled_under_every_nearer_one() {
+    // Background everywhere, a middle bar at disparity 0.6, a front square at disparity 1.
+    let disp = |x: usize, y: usize| -> f32 {
+        if (12..20).contains(&x) && (12..20).contains(&y) {
+            1.0
+        } else if (4..28).contains(&x) && (14..18).contains(&y) {
+            0.6
+        } else {
+            0.25
+        }
+    };
+    let colour = |d: f32| {
+        if d == 1.0 {
+            FG
+        } else if d == 0.6 {
+            MID
+        } else {
+            BG
+        }
+    };
+    let image = Image::from_fn(32, 32, |x, y| colour(disp(x, y)));
+    let disparity: Vec<f32> = (0..32 * 32).map(|i| disp(i % 32, i / 32)).collect();
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+    assert_eq!(stack.layers.len(), 3);
+    assert!(stack.layers[2].rgba.pixels.iter().all(|p| p[3] == 1.0), "the back layer is opaque everywhere");
+    // The middle layer continues under the square along the bar (rows 14..18 at x = 15).
+    let under = stack.layers[1].rgba.get(15, 15);
+    assert!((0..4).all(|k| (under[k] - MID[k]).abs() < 1e-4), "{under:?}");
+    assert!(max_diff(&composite(&stack), &image) < 1e-5);
+}
+
+#[test]
+fn a_continuous_ramp_is_sliced_without_soft_bands() {
+    // Disparity rising smoothly left to right: several slices, but no discontinuity, so
+    // every alpha stays 0 or 1 and the composite is exact.
+    let image = Image::from_fn(64, 8, |x, _| [x as f32 / 64.0, 0.5, 0.2, 1.0]);
+    let disparity: Vec<f32> = (0..64 * 8).map(|i| 0.25 + (i % 64) as f32 / 64.0).collect();
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+    assert!(stack.layers.len() >= 4, "20 px of CoC at 4 px spacing gives several layers, got {}", stack.layers.len());
+    for layer in &stack.layers {
+        assert!(layer.rgba.pixels.iter().all(|p| p[3] == 0.0 || p[3] == 1.0));
+    }
+    assert!(max_diff(&composite(&stack), &image) < 1e-6);
+}
