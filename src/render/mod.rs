@@ -5,6 +5,7 @@ use crate::camera::{Aperture, CocModel};
 pub mod disk;
 pub mod drbokeh;
 pub mod gather;
+pub mod grad;
 pub mod oracle;
 pub mod scatter;
 
