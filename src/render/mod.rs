@@ -3,6 +3,9 @@
 use crate::camera::{Aperture, CocModel};
 
 pub mod disk;
+pub mod lens_samples;
+pub mod multiview;
+pub mod vdslr;
 
 /// Everything about the lens a renderer needs, in pixels.
 #[derive(Clone, Debug, PartialEq)]
