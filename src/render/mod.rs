@@ -6,8 +6,11 @@ pub mod disk;
 pub mod drbokeh;
 pub mod gather;
 pub mod grad;
+pub mod lens_samples;
+pub mod multiview;
 pub mod oracle;
 pub mod scatter;
+pub mod vdslr;
 
 /// Everything about the lens a renderer needs, in pixels.
 #[derive(Clone, Debug, PartialEq)]

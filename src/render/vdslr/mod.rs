@@ -1,0 +1,283 @@
+//! Virtual DSLR (Yang et al. 2016): depth-guided pseudo ray tracing from ONE image and its
+//! disparity map. GPU path: `glsl/vdslr_trace.comp` ([`Vdslr`]); CPU reference of the same
+//! math: [`render_vdslr_cpu`].
+//!
+//! Per pixel `p` and lens sample `u` (unit disk, aperture coordinates) the lens ray meets a
+//! surface of relative disparity `s` at image position `p + u K s` (the thin-lens geometry of
+//! `crate::render::multiview`, which states the derivation). Eq. 4 of the paper in our
+//! convention: pixel `q` is a hit when `q - p = u K s_q`, relaxed to half a pixel per axis.
+//! The search is the paper's randomized one (Fig. 1d): start from the nearest disparity of the
+//! map, jump to where the ray would be at the disparity just read, and repeat `iterations`
+//! times. A ray that finds no hit is assumed occluded and tries the mirrored sample `-u`
+//! (symmetric fill); if that fails too, the last pixel read is used, unless it is farther than
+//! `p` (the bleeding guard: the centre pixel replaces it). The search does not guarantee the
+//! *front-most* hit, so the guard also replaces a valid but farther hit when the centre pixel
+//! is itself a hit of the same ray (an in-focus centre occludes what lies behind it); without
+//! that extension an in-focus subject still picks up its blurred background.
+//!
+//! Colour blending is Eq. 5, adapted to linear HDR input: see [`Highlight`].
+//! Special effects edit the disparity map as the paper does: [`FocusField`].
+mod gpu;
+
+pub use gpu::Vdslr;
+
+use rayon::prelude::*;
+
+use crate::image::Image;
+use crate::render::lens_samples::LensSamples;
+use crate::render::Lens;
+use crate::{Error, Result};
+
+/// Where the lens focuses.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub enum FocusField {
+    /// The plane of `lens.coc.focus_disparity`.
+    #[default]
+    Plane,
+    /// Tilt-shift: the focus disparity varies linearly across the frame,
+    /// `d_f(x, y) = focus_disparity + gradient[0] (x - cx) + gradient[1] (y - cy)` with
+    /// `(cx, cy)` the image centre and the gradient in disparity per pixel.
+    Tilt { gradient: [f32; 2] },
+    /// Several focal planes at once (optically impossible): `CoC = K min_i |d - d_f,i|`, the
+    /// sign taken from the nearest plane. `lens.coc.focus_disparity` is ignored.
+    Planes(Vec<f32>),
+}
+
+/// Eq. 5's highlight weighting, `w = exp(-(min(m, white) - white)^2 / (2 sigma^2))` with `m`
+/// the largest RGB component of a sample. The paper's reference 255 is the top of its 8-bit
+/// range; on linear HDR data that top is display `white` (1.0 by default), and everything at
+/// or above it gets full weight (a Gaussian centred at white would wrongly *down*-weight
+/// brighter-than-white highlights). `sigma` is in the same linear units. Linear data already
+/// integrates radiance, so the weighting is an optional stylisation, off by default.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Highlight {
+    pub sigma: f32,
+    pub white: f32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct VdslrParams {
+    /// Lens samples per pixel (rounded up to a square number of strata).
+    pub samples: u32,
+    /// Precomputed jittered sample sets; each pixel picks one by a hash of its coordinates.
+    pub patterns: u32,
+    pub seed: u32,
+    /// Search steps after the initial read at the nearest disparity (the paper's T).
+    pub iterations: u32,
+    pub highlight: Option<Highlight>,
+    pub focus: FocusField,
+    /// Replace a farther invalid hit by the centre pixel (the paper does; off only for tests).
+    pub bleeding_guard: bool,
+}
+
+impl Default for VdslrParams {
+    fn default() -> Self {
+        Self { samples: 64, patterns: 16, seed: 0, iterations: 3, highlight: None, focus: FocusField::Plane, bleeding_guard: true }
+    }
+}
+
+impl VdslrParams {
+    fn validate(&self) -> Result<()> {
+        if self.iterations > 64 {
+            return Err(Error::param(format!("vdslr iterations must be at most 64, got {}", self.iterations)));
+        }
+        if let Some(h) = self.highlight {
+            if !(h.sigma.is_finite() && h.sigma > 0.0 && h.white.is_finite() && h.white > 0.0) {
+                return Err(Error::param("highlight sigma and white must be positive numbers"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The disparity map edited by the focus field: signed relative disparity `d - d_f(x, y)`
+/// per pixel (positive = nearer than focus). Both paths trace on this map.
+pub fn relative_disparity(disparity: &[f32], width: usize, height: usize, lens: &Lens, focus: &FocusField) -> Result<Vec<f32>> {
+    if disparity.len() != width * height {
+        return Err(Error::param(format!("disparity has {} values for a {width}x{height} image", disparity.len())));
+    }
+    let d_f = lens.coc.focus_disparity;
+    let (cx, cy) = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
+    match focus {
+        FocusField::Plane => Ok(disparity.iter().map(|d| d - d_f).collect()),
+        FocusField::Tilt { gradient } => Ok(disparity
+            .iter()
+            .enumerate()
+            .map(|(i, d)| d - (d_f + gradient[0] * ((i % width) as f32 - cx) + gradient[1] * ((i / width) as f32 - cy)))
+            .collect()),
+        FocusField::Planes(planes) => {
+            if planes.is_empty() || planes.iter().any(|p| !p.is_finite()) {
+                return Err(Error::param("focal planes must be a non-empty list of finite disparities"));
+            }
+            Ok(disparity
+                .iter()
+                .map(|d| planes.iter().map(|p| d - p).fold(f32::INFINITY, |best, s| if s.abs() < best.abs() { s } else { best }))
+                .collect())
+        }
+    }
+}
+
+/// Everything one pixel's tracing reads; shared by the CPU reference and the GPU host code.
+struct Prepared {
+    relative: Vec<f32>,
+    samples: LensSamples,
+    /// Largest relative disparity of the map: where every search starts.
+    s_max: f32,
+}
+
+fn prepare(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) -> Result<Prepared> {
+    params.validate()?;
+    let relative = relative_disparity(disparity, image.width, image.height, lens, &params.focus)?;
+    let samples = LensSamples::new(&lens.aperture, params.samples, params.patterns, params.seed)?;
+    let s_max = relative.iter().cloned().fold(f32::NEG_INFINITY, f32::max);
+    if !s_max.is_finite() {
+        return Err(Error::param("disparity must be finite and the image non-empty"));
+    }
+    Ok(Prepared { relative, samples, s_max })
+}
+
+/// CPU reference of `glsl/vdslr_trace.comp`.
+pub fn render_vdslr_cpu(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) -> Result<Image> {
+    let prepared = prepare(image, disparity, lens, params)?;
+    let tracer = Tracer { image, disparity, prepared: &prepared, k: lens.coc.k_px, params };
+    let mut out = Image::new(image.width, image.height);
+    out.pixels.par_chunks_mut(image.width.max(1)).enumerate().for_each(|(y, row)| {
+        for (x, pixel) in row.iter_mut().enumerate() {
+            *pixel = tracer.shade(x, y);
+        }
+    });
+    Ok(out)
+}
+
+struct Tracer<'a> {
+    image: &'a Image,
+    disparity: &'a [f32],
+    prepared: &'a Prepared,
+    k: f32,
+    params: &'a VdslrParams,
+}
+
+/// The pixel a search ended on, and whether it satisfied the relaxed Eq. 4.
+struct Hit {
+    index: usize,
+    valid: bool,
+}
+
+impl Tracer<'_> {
+    fn shade(&self, x: usize, y: usize) -> [f32; 4] {
+        let centre = self.image.index(x, y);
+        let p = [x as f32, y as f32];
+        let (mut sum, mut weight) = ([0.0f32; 4], 0.0f32);
+        for s in self.prepared.samples.set_for(x, y) {
+            if s[2] <= 0.0 {
+                continue;
+            }
+            let u = [s[0] * self.k, s[1] * self.k];
+            let mut hit = self.search(p, u, centre);
+            if !hit.valid {
+                let mirrored = self.search(p, [-u[0], -u[1]], centre);
+                if mirrored.valid {
+                    hit = mirrored;
+                }
+            }
+            // The guard (extended): a farther pixel loses to the centre when the search failed
+            // (the paper) or when the centre itself is a hit of this ray, nearer (the search
+            // found a surface the centre occludes).
+            let farther = self.disparity[hit.index] < self.disparity[centre];
+            let centre_hit = self.hits(p, u, x, y, self.prepared.relative[centre]);
+            let guard = self.params.bleeding_guard && farther && (!hit.valid || centre_hit);
+            let index = if guard { centre } else { hit.index };
+            let colour = self.image.pixels[index];
+            let w = s[2] * highlight_weight(colour, self.params.highlight);
+            for c in 0..4 {
+                sum[c] += w * colour[c];
+            }
+            weight += w;
+        }
+        if weight > 0.0 {
+            sum.map(|v| v / weight)
+        } else {
+            self.image.pixels[centre]
+        }
+    }
+
+    /// Randomized intersection search along the ray `p + u s` (u already scaled by K).
+    fn search(&self, p: [f32; 2], u: [f32; 2], centre: usize) -> Hit {
+        let (w, h) = (self.image.width, self.image.height);
+        let mut s_t = self.prepared.s_max;
+        let mut index = centre;
+        for _ in 0..=self.params.iterations {
+            let qx = nearest_pixel(p[0] + u[0] * s_t, w);
+            let qy = nearest_pixel(p[1] + u[1] * s_t, h);
+            index = qy * w + qx;
+            let s_q = self.prepared.relative[index];
+            if self.hits(p, u, qx, qy, s_q) {
+                return Hit { index, valid: true };
+            }
+            s_t = s_q;
+        }
+        Hit { index, valid: false }
+    }
+
+    /// The relaxed Eq. 4: pixel `q` of relative disparity `s_q` lies within half a pixel (per
+    /// axis) of where the ray `p + u s` is at `s = s_q`.
+    #[inline]
+    fn hits(&self, p: [f32; 2], u: [f32; 2], qx: usize, qy: usize, s_q: f32) -> bool {
+        let ex = qx as f32 - (p[0] + u[0] * s_q);
+        let ey = qy as f32 - (p[1] + u[1] * s_q);
+        ex.abs() <= 0.5 && ey.abs() <= 0.5
+    }
+}
+
+/// Nearest pixel centre, clamped to the image (edge extension); `floor(x + 0.5)` as in GLSL.
+#[inline]
+fn nearest_pixel(x: f32, size: usize) -> usize {
+    ((x + 0.5).floor()).clamp(0.0, size as f32 - 1.0) as usize
+}
+
+/// Eq. 5's weight of one sample colour (see [`Highlight`]); 1 when the weighting is off.
+#[inline]
+fn highlight_weight(colour: [f32; 4], highlight: Option<Highlight>) -> f32 {
+    match highlight {
+        None => 1.0,
+        Some(Highlight { sigma, white }) => {
+            let m = colour[0].max(colour[1]).max(colour[2]).min(white);
+            (-(m - white) * (m - white) / (2.0 * sigma * sigma)).exp()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Aperture, CocModel};
+
+    fn lens(k: f32, focus: f32) -> Lens {
+        Lens { coc: CocModel::new(k, focus).unwrap(), aperture: Aperture::Disk }
+    }
+
+    #[test]
+    fn several_focal_planes_take_the_nearest_plane() {
+        let rel = relative_disparity(&[0.1, 0.45, 0.9], 3, 1, &lens(10.0, 0.0), &FocusField::Planes(vec![0.2, 0.8])).unwrap();
+        let expected = [-0.1, 0.25, 0.1];
+        for (r, e) in rel.iter().zip(expected) {
+            assert!((r - e).abs() < 1e-6, "{rel:?}");
+        }
+    }
+
+    #[test]
+    fn tilt_is_zero_at_the_centre_and_linear() {
+        let rel = relative_disparity(&[0.5; 5], 5, 1, &lens(10.0, 0.5), &FocusField::Tilt { gradient: [0.1, 0.0] }).unwrap();
+        for (i, r) in rel.iter().enumerate() {
+            assert!((r + 0.1 * (i as f32 - 2.0)).abs() < 1e-6, "{rel:?}");
+        }
+    }
+
+    #[test]
+    fn highlight_weight_is_full_at_and_above_white() {
+        let h = Some(Highlight { sigma: 0.3, white: 1.0 });
+        assert_eq!(highlight_weight([20.0, 0.0, 0.0, 1.0], h), 1.0);
+        assert_eq!(highlight_weight([1.0, 1.0, 1.0, 1.0], h), 1.0);
+        assert!(highlight_weight([0.1, 0.1, 0.1, 1.0], h) < 0.02, "dark samples are down-weighted");
+    }
+}
