@@ -9,7 +9,8 @@ use std::process::Command;
 use lensblur::image::Image;
 use lensblur::stack::naming::Convention;
 use lensblur::stack::{
-    read_stack, write_image, write_stack, DepthKind, Layer, LayerStack, ReadOptions, StackNaming, WriteOptions,
+    read_stack, write_image, write_stack, DepthKind, Layer, LayerStack, ReadOptions, StackNaming,
+    StackWriteOptions, WriteOptions,
 };
 
 fn temp_dir(test: &str) -> PathBuf {
@@ -19,7 +20,9 @@ fn temp_dir(test: &str) -> PathBuf {
 }
 
 fn script(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/interop").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/interop")
+        .join(name)
 }
 
 /// Runs a Python script in headless Blender; returns stdout. Panics if Blender is missing,
@@ -27,12 +30,20 @@ fn script(name: &str) -> PathBuf {
 fn blender(script_name: &str, args: &[&str], done_marker: &str) -> String {
     let script = script(script_name);
     let output = Command::new("blender")
-        .args(["-b", "--factory-startup", "--python-exit-code", "1", "--python"])
+        .args([
+            "-b",
+            "--factory-startup",
+            "--python-exit-code",
+            "1",
+            "--python",
+        ])
         .arg(&script)
         .arg("--")
         .args(args)
         .output()
-        .unwrap_or_else(|e| panic!("cannot run blender ({e}); install it with: apt-get install -y blender"));
+        .unwrap_or_else(|e| {
+            panic!("cannot run blender ({e}); install it with: apt-get install -y blender")
+        });
     let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
     assert!(
         output.status.success() && stdout.contains(done_marker),
@@ -43,7 +54,11 @@ fn blender(script_name: &str, args: &[&str], done_marker: &str) -> String {
 }
 
 fn render_scene(dir: &Path) {
-    blender("blender_render.py", &[dir.to_str().unwrap()], "LENSBLUR_RENDER_DONE");
+    blender(
+        "blender_render.py",
+        &[dir.to_str().unwrap()],
+        "LENSBLUR_RENDER_DONE",
+    );
 }
 
 #[test]
@@ -52,22 +67,48 @@ fn blender_multilayer_render_with_two_view_layers_is_read_correctly() {
     render_scene(&dir);
     let file = read_stack(&dir.join("render.exr"), &ReadOptions::default()).unwrap();
     let names: Vec<&str> = file.stack.layers.iter().map(|l| l.name.as_str()).collect();
-    assert_eq!(names, ["Front", "Back"], "the Composite pass has no depth and is not a layer");
-    assert!(file.info.layers.iter().all(|l| l.convention == Convention::BlenderMultilayer));
+    assert_eq!(
+        names,
+        ["Front", "Back"],
+        "the Composite pass has no depth and is not a layer"
+    );
+    assert!(file
+        .info
+        .layers
+        .iter()
+        .all(|l| l.convention == Convention::BlenderMultilayer));
     let (front, back) = (&file.stack.layers[0], &file.stack.layers[1]);
     // The front plane is 5 m away, the back plane 10 m: disparity 0.2 and 0.1 everywhere,
     // also where the front layer is empty (Z = 1e10 there) or partly covered.
-    assert!(front.disparity.iter().all(|&d| (d - 0.2).abs() < 1e-4), "{:?}", file.info.layers[0].disparity_range);
+    assert!(
+        front.disparity.iter().all(|&d| (d - 0.2).abs() < 1e-4),
+        "{:?}",
+        file.info.layers[0].disparity_range
+    );
     assert!(back.disparity.iter().all(|&d| (d - 0.1).abs() < 1e-4));
     // Emission colour (1, 0.2, 0.1) at the centre; half precision: 1e-3.
     let centre = front.rgba.get(16, 12);
     assert!(
-        (centre[0] - 1.0).abs() < 1e-3 && (centre[1] - 0.2).abs() < 1e-3 && (centre[2] - 0.1).abs() < 1e-3,
+        (centre[0] - 1.0).abs() < 1e-3
+            && (centre[1] - 0.2).abs() < 1e-3
+            && (centre[2] - 0.1).abs() < 1e-3,
         "{centre:?}"
     );
-    assert_eq!(front.rgba.get(0, 0)[3], 0.0, "transparent film: the front layer is empty in the corner");
-    assert!(back.rgba.pixels.iter().all(|p| (p[3] - 1.0).abs() < 1e-3), "the back plane fills the frame");
-    let extras: Vec<&str> = file.info.extra_channels.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(
+        front.rgba.get(0, 0)[3],
+        0.0,
+        "transparent film: the front layer is empty in the corner"
+    );
+    assert!(
+        back.rgba.pixels.iter().all(|p| (p[3] - 1.0).abs() < 1e-3),
+        "the back plane fills the frame"
+    );
+    let extras: Vec<&str> = file
+        .info
+        .extra_channels
+        .iter()
+        .map(|c| c.name.as_str())
+        .collect();
     assert!(extras.contains(&"Composite.Combined.R"), "{extras:?}");
 
     let fo = read_stack(&dir.join("fileout_0001.exr"), &ReadOptions::default()).unwrap();
@@ -92,7 +133,11 @@ fn blender_roundtrip(path: &Path, layer: &str, size: (usize, usize)) -> (String,
         &[path.to_str().unwrap(), out.to_str().unwrap(), layer, &w, &h],
         "LENSBLUR_LOAD_DONE",
     );
-    let report = stdout.lines().find(|l| l.starts_with("LENSBLUR_LOAD ")).unwrap_or_default().to_string();
+    let report = stdout
+        .lines()
+        .find(|l| l.starts_with("LENSBLUR_LOAD "))
+        .unwrap_or_default()
+        .to_string();
     (report, read_plain(&out))
 }
 
@@ -105,7 +150,9 @@ fn read_plain(path: &Path) -> Image {
         .largest_resolution_level()
         .rgba_channels(
             |size, _| Image::new(size.width(), size.height()),
-            |img: &mut Image, pos, (r, g, b, a): (f32, f32, f32, f32)| img.set(pos.x(), pos.y(), [r, g, b, a]),
+            |img: &mut Image, pos, (r, g, b, a): (f32, f32, f32, f32)| {
+                img.set(pos.x(), pos.y(), [r, g, b, a])
+            },
         )
         .first_valid_layer()
         .all_attributes()
@@ -119,26 +166,64 @@ fn our_files_load_in_blender_with_the_same_pixels() {
     let dir = temp_dir("ours");
     let (w, h) = (12, 8);
     let colour = Image::from_fn(w, h, |x, y| [x as f32 / 16.0, y as f32 / 8.0, 0.5, 1.0]);
-    let front = Image::from_fn(w, h, |x, _| if x < 6 { [0.75, 0.125, 0.0, 1.0] } else { [0.0; 4] });
+    let front = Image::from_fn(w, h, |x, _| {
+        if x < 6 {
+            [0.75, 0.125, 0.0, 1.0]
+        } else {
+            [0.0; 4]
+        }
+    });
     let layers = vec![
-        Layer { name: "fg".into(), rgba: front.clone(), disparity: vec![0.5; w * h] },
-        Layer { name: "bg".into(), rgba: colour.clone(), disparity: vec![0.1; w * h] },
+        Layer {
+            name: "fg".into(),
+            rgba: front.clone(),
+            disparity: vec![0.5; w * h],
+        },
+        Layer {
+            name: "bg".into(),
+            rgba: colour.clone(),
+            disparity: vec![0.1; w * h],
+        },
     ];
     let stack_path = dir.join("stack.exr");
-    write_stack(&stack_path, &LayerStack::new(w, h, layers).unwrap(), DepthKind::Z, StackNaming::BlenderMultilayer)
-        .unwrap();
+    write_stack(
+        &stack_path,
+        &LayerStack::new(w, h, layers).unwrap(),
+        &StackWriteOptions {
+            depth_kind: DepthKind::Z,
+            naming: StackNaming::BlenderMultilayer,
+            camera: None,
+        },
+    )
+    .unwrap();
     let (report, pixels) = blender_roundtrip(&stack_path, "fg", (w, h));
-    assert!(report.contains("\"MULTILAYER\"") && report.contains("\"bg\"") && report.contains("\"fg\""), "{report}");
-    assert!(report.contains("\"Combined\"") && report.contains("\"Depth\""), "Blender sees the Depth pass: {report}");
+    assert!(
+        report.contains("\"MULTILAYER\"") && report.contains("\"bg\"") && report.contains("\"fg\""),
+        "{report}"
+    );
+    assert!(
+        report.contains("\"Combined\"") && report.contains("\"Depth\""),
+        "Blender sees the Depth pass: {report}"
+    );
     // Values are multiples of 1/16, exact in Blender's float pipeline.
     assert_eq!(pixels, front);
 
     let named = dir.join("named.exr");
-    write_image(&named, &colour, &WriteOptions { output_layer: Some("Blurred".into()), ..WriteOptions::default() })
-        .unwrap();
+    write_image(
+        &named,
+        &colour,
+        &WriteOptions {
+            output_layer: Some("Blurred".into()),
+            ..WriteOptions::default()
+        },
+    )
+    .unwrap();
     let (report, pixels) = blender_roundtrip(&named, "Blurred", (w, h));
     assert!(report.contains("\"Blurred\""), "{report}");
-    assert_eq!(pixels, colour, "half-exact values survive Blender's Image node");
+    assert_eq!(
+        pixels, colour,
+        "half-exact values survive Blender's Image node"
+    );
 
     let plain = dir.join("plain.exr");
     write_image(&plain, &colour, &WriteOptions::default()).unwrap();

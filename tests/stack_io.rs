@@ -3,14 +3,14 @@
 use std::path::{Path, PathBuf};
 
 use exr::prelude::{
-    f16, AnyChannel, AnyChannels, Encoding, FlatSamples, ImageAttributes, IntegerBounds, LayerAttributes, Vec2,
-    WritableImage,
+    f16, AnyChannel, AnyChannels, Encoding, FlatSamples, ImageAttributes, IntegerBounds,
+    LayerAttributes, Vec2, WritableImage,
 };
 use lensblur::image::Image;
 use lensblur::stack::naming::Convention;
 use lensblur::stack::{
-    read_ldr, read_stack, write_image, write_png_preview, write_stack, DepthKind, ExtraChannel, Layer, LayerStack,
-    ReadOptions, SampleType, StackNaming, WriteOptions,
+    read_ldr, read_stack, write_image, write_png_preview, write_stack, DepthKind, ExtraChannel,
+    Layer, LayerStack, ReadOptions, SampleType, StackNaming, StackWriteOptions, WriteOptions,
 };
 
 const W: usize = 8;
@@ -44,12 +44,24 @@ fn write_parts(path: &Path, display: (usize, usize), parts: Vec<Part>) {
         .map(|p| {
             let mut attributes = p.name.map(LayerAttributes::named).unwrap_or_default();
             attributes.layer_position = Vec2(p.origin.0, p.origin.1);
-            let channels: Vec<_> = p.channels.into_iter().map(|(n, s)| AnyChannel::new(n.as_str(), s)).collect();
-            exr::prelude::Layer::new(p.size, attributes, Encoding::SMALL_LOSSLESS, AnyChannels::sort(channels.into()))
+            let channels: Vec<_> = p
+                .channels
+                .into_iter()
+                .map(|(n, s)| AnyChannel::new(n.as_str(), s))
+                .collect();
+            exr::prelude::Layer::new(
+                p.size,
+                attributes,
+                Encoding::SMALL_LOSSLESS,
+                AnyChannels::sort(channels.into()),
+            )
         })
         .collect();
     let attributes = ImageAttributes::new(IntegerBounds::new((0, 0), display));
-    exr::prelude::Image::from_layers(attributes, layers).write().to_file(path).unwrap();
+    exr::prelude::Image::from_layers(attributes, layers)
+        .write()
+        .to_file(path)
+        .unwrap();
 }
 
 /// Colour of layer `l` at pixel i (distinct per layer and pixel, exact in half precision).
@@ -65,15 +77,25 @@ fn layer_channels(
     alpha: impl Fn(usize) -> f32,
     n: usize,
 ) -> Vec<(String, FlatSamples)> {
-    let mut out: Vec<(String, FlatSamples)> =
-        (0..3).map(|c| (names[c].to_string(), half((0..n).map(|i| colour(l, i, c) * alpha(i))))).collect();
+    let mut out: Vec<(String, FlatSamples)> = (0..3)
+        .map(|c| {
+            (
+                names[c].to_string(),
+                half((0..n).map(|i| colour(l, i, c) * alpha(i))),
+            )
+        })
+        .collect();
     out.push((names[3].to_string(), half((0..n).map(&alpha))));
     out.push((names[4].to_string(), float((0..n).map(depth))));
     out
 }
 
 fn names(prefix: &str, long: bool, depth: &str) -> [String; 5] {
-    let base = if long { ["red", "green", "blue", "alpha"] } else { ["R", "G", "B", "A"] };
+    let base = if long {
+        ["red", "green", "blue", "alpha"]
+    } else {
+        ["R", "G", "B", "A"]
+    };
     [0, 1, 2, 3]
         .map(|i| format!("{prefix}{}", base[i]))
         .into_iter()
@@ -84,7 +106,13 @@ fn names(prefix: &str, long: bool, depth: &str) -> [String; 5] {
 }
 
 fn as_refs(n: &[String; 5]) -> [&str; 5] {
-    [n[0].as_str(), n[1].as_str(), n[2].as_str(), n[3].as_str(), n[4].as_str()]
+    [
+        n[0].as_str(),
+        n[1].as_str(),
+        n[2].as_str(),
+        n[3].as_str(),
+        n[4].as_str(),
+    ]
 }
 
 fn opaque(_: usize) -> f32 {
@@ -95,10 +123,22 @@ fn assert_layer(layer: &Layer, l: usize, disparity: f32) {
     for (i, p) in layer.rgba.pixels.iter().enumerate() {
         for c in 0..3 {
             // Values are multiples of 1/32, exact in half precision.
-            assert_eq!(p[c], colour(l, i, c) * p[3], "layer {} pixel {i} channel {c}", layer.name);
+            assert_eq!(
+                p[c],
+                colour(l, i, c) * p[3],
+                "layer {} pixel {i} channel {c}",
+                layer.name
+            );
         }
     }
-    assert!(layer.disparity.iter().all(|&d| (d - disparity).abs() < 1e-6), "layer {} disparity", layer.name);
+    assert!(
+        layer
+            .disparity
+            .iter()
+            .all(|&d| (d - disparity).abs() < 1e-6),
+        "layer {} disparity",
+        layer.name
+    );
 }
 
 #[test]
@@ -126,18 +166,51 @@ fn blender_multilayer_with_half_colour_and_float_depth() {
     ));
     channels.push(("Back.Normal.X".into(), float((0..n).map(|i| i as f32))));
     channels.push(("Back.Normal.Z".into(), float((0..n).map(|_| 1.0))));
-    write_parts(&path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
+    write_parts(
+        &path,
+        (W, H),
+        vec![Part {
+            name: None,
+            origin: (0, 0),
+            size: (W, H),
+            channels,
+        }],
+    );
 
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
     let stack = &file.stack;
-    assert_eq!(stack.layers.iter().map(|l| l.name.as_str()).collect::<Vec<_>>(), ["Front", "Back"]);
+    assert_eq!(
+        stack
+            .layers
+            .iter()
+            .map(|l| l.name.as_str())
+            .collect::<Vec<_>>(),
+        ["Front", "Back"]
+    );
     assert_layer(&stack.layers[1], 1, 0.1);
     assert_layer(&stack.layers[0], 0, 0.5);
-    assert!(file.info.layers.iter().all(|l| l.convention == Convention::BlenderMultilayer));
-    assert_eq!(file.info.layers[0].stored_depth_range, Some((2.0, 2.0)), "1e10 on empty pixels is not counted");
+    assert!(file
+        .info
+        .layers
+        .iter()
+        .all(|l| l.convention == Convention::BlenderMultilayer));
+    assert_eq!(
+        file.info.layers[0].stored_depth_range,
+        Some((2.0, 2.0)),
+        "1e10 on empty pixels is not counted"
+    );
     assert!(!file.info.single_image);
-    let extras: Vec<&str> = file.info.extra_channels.iter().map(|c| c.name.as_str()).collect();
-    assert_eq!(extras, ["Back.Normal.X", "Back.Normal.Z"], "normals are passed through, not rendered");
+    let extras: Vec<&str> = file
+        .info
+        .extra_channels
+        .iter()
+        .map(|c| c.name.as_str())
+        .collect();
+    assert_eq!(
+        extras,
+        ["Back.Normal.X", "Back.Normal.Z"],
+        "normals are passed through, not rendered"
+    );
     assert_eq!(file.info.extra_channels[0].values[5], 5.0);
 }
 
@@ -146,12 +219,30 @@ fn blender_file_output_value_depth() {
     let dir = temp_dir("fileoutput");
     let path = dir.join("out.exr");
     let n = W * H;
-    let channels = layer_channels(2, ["Image.R", "Image.G", "Image.B", "Image.A", "Depth.V"], |_| 4.0, opaque, n);
-    write_parts(&path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
+    let channels = layer_channels(
+        2,
+        ["Image.R", "Image.G", "Image.B", "Image.A", "Depth.V"],
+        |_| 4.0,
+        opaque,
+        n,
+    );
+    write_parts(
+        &path,
+        (W, H),
+        vec![Part {
+            name: None,
+            origin: (0, 0),
+            size: (W, H),
+            channels,
+        }],
+    );
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
     assert_eq!(file.stack.layers.len(), 1);
     assert_layer(&file.stack.layers[0], 2, 0.25);
-    assert_eq!(file.info.layers[0].convention, Convention::BlenderFileOutput);
+    assert_eq!(
+        file.info.layers[0].convention,
+        Convention::BlenderFileOutput
+    );
     assert!(file.info.single_image, "one layer means single-image input");
 }
 
@@ -161,14 +252,36 @@ fn oiio_long_names_and_inverse_z() {
     let path = dir.join("nuke.exr");
     let n = W * H;
     let mut channels = layer_channels(0, as_refs(&names("fg.", true, "depth")), |_| 0.5, opaque, n);
-    channels.extend(layer_channels(1, as_refs(&names("bg.", false, "Z")), |_| 0.0, opaque, n));
-    write_parts(&path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
-    let options = ReadOptions { depth_kind: DepthKind::InverseZ, ..ReadOptions::default() };
+    channels.extend(layer_channels(
+        1,
+        as_refs(&names("bg.", false, "Z")),
+        |_| 0.0,
+        opaque,
+        n,
+    ));
+    write_parts(
+        &path,
+        (W, H),
+        vec![Part {
+            name: None,
+            origin: (0, 0),
+            size: (W, H),
+            channels,
+        }],
+    );
+    let options = ReadOptions {
+        depth_kind: DepthKind::InverseZ,
+        ..ReadOptions::default()
+    };
     let file = read_stack(&path, &options).unwrap();
     assert_eq!(file.stack.layers[0].name, "fg");
     assert_layer(&file.stack.layers[0], 0, 0.5);
     assert_layer(&file.stack.layers[1], 1, 0.0);
-    assert!(file.info.layers.iter().all(|l| l.convention == Convention::LayerDotChannel));
+    assert!(file
+        .info
+        .layers
+        .iter()
+        .all(|l| l.convention == Convention::LayerDotChannel));
 }
 
 #[test]
@@ -176,14 +289,32 @@ fn unprefixed_rgbz_is_one_single_image_layer() {
     let dir = temp_dir("plain");
     let path = dir.join("plain.exr");
     let n = W * H;
-    let mut channels = layer_channels(3, ["R", "G", "B", "A", "Z"], |i| 1.0 + (i % W) as f32, opaque, n);
+    let mut channels = layer_channels(
+        3,
+        ["R", "G", "B", "A", "Z"],
+        |i| 1.0 + (i % W) as f32,
+        opaque,
+        n,
+    );
     channels.retain(|(name, _)| name != "A");
-    write_parts(&path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
+    write_parts(
+        &path,
+        (W, H),
+        vec![Part {
+            name: None,
+            origin: (0, 0),
+            size: (W, H),
+            channels,
+        }],
+    );
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
     let layer = &file.stack.layers[0];
     assert!(file.info.single_image);
     assert_eq!(file.info.layers[0].convention, Convention::Unprefixed);
-    assert!(layer.rgba.pixels.iter().all(|p| p[3] == 1.0), "no alpha channel means opaque");
+    assert!(
+        layer.rgba.pixels.iter().all(|p| p[3] == 1.0),
+        "no alpha channel means opaque"
+    );
     assert!((layer.disparity[3] - 0.25).abs() < 1e-6);
 }
 
@@ -193,19 +324,40 @@ fn multi_part_files_name_layers_after_parts_and_place_data_windows() {
     let path = dir.join("parts.exr");
     // The front part only stores a 3x2 window at (2, 1); outside it the layer is transparent.
     let front = layer_channels(0, ["R", "G", "B", "A", "Z"], |_| 2.0, opaque, 6);
-    let back = layer_channels(1, ["R", "G", "B", "A", "Z"], |_| f32::INFINITY, opaque, W * H);
+    let back = layer_channels(
+        1,
+        ["R", "G", "B", "A", "Z"],
+        |_| f32::INFINITY,
+        opaque,
+        W * H,
+    );
     write_parts(
         &path,
         (W, H),
         vec![
-            Part { name: Some("back"), origin: (0, 0), size: (W, H), channels: back },
-            Part { name: Some("front"), origin: (2, 1), size: (3, 2), channels: front },
+            Part {
+                name: Some("back"),
+                origin: (0, 0),
+                size: (W, H),
+                channels: back,
+            },
+            Part {
+                name: Some("front"),
+                origin: (2, 1),
+                size: (3, 2),
+                channels: front,
+            },
         ],
     );
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
-    let [front, back] = &file.stack.layers[..] else { panic!("two layers expected") };
+    let [front, back] = &file.stack.layers[..] else {
+        panic!("two layers expected")
+    };
     assert_eq!((front.name.as_str(), back.name.as_str()), ("front", "back"));
-    assert!(back.disparity.iter().all(|&d| d == 0.0), "infinite Z is infinitely far");
+    assert!(
+        back.disparity.iter().all(|&d| d == 0.0),
+        "infinite Z is infinitely far"
+    );
     for y in 0..H {
         for x in 0..W {
             let inside = (2..5).contains(&x) && (1..3).contains(&y);
@@ -219,7 +371,11 @@ fn multi_part_files_name_layers_after_parts_and_place_data_windows() {
             assert!((front.disparity[y * W + x] - 0.5).abs() < 1e-6);
         }
     }
-    assert!(file.info.layers.iter().all(|l| l.convention == Convention::MultiPart));
+    assert!(file
+        .info
+        .layers
+        .iter()
+        .all(|l| l.convention == Convention::MultiPart));
     assert_eq!(file.info.layers[0].data_window.x, 2);
 }
 
@@ -228,21 +384,39 @@ fn transparent_pixels_get_depth_from_nearby_opaque_ones() {
     let dir = temp_dir("fill");
     let path = dir.join("fill.exr");
     // Left column at z = 1, right column at z = 4, the middle transparent with junk Z.
-    let alpha = |i: usize| if i % W == 0 || i % W == W - 1 { 1.0 } else { 0.0 };
+    let alpha = |i: usize| {
+        if i % W == 0 || i % W == W - 1 {
+            1.0
+        } else {
+            0.0
+        }
+    };
     let depth = |i: usize| match i % W {
         0 => 1.0,
         x if x == W - 1 => 4.0,
         _ => -3.0,
     };
     let channels = layer_channels(0, as_refs(&names("a.", false, "Z")), depth, alpha, W * H);
-    write_parts(&path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
+    write_parts(
+        &path,
+        (W, H),
+        vec![Part {
+            name: None,
+            origin: (0, 0),
+            size: (W, H),
+            channels,
+        }],
+    );
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
     let d = &file.stack.layers[0].disparity;
     for (i, &v) in d.iter().enumerate() {
         // Filled values are convex combinations of the known disparities 1 and 0.25.
         assert!((0.25..=1.0).contains(&v), "pixel {i}: {v}");
     }
-    assert!(d[1] > d[W - 2], "the fill follows the nearer side on the left, farther on the right");
+    assert!(
+        d[1] > d[W - 2],
+        "the fill follows the nearer side on the left, farther on the right"
+    );
 }
 
 #[test]
@@ -259,18 +433,45 @@ fn layer_selection_by_name_and_glob_in_any_order() {
             W * H,
         ));
     }
-    write_parts(&path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
-    let options = ReadOptions { layers: Some(vec!["bg".into(), "fg_h*".into()]), ..ReadOptions::default() };
+    write_parts(
+        &path,
+        (W, H),
+        vec![Part {
+            name: None,
+            origin: (0, 0),
+            size: (W, H),
+            channels,
+        }],
+    );
+    let options = ReadOptions {
+        layers: Some(vec!["bg".into(), "fg_h*".into()]),
+        ..ReadOptions::default()
+    };
     let file = read_stack(&path, &options).unwrap();
     let names: Vec<&str> = file.stack.layers.iter().map(|l| l.name.as_str()).collect();
-    assert_eq!(names, ["fg_hair", "bg"], "front to back by depth, whatever the order asked");
-    let extras = file.info.extra_channels.iter().filter(|c| c.name.starts_with("fg_body.")).count();
+    assert_eq!(
+        names,
+        ["fg_hair", "bg"],
+        "front to back by depth, whatever the order asked"
+    );
+    let extras = file
+        .info
+        .extra_channels
+        .iter()
+        .filter(|c| c.name.starts_with("fg_body."))
+        .count();
     assert_eq!(extras, 5, "unselected layers are passed through");
 
-    let options = ReadOptions { layers: Some(vec!["nope".into()]), ..ReadOptions::default() };
+    let options = ReadOptions {
+        layers: Some(vec!["nope".into()]),
+        ..ReadOptions::default()
+    };
     let message = read_stack(&path, &options).unwrap_err().to_string();
     assert!(
-        message.contains("no layer matches 'nope'") && ["fg_hair", "fg_body", "bg"].iter().all(|n| message.contains(n)),
+        message.contains("no layer matches 'nope'")
+            && ["fg_hair", "fg_body", "bg"]
+                .iter()
+                .all(|n| message.contains(n)),
         "{message}"
     );
 }
@@ -278,35 +479,89 @@ fn layer_selection_by_name_and_glob_in_any_order() {
 #[test]
 fn errors_name_the_problem() {
     let dir = temp_dir("errors");
-    let missing = read_stack(&dir.join("missing.exr"), &ReadOptions::default()).unwrap_err().to_string();
-    assert!(missing.contains("missing.exr") && missing.to_lowercase().contains("no such file"), "{missing}");
+    let missing = read_stack(&dir.join("missing.exr"), &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        missing.contains("missing.exr") && missing.to_lowercase().contains("no such file"),
+        "{missing}"
+    );
 
     let not_exr = dir.join("text.exr");
     std::fs::write(&not_exr, "hello").unwrap();
-    let message = read_stack(&not_exr, &ReadOptions::default()).unwrap_err().to_string();
+    let message = read_stack(&not_exr, &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(message.contains("not an OpenEXR file"), "{message}");
 
     let no_depth = dir.join("nodepth.exr");
-    let mut channels = layer_channels(0, as_refs(&names("fg.", false, "Z")), |_| 1.0, opaque, W * H);
+    let mut channels = layer_channels(
+        0,
+        as_refs(&names("fg.", false, "Z")),
+        |_| 1.0,
+        opaque,
+        W * H,
+    );
     channels.retain(|(n, _)| n != "fg.Z");
-    write_parts(&no_depth, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
-    let message = read_stack(&no_depth, &ReadOptions::default()).unwrap_err().to_string();
+    write_parts(
+        &no_depth,
+        (W, H),
+        vec![Part {
+            name: None,
+            origin: (0, 0),
+            size: (W, H),
+            channels,
+        }],
+    );
+    let message = read_stack(&no_depth, &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(
-        message.contains("no layer has both colour and depth") && message.contains("'fg' [fg.R, fg.G, fg.B, fg.A]"),
+        message.contains("no layer has both colour and depth")
+            && message.contains("'fg' [fg.R, fg.G, fg.B, fg.A]"),
         "{message}"
     );
-    let options = ReadOptions { layers: Some(vec!["fg".into()]), ..ReadOptions::default() };
+    let options = ReadOptions {
+        layers: Some(vec!["fg".into()]),
+        ..ReadOptions::default()
+    };
     let message = read_stack(&no_depth, &options).unwrap_err().to_string();
-    assert!(message.contains("layer 'fg' has no depth") && message.contains("fg.R"), "{message}");
+    assert!(
+        message.contains("layer 'fg' has no depth") && message.contains("fg.R"),
+        "{message}"
+    );
 
     let nan = dir.join("nan.exr");
-    let mut channels = layer_channels(0, as_refs(&names("fg.", false, "Z")), |_| 1.0, opaque, W * H);
+    let mut channels = layer_channels(
+        0,
+        as_refs(&names("fg.", false, "Z")),
+        |_| 1.0,
+        opaque,
+        W * H,
+    );
     channels[1].1 = half((0..W * H).map(|i| if i < 3 { f32::NAN } else { 0.5 }));
-    write_parts(&nan, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
-    let message = read_stack(&nan, &ReadOptions::default()).unwrap_err().to_string();
-    assert!(message.contains("layer 'fg' channel 'fg.G' has 3 NaN/Inf"), "{message}");
+    write_parts(
+        &nan,
+        (W, H),
+        vec![Part {
+            name: None,
+            origin: (0, 0),
+            size: (W, H),
+            channels,
+        }],
+    );
+    let message = read_stack(&nan, &ReadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("layer 'fg' channel 'fg.G' has 3 NaN/Inf"),
+        "{message}"
+    );
 
-    let options = ReadOptions { max_pixels: 10, ..ReadOptions::default() };
+    let options = ReadOptions {
+        max_pixels: 10,
+        ..ReadOptions::default()
+    };
     let message = read_stack(&nan, &options).unwrap_err().to_string();
     assert!(message.contains("exceeds the limit"), "{message}");
 }
@@ -323,8 +578,16 @@ fn sample_stack() -> LayerStack {
     });
     let back = Image::from_fn(W, H, |x, y| [x as f32 / 8.0, y as f32 / 8.0, 0.75, 1.0]);
     let layers = vec![
-        Layer { name: "fg".into(), rgba: front, disparity: vec![0.5; W * H] },
-        Layer { name: "bg".into(), rgba: back, disparity: (0..W * H).map(|i| 0.1 + (i % W) as f32 * 0.01).collect() },
+        Layer {
+            name: "fg".into(),
+            rgba: front,
+            disparity: vec![0.5; W * H],
+        },
+        Layer {
+            name: "bg".into(),
+            rgba: back,
+            disparity: (0..W * H).map(|i| 0.1 + (i % W) as f32 * 0.01).collect(),
+        },
     ];
     LayerStack::new(W, H, layers).unwrap()
 }
@@ -336,8 +599,24 @@ fn written_stacks_read_back_identically_in_every_naming_and_depth_kind() {
         for kind in [DepthKind::Z, DepthKind::InverseZ, DepthKind::Disparity] {
             let path = dir.join(format!("{naming:?}-{kind:?}.exr"));
             let stack = sample_stack();
-            write_stack(&path, &stack, kind, naming).unwrap();
-            let back = read_stack(&path, &ReadOptions { depth_kind: kind, ..ReadOptions::default() }).unwrap();
+            write_stack(
+                &path,
+                &stack,
+                &StackWriteOptions {
+                    depth_kind: kind,
+                    naming,
+                    camera: None,
+                },
+            )
+            .unwrap();
+            let back = read_stack(
+                &path,
+                &ReadOptions {
+                    depth_kind: kind,
+                    ..ReadOptions::default()
+                },
+            )
+            .unwrap();
             assert_eq!(back.stack.layers.len(), 2);
             for (a, b) in stack.layers.iter().zip(&back.stack.layers) {
                 assert_eq!(a.name, b.name);
@@ -345,7 +624,10 @@ fn written_stacks_read_back_identically_in_every_naming_and_depth_kind() {
                 for (i, (&da, &db)) in a.disparity.iter().zip(&b.disparity).enumerate() {
                     // 1/(1/d) in f32: a few ulps. Empty pixels are refilled from covered ones.
                     if a.rgba.pixels[i][3] > 0.0 {
-                        assert!((da - db).abs() < 1e-6, "{naming:?} {kind:?} pixel {i}: {da} vs {db}");
+                        assert!(
+                            (da - db).abs() < 1e-6,
+                            "{naming:?} {kind:?} pixel {i}: {da} vs {db}"
+                        );
                     }
                 }
             }
@@ -368,32 +650,78 @@ fn written_images_carry_names_precision_and_pass_through_channels() {
         sample_type: SampleType::Float,
         values: (0..W * H).map(|i| i as f32 * 1.5).collect(),
     };
+    let camera = lensblur::camera::PhysicalCamera {
+        focal_length_mm: 85.0,
+        sensor_width_mm: 23.5,
+        fstop: 1.8,
+        focus_distance: 2.5,
+    };
     let options = WriteOptions {
         output_layer: Some("Blurred".into()),
         sample_type: SampleType::Half,
         extra_channels: vec![extra],
+        camera: Some(camera),
     };
     let path = dir.join("out.exr");
     write_image(&path, &image, &options).unwrap();
+    // The camera stamped into the header comes back through the reader's attribute map.
+    let (_, attributes) = lensblur::stack::read_parts(&path, 1 << 20).unwrap();
+    assert_eq!(
+        lensblur::camera::CameraHints::from_attributes(&attributes),
+        lensblur::camera::CameraHints::from_camera(&camera)
+    );
     let read = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
     let channels = &read.layer_data[0].channel_data.list;
     let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
     assert_eq!(
         names,
-        ["Blurred.Combined.A", "Blurred.Combined.B", "Blurred.Combined.G", "Blurred.Combined.R", "CryptoObject00.R"]
+        [
+            "Blurred.Combined.A",
+            "Blurred.Combined.B",
+            "Blurred.Combined.G",
+            "Blurred.Combined.R",
+            "CryptoObject00.R"
+        ]
     );
-    assert!(matches!(channels[3].sample_data, FlatSamples::F16(_)), "colour written as half");
+    assert!(
+        matches!(channels[3].sample_data, FlatSamples::F16(_)),
+        "colour written as half"
+    );
     let red: Vec<f32> = channels[3].sample_data.values_as_f32().collect();
     // Half precision: relative error below 2^-11.
-    assert!(image.pixels.iter().zip(&red).all(|(p, &r)| (p[0] - r).abs() <= p[0].abs() / 2048.0));
+    assert!(image
+        .pixels
+        .iter()
+        .zip(&red)
+        .all(|(p, &r)| (p[0] - r).abs() <= p[0].abs() / 2048.0));
     let crypto: Vec<f32> = channels[4].sample_data.values_as_f32().collect();
-    assert_eq!(crypto, (0..W * H).map(|i| i as f32 * 1.5).collect::<Vec<_>>(), "pass-through is bit exact");
-    assert_eq!(read.layer_data[0].encoding.compression, exr::prelude::Compression::ZIP16);
+    assert_eq!(
+        crypto,
+        (0..W * H).map(|i| i as f32 * 1.5).collect::<Vec<_>>(),
+        "pass-through is bit exact"
+    );
+    assert_eq!(
+        read.layer_data[0].encoding.compression,
+        exr::prelude::Compression::ZIP16
+    );
 
     let plain = dir.join("plain.exr");
-    write_image(&plain, &image, &WriteOptions { sample_type: SampleType::Float, ..WriteOptions::default() }).unwrap();
+    write_image(
+        &plain,
+        &image,
+        &WriteOptions {
+            sample_type: SampleType::Float,
+            ..WriteOptions::default()
+        },
+    )
+    .unwrap();
     let read = exr::prelude::read_all_flat_layers_from_file(&plain).unwrap();
-    let names: Vec<String> = read.layer_data[0].channel_data.list.iter().map(|c| c.name.to_string()).collect();
+    let names: Vec<String> = read.layer_data[0]
+        .channel_data
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
     assert_eq!(names, ["A", "B", "G", "R"]);
 }
 
@@ -401,16 +729,42 @@ fn written_images_carry_names_precision_and_pass_through_channels() {
 fn failed_writes_leave_nothing_behind() {
     let dir = temp_dir("atomic");
     let image = Image::new(W, H);
-    let bad = ExtraChannel { name: "R".into(), sample_type: SampleType::Float, values: vec![0.0; W * H] };
+    let bad = ExtraChannel {
+        name: "R".into(),
+        sample_type: SampleType::Float,
+        values: vec![0.0; W * H],
+    };
     let path = dir.join("collide.exr");
-    let error =
-        write_image(&path, &image, &WriteOptions { extra_channels: vec![bad], ..WriteOptions::default() }).unwrap_err();
+    let error = write_image(
+        &path,
+        &image,
+        &WriteOptions {
+            extra_channels: vec![bad],
+            ..WriteOptions::default()
+        },
+    )
+    .unwrap_err();
     assert!(error.to_string().contains("collides"), "{error}");
-    let short = ExtraChannel { name: "X".into(), sample_type: SampleType::Float, values: vec![0.0; 3] };
-    assert!(
-        write_image(&path, &image, &WriteOptions { extra_channels: vec![short], ..WriteOptions::default() }).is_err()
-    );
-    assert!(write_image(&dir.join("no/such/dir/x.exr"), &image, &WriteOptions::default()).is_err());
+    let short = ExtraChannel {
+        name: "X".into(),
+        sample_type: SampleType::Float,
+        values: vec![0.0; 3],
+    };
+    assert!(write_image(
+        &path,
+        &image,
+        &WriteOptions {
+            extra_channels: vec![short],
+            ..WriteOptions::default()
+        }
+    )
+    .is_err());
+    assert!(write_image(
+        &dir.join("no/such/dir/x.exr"),
+        &image,
+        &WriteOptions::default()
+    )
+    .is_err());
     let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
     assert!(left.is_empty(), "no partial or temporary files: {left:?}");
 }
@@ -420,24 +774,46 @@ fn ldr_inputs_are_decoded_to_linear_and_depth_images_follow_the_depth_kind() {
     let dir = temp_dir("ldr");
     let colour = image::RgbImage::from_fn(4, 2, |x, _| image::Rgb([(x * 80) as u8, 128, 255]));
     colour.save(dir.join("photo.png")).unwrap();
-    let depth16 =
-        image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(4, 2, |x, _| image::Luma([(x * 20000) as u16]));
+    let depth16 = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(4, 2, |x, _| {
+        image::Luma([(x * 20000) as u16])
+    });
     depth16.save(dir.join("depth.png")).unwrap();
-    let input = read_ldr(&dir.join("photo.png"), &dir.join("depth.png"), DepthKind::Disparity).unwrap();
+    let input = read_ldr(
+        &dir.join("photo.png"),
+        &dir.join("depth.png"),
+        DepthKind::Disparity,
+    )
+    .unwrap();
     // sRGB 128/255 is 0.2158 linear (IEC 61966-2-1).
-    assert!((input.image.pixels[0][1] - 0.2158).abs() < 1e-3, "{:?}", input.image.pixels[0]);
-    assert!((input.disparity[3] - 60000.0 / 65535.0).abs() < 1e-6, "16-bit precision is kept");
+    assert!(
+        (input.image.pixels[0][1] - 0.2158).abs() < 1e-3,
+        "{:?}",
+        input.image.pixels[0]
+    );
+    assert!(
+        (input.disparity[3] - 60000.0 / 65535.0).abs() < 1e-6,
+        "16-bit precision is kept"
+    );
     let as_z = read_ldr(&dir.join("photo.png"), &dir.join("depth.png"), DepthKind::Z).unwrap();
     assert_eq!(as_z.disparity[0], 0.0, "z = 0 (no data) is far");
     assert!((as_z.disparity[1] - 65535.0 / 20000.0).abs() < 1e-3);
 
     let small = image::GrayImage::new(3, 2);
     small.save(dir.join("small.png")).unwrap();
-    let message = read_ldr(&dir.join("photo.png"), &dir.join("small.png"), DepthKind::Z).unwrap_err().to_string();
-    assert!(message.contains("depth is 3x2 but the image is 4x2"), "{message}");
+    let message = read_ldr(&dir.join("photo.png"), &dir.join("small.png"), DepthKind::Z)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("depth is 3x2 but the image is 4x2"),
+        "{message}"
+    );
 
     let preview = dir.join("preview.png");
     write_png_preview(&preview, &input.image).unwrap();
     let back = image::open(&preview).unwrap().to_rgba8();
-    assert_eq!(back.get_pixel(1, 0).0, [80, 128, 255, 255], "encode(decode(v)) = v for 8-bit values");
+    assert_eq!(
+        back.get_pixel(1, 0).0,
+        [80, 128, 255, 255],
+        "encode(decode(v)) = v for 8-bit values"
+    );
 }

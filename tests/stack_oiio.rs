@@ -7,8 +7,8 @@ use std::process::Command;
 use lensblur::image::Image;
 use lensblur::stack::naming::Convention;
 use lensblur::stack::{
-    read_stack, write_image, write_stack, DepthKind, Layer, LayerStack, ReadOptions, SampleType, StackNaming,
-    WriteOptions,
+    read_stack, write_image, write_stack, DepthKind, Layer, LayerStack, ReadOptions, SampleType,
+    StackNaming, StackWriteOptions, WriteOptions,
 };
 
 fn temp_dir(test: &str) -> PathBuf {
@@ -19,10 +19,19 @@ fn temp_dir(test: &str) -> PathBuf {
 
 /// Runs a tool and returns its stdout; panics (test failure) if it is missing or fails.
 fn tool(program: &str, args: &[&str]) -> String {
-    let output = Command::new(program).args(args).output().unwrap_or_else(|e| {
-        panic!("cannot run {program} ({e}); install it with: apt-get install -y openimageio-tools")
-    });
-    assert!(output.status.success(), "{program} {args:?} failed: {}", String::from_utf8_lossy(&output.stderr));
+    let output = Command::new(program)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!(
+                "cannot run {program} ({e}); install it with: apt-get install -y openimageio-tools"
+            )
+        });
+    assert!(
+        output.status.success(),
+        "{program} {args:?} failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     String::from_utf8_lossy(&output.stdout).into_owned()
 }
 
@@ -41,14 +50,26 @@ fn oiiotool_layer_dot_channel_files_read_correctly() {
         "--chappend", "-d", "half", "-o", s(&path),
     ]);
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
-    let [fg, bg] = &file.stack.layers[..] else { panic!("two layers expected, got {}", file.stack.layers.len()) };
+    let [fg, bg] = &file.stack.layers[..] else {
+        panic!("two layers expected, got {}", file.stack.layers.len())
+    };
     assert_eq!((fg.name.as_str(), bg.name.as_str()), ("fg", "bg"));
     // Multiples of 1/8 are exact in half; 1/3 of a half-exact 3 is f32-exact to 1e-6.
     assert!(fg.rgba.pixels.iter().all(|p| *p == [0.5, 0.25, 0.125, 1.0]));
-    assert!(bg.rgba.pixels.iter().all(|p| *p == [0.125, 0.25, 0.75, 1.0]), "long names map by name");
+    assert!(
+        bg.rgba
+            .pixels
+            .iter()
+            .all(|p| *p == [0.125, 0.25, 0.75, 1.0]),
+        "long names map by name"
+    );
     assert!(fg.disparity.iter().all(|&d| (d - 1.0 / 3.0).abs() < 1e-6));
     assert!(bg.disparity.iter().all(|&d| (d - 0.1).abs() < 1e-6));
-    assert!(file.info.layers.iter().all(|l| l.convention == Convention::LayerDotChannel));
+    assert!(file
+        .info
+        .layers
+        .iter()
+        .all(|l| l.convention == Convention::LayerDotChannel));
 }
 
 #[test]
@@ -64,8 +85,16 @@ fn oiiotool_multi_part_files_use_part_names() {
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
     let names: Vec<&str> = file.stack.layers.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["near", "far"]);
-    assert!(file.info.layers.iter().all(|l| l.convention == Convention::MultiPart));
-    assert!(file.stack.layers[1].rgba.pixels.iter().all(|p| *p == [0.25, 0.5, 1.0, 1.0]));
+    assert!(file
+        .info
+        .layers
+        .iter()
+        .all(|l| l.convention == Convention::MultiPart));
+    assert!(file.stack.layers[1]
+        .rgba
+        .pixels
+        .iter()
+        .all(|p| *p == [0.25, 0.5, 1.0, 1.0]));
     assert!(file.stack.layers[1].disparity.iter().all(|&d| d == 0.125));
 }
 
@@ -86,11 +115,18 @@ fn oiiotool_data_windows_are_placed_in_the_display_window() {
     for y in 0..16 {
         for x in 0..20 {
             let inside = (3..13).contains(&x) && (2..10).contains(&y);
-            let expected = if inside { [1.0, 0.5, 0.25, 1.0] } else { [0.0; 4] };
+            let expected = if inside {
+                [1.0, 0.5, 0.25, 1.0]
+            } else {
+                [0.0; 4]
+            };
             assert_eq!(layer.rgba.get(x, y), expected, "({x},{y})");
         }
     }
-    assert!(layer.disparity.iter().all(|&d| d == 0.25), "outside the data window depth is filled from inside");
+    assert!(
+        layer.disparity.iter().all(|&d| d == 0.25),
+        "outside the data window depth is filled from inside"
+    );
 }
 
 #[test]
@@ -116,9 +152,13 @@ fn oiiotool_parts_with_different_data_windows_share_the_display_window() {
 }
 
 fn stats_line(stats: &str, key: &str) -> Vec<f64> {
-    let line =
-        stats.lines().find(|l| l.trim_start().starts_with(key)).unwrap_or_else(|| panic!("no '{key}' in:\n{stats}"));
-    line.split_whitespace().filter_map(|w| w.parse().ok()).collect()
+    let line = stats
+        .lines()
+        .find(|l| l.trim_start().starts_with(key))
+        .unwrap_or_else(|| panic!("no '{key}' in:\n{stats}"));
+    line.split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect()
 }
 
 #[test]
@@ -126,32 +166,79 @@ fn our_outputs_read_back_in_oiiotool() {
     let dir = temp_dir("ours");
     let image = Image::filled(12, 10, [0.25, 0.5, 0.75, 1.0]);
     let plain = dir.join("plain.exr");
-    write_image(&plain, &image, &WriteOptions { sample_type: SampleType::Float, ..WriteOptions::default() }).unwrap();
+    write_image(
+        &plain,
+        &image,
+        &WriteOptions {
+            sample_type: SampleType::Float,
+            ..WriteOptions::default()
+        },
+    )
+    .unwrap();
     let info = tool("iinfo", &["-v", s(&plain)]);
-    assert!(info.contains("12 x   10, 4 channel, float openexr") && info.contains("compression: \"zip\""), "{info}");
+    assert!(
+        info.contains("12 x   10, 4 channel, float openexr")
+            && info.contains("compression: \"zip\""),
+        "{info}"
+    );
     let stats = tool("oiiotool", &["--stats", s(&plain)]);
     assert_eq!(stats_line(&stats, "Stats Min:"), [0.25, 0.5, 0.75, 1.0]);
     assert_eq!(stats_line(&stats, "Stats Max:"), [0.25, 0.5, 0.75, 1.0]);
 
     let named = dir.join("named.exr");
-    write_image(&named, &image, &WriteOptions { output_layer: Some("Blur".into()), ..WriteOptions::default() })
-        .unwrap();
+    write_image(
+        &named,
+        &image,
+        &WriteOptions {
+            output_layer: Some("Blur".into()),
+            ..WriteOptions::default()
+        },
+    )
+    .unwrap();
     let info = tool("iinfo", &["-v", s(&named)]);
-    assert!(info.contains("half openexr") && info.contains("Blur.Combined.R"), "{info}");
+    assert!(
+        info.contains("half openexr") && info.contains("Blur.Combined.R"),
+        "{info}"
+    );
 
-    let front = Image::from_fn(12, 10, |x, _| if x < 6 { [0.5, 0.0, 0.0, 1.0] } else { [0.0; 4] });
+    let front = Image::from_fn(12, 10, |x, _| {
+        if x < 6 {
+            [0.5, 0.0, 0.0, 1.0]
+        } else {
+            [0.0; 4]
+        }
+    });
     let layers = vec![
-        Layer { name: "fg".into(), rgba: front, disparity: vec![0.5; 120] },
-        Layer { name: "bg".into(), rgba: image.clone(), disparity: vec![0.125; 120] },
+        Layer {
+            name: "fg".into(),
+            rgba: front,
+            disparity: vec![0.5; 120],
+        },
+        Layer {
+            name: "bg".into(),
+            rgba: image.clone(),
+            disparity: vec![0.125; 120],
+        },
     ];
     let stack_path = dir.join("stack.exr");
-    write_stack(&stack_path, &LayerStack::new(12, 10, layers).unwrap(), DepthKind::Z, StackNaming::BlenderMultilayer)
-        .unwrap();
+    write_stack(
+        &stack_path,
+        &LayerStack::new(12, 10, layers).unwrap(),
+        &StackWriteOptions {
+            depth_kind: DepthKind::Z,
+            naming: StackNaming::BlenderMultilayer,
+            camera: None,
+        },
+    )
+    .unwrap();
     let info = tool("iinfo", &["-v", s(&stack_path)]);
     for name in ["fg.Combined.R", "fg.Depth.Z", "bg.Combined.A", "bg.Depth.Z"] {
         assert!(info.contains(name), "{name} missing in:\n{info}");
     }
-    let depth = tool("oiiotool", &[s(&stack_path), "--ch", "fg.Depth.Z", "--printstats"]);
+    let depth = tool(
+        "oiiotool",
+        &[s(&stack_path), "--ch", "fg.Depth.Z", "--printstats"],
+    );
     // Covered pixels store z = 1/0.5 = 2; empty ones Blender's 1e10 sentinel.
     assert_eq!(stats_line(&depth, "Stats Min:"), [2.0]);
     assert_eq!(stats_line(&depth, "Stats Max:"), [1.0e10]);

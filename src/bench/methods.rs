@@ -8,15 +8,7 @@ use crate::render::scatter::render_scatter_cpu;
 use crate::render::Lens;
 use crate::{Error, Result};
 
-/// What a method may look at. Single-image methods must not read the true layers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum InputKind {
-    /// The true layer stack (`truth.layers`).
-    Layers,
-    /// The pinhole image and its disparity (`truth.pinhole`, `pinhole_disparity`).
-    SingleImage,
-}
+pub use crate::render::InputKind;
 
 /// One scene as handed to a method.
 pub struct BenchCase<'a> {

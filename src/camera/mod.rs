@@ -4,8 +4,10 @@
 //! of confusion of signed radius `K * (d - d_f)` pixels, positive when nearer than focus.
 //! Everything that turns a lens into pixels goes through [`CocModel`].
 mod aperture;
+pub(crate) mod hints;
 
 pub use aperture::{Aperture, ApertureGpu, KernelImage};
+pub use hints::CameraHints;
 
 use crate::{Error, Result};
 
@@ -33,7 +35,9 @@ impl PhysicalCamera {
         ];
         for (name, value) in checks {
             if !(value.is_finite() && value > 0.0) {
-                return Err(Error::param(format!("{name} must be a positive number, got {value}")));
+                return Err(Error::param(format!(
+                    "{name} must be a positive number, got {value}"
+                )));
             }
         }
         Ok(())
@@ -66,12 +70,19 @@ pub struct CocModel {
 impl CocModel {
     pub fn new(k_px: f32, focus_disparity: f32) -> Result<Self> {
         if !(k_px.is_finite() && k_px >= 0.0) {
-            return Err(Error::param(format!("blur K must be a non-negative number, got {k_px}")));
+            return Err(Error::param(format!(
+                "blur K must be a non-negative number, got {k_px}"
+            )));
         }
         if !focus_disparity.is_finite() {
-            return Err(Error::param(format!("focus disparity must be finite, got {focus_disparity}")));
+            return Err(Error::param(format!(
+                "focus disparity must be finite, got {focus_disparity}"
+            )));
         }
-        Ok(Self { k_px, focus_disparity })
+        Ok(Self {
+            k_px,
+            focus_disparity,
+        })
     }
 
     pub fn from_physical(camera: &PhysicalCamera, image_width_px: usize) -> Result<Self> {
@@ -121,14 +132,22 @@ mod tests {
     #[test]
     fn physical_k_matches_design_formula() {
         // 50 mm f/2 on a 36 mm sensor, 1000 px wide: K = (0.05/4) * (50/36) * 1000.
-        let cam = PhysicalCamera { focal_length_mm: 50.0, sensor_width_mm: 36.0, fstop: 2.0, focus_distance: 2.0 };
+        let cam = PhysicalCamera {
+            focal_length_mm: 50.0,
+            sensor_width_mm: 36.0,
+            fstop: 2.0,
+            focus_distance: 2.0,
+        };
         let coc = CocModel::from_physical(&cam, 1000).unwrap();
         let expected = 0.0125 * (50.0 / 36.0) * 1000.0;
         assert!((coc.k_px - expected).abs() < 1e-3 * expected);
         assert_eq!(coc.radius(0.5), 0.0, "the focus plane has no blur");
         // A point at 1 m: |1 - 0.5| * K.
         assert!((coc.radius(1.0) - 0.5 * expected).abs() < 1e-3 * expected);
-        assert!(coc.signed_radius(1.0) > 0.0, "nearer than focus is positive");
+        assert!(
+            coc.signed_radius(1.0) > 0.0,
+            "nearer than focus is positive"
+        );
     }
 
     #[test]
@@ -140,7 +159,12 @@ mod tests {
 
     #[test]
     fn invalid_cameras_are_refused() {
-        let cam = PhysicalCamera { focal_length_mm: 50.0, sensor_width_mm: 36.0, fstop: 0.0, focus_distance: 2.0 };
+        let cam = PhysicalCamera {
+            focal_length_mm: 50.0,
+            sensor_width_mm: 36.0,
+            fstop: 0.0,
+            focus_distance: 2.0,
+        };
         assert!(CocModel::from_physical(&cam, 100).is_err());
         assert!(CocModel::new(f32::NAN, 0.0).is_err());
     }

@@ -1,7 +1,7 @@
 //! Camera flags shared by `render`, `grad`, `fit-depth` and `example`: a physical camera or
 //! the normalised-disparity model, and the aperture shape; both resolve to one [`Lens`].
 use anyhow::{bail, Context as _};
-use lensblur::camera::{Aperture, CocModel, PhysicalCamera};
+use lensblur::camera::{Aperture, CameraHints, CocModel, PhysicalCamera};
 use lensblur::render::Lens;
 
 #[derive(clap::Args, Clone, Debug)]
@@ -9,9 +9,9 @@ pub struct CameraArgs {
     /// Focal length in mm (physical camera; Blender: Camera > Lens > Focal Length).
     #[arg(long, value_name = "MM", help_heading = "Camera")]
     pub focal_length: Option<f32>,
-    /// Sensor width in mm (physical camera; Blender's default is 36).
-    #[arg(long, value_name = "MM", default_value_t = 36.0, help_heading = "Camera")]
-    pub sensor_width: f32,
+    /// Sensor width in mm (physical camera) [default: from the file's header, else 36 as in Blender].
+    #[arg(long, value_name = "MM", help_heading = "Camera")]
+    pub sensor_width: Option<f32>,
     /// Aperture f-number (physical camera): the aperture radius is focal_length / (2 N).
     #[arg(long, value_name = "N", help_heading = "Camera")]
     pub fstop: Option<f32>,
@@ -25,41 +25,82 @@ pub struct CameraArgs {
     #[arg(long, value_name = "DF", help_heading = "Camera", requires = "blur")]
     pub focus_disparity: Option<f32>,
     /// Aperture shape: disk, polygon:BLADES[:rotation=DEG][:roundness=R], or image:FILE.
-    #[arg(long, value_name = "SHAPE", default_value = "disk", help_heading = "Camera")]
+    #[arg(
+        long,
+        value_name = "SHAPE",
+        default_value = "disk",
+        help_heading = "Camera"
+    )]
     pub aperture: String,
 }
 
+impl Default for CameraArgs {
+    /// No flags: everything from the file's header, disk aperture.
+    fn default() -> Self {
+        Self {
+            focal_length: None,
+            sensor_width: None,
+            fstop: None,
+            focus_distance: None,
+            blur: None,
+            focus_disparity: None,
+            aperture: "disk".into(),
+        }
+    }
+}
+
+/// The lens a command renders with, and the physical camera behind it (if one was given).
+pub struct ResolvedCamera {
+    pub lens: Lens,
+    pub physical: Option<PhysicalCamera>,
+}
+
+/// Sensor width when neither the flags nor the file say (Blender's default camera).
+const DEFAULT_SENSOR_WIDTH_MM: f32 = 36.0;
+
 impl CameraArgs {
-    /// The lens for an image `width_px` wide. `from_file` fills physical parameters the flags
-    /// leave out (camera attributes found in the input's header); flags win.
-    pub fn resolve(&self, width_px: usize, from_file: Option<&PhysicalCamera>) -> anyhow::Result<Lens> {
+    /// The lens for an image `width_px` wide. `header` fills physical parameters the flags
+    /// leave out (camera attributes found in the input file); flags win.
+    pub fn resolve(&self, width_px: usize, header: &CameraHints) -> anyhow::Result<ResolvedCamera> {
         let aperture = Aperture::parse(&self.aperture).context("--aperture")?;
-        let coc = match self.blur {
-            Some(k) => {
-                let Some(df) = self.focus_disparity else {
-                    bail!("--blur K needs --focus-disparity DF (the disparity that stays sharp)");
-                };
-                CocModel::new(k, df)?
-            }
-            None => CocModel::from_physical(&self.physical(from_file)?, width_px)?,
-        };
-        Ok(Lens { coc, aperture })
+        if let Some(k) = self.blur {
+            let Some(df) = self.focus_disparity else {
+                bail!("--blur K needs --focus-disparity DF (the disparity that stays sharp)");
+            };
+            return Ok(ResolvedCamera {
+                lens: Lens {
+                    coc: CocModel::new(k, df)?,
+                    aperture,
+                },
+                physical: None,
+            });
+        }
+        let physical = self.physical(header)?;
+        let coc = CocModel::from_physical(&physical, width_px)?;
+        Ok(ResolvedCamera {
+            lens: Lens { coc, aperture },
+            physical: Some(physical),
+        })
     }
 
-    fn physical(&self, from_file: Option<&PhysicalCamera>) -> anyhow::Result<PhysicalCamera> {
+    fn physical(&self, header: &CameraHints) -> anyhow::Result<PhysicalCamera> {
         let pick = |flag: Option<f32>, header: Option<f32>, name: &str| -> anyhow::Result<f32> {
             flag.or(header).with_context(|| {
                 format!(
-                    "missing --{name}: give a physical camera (--focal-length MM --fstop N --focus-distance D \
-                     [--sensor-width MM]) or the normalised model (--blur K --focus-disparity DF)"
+                    "missing --{name} (the file's header has no camera): give a physical camera \
+                     (--focal-length MM --fstop N --focus-distance D [--sensor-width MM]) or the \
+                     normalised model (--blur K --focus-disparity DF)"
                 )
             })
         };
         let camera = PhysicalCamera {
-            focal_length_mm: pick(self.focal_length, from_file.map(|c| c.focal_length_mm), "focal-length")?,
-            sensor_width_mm: self.sensor_width,
-            fstop: pick(self.fstop, from_file.map(|c| c.fstop), "fstop")?,
-            focus_distance: pick(self.focus_distance, from_file.map(|c| c.focus_distance), "focus-distance")?,
+            focal_length_mm: pick(self.focal_length, header.focal_length_mm, "focal-length")?,
+            sensor_width_mm: self
+                .sensor_width
+                .or(header.sensor_width_mm)
+                .unwrap_or(DEFAULT_SENSOR_WIDTH_MM),
+            fstop: pick(self.fstop, header.fstop, "fstop")?,
+            focus_distance: pick(self.focus_distance, header.focus_distance, "focus-distance")?,
         };
         camera.validate()?;
         Ok(camera)

@@ -5,11 +5,16 @@ use clap::{Parser, Subcommand};
 mod bench;
 mod camera_args;
 mod devices;
+mod example;
 mod info;
+mod input_args;
 mod raytrace;
+mod render;
 
 const EXAMPLES: &str = "\
 Examples:
+  lensblur example -o example-out       ray-trace a built-in scene, render it, compare
+  lensblur render shot.exr -o out.exr --focal-length 50 --fstop 2 --focus-distance 3
   lensblur devices                      list Vulkan devices, mark the one in use
   lensblur info shot.exr                every layer and channel of a file, depth ranges
   lensblur raytrace --list              the built-in ground-truth scenes
@@ -27,6 +32,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Render a layer stack (EXR, or PNG/JPEG + depth) with lens blur; write EXR or PNG/JPEG.
+    Render(render::Args),
+    /// Ray-trace a built-in scene, render its layers, compare with the ground truth.
+    Example(example::Args),
     /// List the Vulkan devices and the one lensblur would use.
     Devices(devices::Args),
     /// Describe a file: layers, channels, data windows, depth ranges, camera attributes.
@@ -40,6 +49,8 @@ enum Command {
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Render(args) => render::run(args),
+        Command::Example(args) => example::run(args),
         Command::Devices(args) => devices::run(args),
         Command::Info(args) => info::run(args),
         Command::Raytrace(args) => raytrace::run(args),

@@ -2,11 +2,14 @@
 //! `glsl/<method>_<pass>.comp`) and a CPU reference of the same math, used by tests.
 use crate::camera::{Aperture, CocModel};
 
+pub use method::{InputKind, Method};
+
 pub mod disk;
 pub mod drbokeh;
 pub mod gather;
 pub mod grad;
 pub mod lens_samples;
+pub mod method;
 pub mod multiview;
 pub mod oracle;
 pub mod scatter;

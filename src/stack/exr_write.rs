@@ -3,12 +3,16 @@
 //! Files appear atomically: written to a temporary file beside the target, then renamed.
 use std::path::{Path, PathBuf};
 
+use exr::meta::attribute::{AttributeValue, Text};
 use exr::prelude::{
-    f16, AnyChannel, AnyChannels, Compression, Encoding, FlatSamples, LayerAttributes, LineOrder, WritableImage,
+    f16, AnyChannel, AnyChannels, Compression, Encoding, FlatSamples, LayerAttributes, LineOrder,
+    WritableImage,
 };
 
 use super::info::{ExtraChannel, SampleType};
 use super::{DepthKind, LayerStack};
+use crate::camera::hints::{FOCAL_LENGTH_ATTRIBUTE, SENSOR_WIDTH_ATTRIBUTE};
+use crate::camera::PhysicalCamera;
 use crate::image::Image;
 use crate::{Error, Result};
 
@@ -21,6 +25,17 @@ pub struct WriteOptions {
     pub sample_type: SampleType,
     /// Channels copied through unchanged (never blurred), each display-window sized.
     pub extra_channels: Vec<ExtraChannel>,
+    /// Camera parameters stamped into the header (see [`crate::camera::CameraHints`]).
+    pub camera: Option<PhysicalCamera>,
+}
+
+/// How [`write_stack`] names and stores a stack.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StackWriteOptions {
+    pub naming: StackNaming,
+    pub depth_kind: DepthKind,
+    /// Camera parameters stamped into the header, so the file renders without camera flags.
+    pub camera: Option<PhysicalCamera>,
 }
 
 /// Channel naming of a written stack.
@@ -39,8 +54,12 @@ impl StackNaming {
     pub fn for_convention(convention: super::naming::Convention) -> Self {
         use super::naming::Convention;
         match convention {
-            Convention::BlenderMultilayer | Convention::BlenderFileOutput => StackNaming::BlenderMultilayer,
-            Convention::LayerDotChannel | Convention::Unprefixed | Convention::MultiPart => StackNaming::LayerDotChannel,
+            Convention::BlenderMultilayer | Convention::BlenderFileOutput => {
+                StackNaming::BlenderMultilayer
+            }
+            Convention::LayerDotChannel | Convention::Unprefixed | Convention::MultiPart => {
+                StackNaming::LayerDotChannel
+            }
         }
     }
 }
@@ -48,17 +67,28 @@ impl StackNaming {
 fn samples(values: Vec<f32>, sample_type: SampleType) -> Result<FlatSamples> {
     match sample_type {
         SampleType::Float => Ok(FlatSamples::F32(values)),
-        SampleType::Half => Ok(FlatSamples::F16(values.into_iter().map(f16::from_f32).collect())),
-        SampleType::Uint => Err(Error::param("colour cannot be written as unsigned integers; use half or float")),
+        SampleType::Half => Ok(FlatSamples::F16(
+            values.into_iter().map(f16::from_f32).collect(),
+        )),
+        SampleType::Uint => Err(Error::param(
+            "colour cannot be written as unsigned integers; use half or float",
+        )),
     }
 }
 
-fn rgba_channels(image: &Image, prefix: &str, sample_type: SampleType) -> Result<Vec<AnyChannel<FlatSamples>>> {
+fn rgba_channels(
+    image: &Image,
+    prefix: &str,
+    sample_type: SampleType,
+) -> Result<Vec<AnyChannel<FlatSamples>>> {
     (0..4)
         .zip(["R", "G", "B", "A"])
         .map(|(c, name)| {
             let values = image.pixels.iter().map(|p| p[c]).collect();
-            Ok(AnyChannel::new(format!("{prefix}{name}").as_str(), samples(values, sample_type)?))
+            Ok(AnyChannel::new(
+                format!("{prefix}{name}").as_str(),
+                samples(values, sample_type)?,
+            ))
         })
         .collect()
 }
@@ -80,25 +110,43 @@ fn extra_channel(extra: &ExtraChannel, pixels: usize) -> Result<AnyChannel<FlatS
 
 /// Writes one image (plain or Blender-named RGBA plus pass-through channels).
 pub fn write_image(path: &Path, image: &Image, options: &WriteOptions) -> Result<()> {
-    let prefix = options.output_layer.as_ref().map(|n| format!("{n}.Combined.")).unwrap_or_default();
+    let prefix = options
+        .output_layer
+        .as_ref()
+        .map(|n| format!("{n}.Combined."))
+        .unwrap_or_default();
     let mut channels = rgba_channels(image, &prefix, options.sample_type)?;
     for extra in &options.extra_channels {
         if channels.iter().any(|c| c.name.to_string() == extra.name) {
-            return Err(Error::param(format!("pass-through channel '{}' collides with an output channel", extra.name)));
+            return Err(Error::param(format!(
+                "pass-through channel '{}' collides with an output channel",
+                extra.name
+            )));
         }
         channels.push(extra_channel(extra, image.width * image.height)?);
     }
-    write_channels(path, image.width, image.height, channels)
+    write_channels(
+        path,
+        image.width,
+        image.height,
+        channels,
+        options.camera.as_ref(),
+    )
 }
 
 /// Writes a layer stack, one named layer per stack layer, depth in `depth_kind`; where a
 /// layer is empty (alpha 0) depth is the far value (Z = 1e10, as Blender writes it).
-pub fn write_stack(path: &Path, stack: &LayerStack, depth_kind: DepthKind, naming: StackNaming) -> Result<()> {
+pub fn write_stack(path: &Path, stack: &LayerStack, options: &StackWriteOptions) -> Result<()> {
     let mut channels = Vec::new();
     for layer in &stack.layers {
-        let (colour, depth) = match naming {
-            StackNaming::BlenderMultilayer => (format!("{}.Combined.", layer.name), format!("{}.Depth.Z", layer.name)),
-            StackNaming::LayerDotChannel => (format!("{}.", layer.name), format!("{}.Z", layer.name)),
+        let (colour, depth) = match options.naming {
+            StackNaming::BlenderMultilayer => (
+                format!("{}.Combined.", layer.name),
+                format!("{}.Depth.Z", layer.name),
+            ),
+            StackNaming::LayerDotChannel => {
+                (format!("{}.", layer.name), format!("{}.Z", layer.name))
+            }
         };
         channels.extend(rgba_channels(&layer.rgba, &colour, SampleType::Float)?);
         let stored = layer
@@ -106,20 +154,60 @@ pub fn write_stack(path: &Path, stack: &LayerStack, depth_kind: DepthKind, namin
             .pixels
             .iter()
             .zip(&layer.disparity)
-            .map(|(p, &d)| depth_kind.from_disparity(if p[3] > 0.0 { d } else { 0.0 }))
+            .map(|(p, &d)| {
+                options
+                    .depth_kind
+                    .from_disparity(if p[3] > 0.0 { d } else { 0.0 })
+            })
             .collect();
         channels.push(AnyChannel::new(depth.as_str(), FlatSamples::F32(stored)));
     }
-    write_channels(path, stack.width, stack.height, channels)
+    write_channels(
+        path,
+        stack.width,
+        stack.height,
+        channels,
+        options.camera.as_ref(),
+    )
 }
 
-fn write_channels(path: &Path, width: usize, height: usize, channels: Vec<AnyChannel<FlatSamples>>) -> Result<()> {
+/// Header attributes holding a camera, named as [`crate::camera::CameraHints`] reads them.
+fn camera_attributes(camera: Option<&PhysicalCamera>) -> LayerAttributes {
+    let mut attributes = LayerAttributes::default();
+    if let Some(camera) = camera {
+        attributes.focus = Some(camera.focus_distance);
+        attributes.aperture = Some(camera.fstop);
+        for (name, value) in [
+            (FOCAL_LENGTH_ATTRIBUTE, camera.focal_length_mm),
+            (SENSOR_WIDTH_ATTRIBUTE, camera.sensor_width_mm),
+        ] {
+            attributes
+                .other
+                .insert(Text::from(name), AttributeValue::F32(value));
+        }
+    }
+    attributes
+}
+
+fn write_channels(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: Vec<AnyChannel<FlatSamples>>,
+    camera: Option<&PhysicalCamera>,
+) -> Result<()> {
     if width == 0 || height == 0 {
         return Err(Error::param("cannot write an empty image"));
     }
     let mut seen = std::collections::HashSet::new();
-    if let Some(dup) = channels.iter().map(|c| c.name.to_string()).find(|n| !seen.insert(n.clone())) {
-        return Err(Error::param(format!("channel '{dup}' would be written twice (duplicate layer names?)")));
+    if let Some(dup) = channels
+        .iter()
+        .map(|c| c.name.to_string())
+        .find(|n| !seen.insert(n.clone()))
+    {
+        return Err(Error::param(format!(
+            "channel '{dup}' would be written twice (duplicate layer names?)"
+        )));
     }
     let encoding = Encoding {
         compression: Compression::ZIP16,
@@ -128,24 +216,40 @@ fn write_channels(path: &Path, width: usize, height: usize, channels: Vec<AnyCha
     };
     let layer = exr::prelude::Layer::new(
         (width, height),
-        LayerAttributes::default(),
+        camera_attributes(camera),
         encoding,
         AnyChannels::sort(channels.into()),
     );
     let image = exr::prelude::Image::from_layer(layer);
     write_atomically(path, |tmp| {
-        image.write().to_file(tmp).map_err(|e| Error::input(path, format!("cannot write EXR: {e}")))
+        image
+            .write()
+            .to_file(tmp)
+            .map_err(|e| Error::input(path, format!("cannot write EXR: {e}")))
     })
 }
 
 /// Runs `write` on a temporary path in the target's directory and renames it into place,
 /// so readers never see a half-written file and failures leave nothing behind.
 pub(crate) fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let file_name = path.file_name().ok_or_else(|| Error::input(path, "output path has no file name"))?;
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let tmp: PathBuf = dir.join(format!(".{}.{}.tmp", file_name.to_string_lossy(), std::process::id()));
-    let result = write(&tmp)
-        .and_then(|()| std::fs::rename(&tmp, path).map_err(|source| Error::Io { path: path.to_path_buf(), source }));
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| Error::input(path, "output path has no file name"))?;
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let tmp: PathBuf = dir.join(format!(
+        ".{}.{}.tmp",
+        file_name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = write(&tmp).and_then(|()| {
+        std::fs::rename(&tmp, path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    });
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }

@@ -41,9 +41,15 @@ fn open(path: &Path) -> Result<image::DynamicImage> {
         return Err(Error::input(path, "file not found"));
     }
     image::ImageReader::open(path)
-        .map_err(|source| Error::Io { path: path.to_path_buf(), source })?
+        .map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
         .with_guessed_format()
-        .map_err(|source| Error::Io { path: path.to_path_buf(), source })?
+        .map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
         .decode()
         .map_err(|e| Error::input(path, format!("cannot decode image: {e}")))
 }
@@ -51,9 +57,17 @@ fn open(path: &Path) -> Result<image::DynamicImage> {
 /// Depth image samples normalised to [0, 1] (8- or 16-bit, first channel of grey images).
 fn depth_values(depth: &image::DynamicImage) -> Vec<f32> {
     if depth.color().bits_per_pixel() / u16::from(depth.color().channel_count()) > 8 {
-        depth.to_luma16().pixels().map(|p| f32::from(p.0[0]) / 65535.0).collect()
+        depth
+            .to_luma16()
+            .pixels()
+            .map(|p| f32::from(p.0[0]) / 65535.0)
+            .collect()
     } else {
-        depth.to_luma8().pixels().map(|p| f32::from(p.0[0]) / 255.0).collect()
+        depth
+            .to_luma8()
+            .pixels()
+            .map(|p| f32::from(p.0[0]) / 255.0)
+            .collect()
     }
 }
 
@@ -67,14 +81,23 @@ pub fn read_ldr(path: &Path, depth_path: &Path, depth_kind: DepthKind) -> Result
     if (depth.width() as usize, depth.height() as usize) != (w, h) {
         return Err(Error::input(
             depth_path,
-            format!("depth is {}x{} but the image is {w}x{h}", depth.width(), depth.height()),
+            format!(
+                "depth is {}x{} but the image is {w}x{h}",
+                depth.width(),
+                depth.height()
+            ),
         ));
     }
     let pixels = colour
         .pixels()
         .map(|p| {
             let [r, g, b, a] = p.0;
-            [srgb_to_linear(r) * a, srgb_to_linear(g) * a, srgb_to_linear(b) * a, a]
+            [
+                srgb_to_linear(r) * a,
+                srgb_to_linear(g) * a,
+                srgb_to_linear(b) * a,
+                a,
+            ]
         })
         .collect();
     let disparity = depth_values(&depth)
@@ -84,27 +107,76 @@ pub fn read_ldr(path: &Path, depth_path: &Path, depth_kind: DepthKind) -> Result
             kind => kind.to_disparity(v),
         })
         .collect();
-    Ok(LdrInput { image: Image { width: w, height: h, pixels }, disparity })
+    Ok(LdrInput {
+        image: Image {
+            width: w,
+            height: h,
+            pixels,
+        },
+        disparity,
+    })
 }
 
 /// Writes an 8-bit sRGB PNG preview (un-premultiplied, clipped to [0, 1]).
 pub fn write_png_preview(path: &Path, image: &Image) -> Result<()> {
+    write_encoded(path, image, image::ImageFormat::Png)
+}
+
+/// Whether `path` names an 8-bit format [`write_ldr`] writes (PNG or JPEG, by extension).
+pub fn is_ldr_path(path: &Path) -> bool {
+    ldr_format(path).is_some()
+}
+
+fn ldr_format(path: &Path) -> Option<image::ImageFormat> {
+    match path.extension()?.to_str()?.to_ascii_lowercase().as_str() {
+        "png" => Some(image::ImageFormat::Png),
+        "jpg" | "jpeg" => Some(image::ImageFormat::Jpeg),
+        _ => None,
+    }
+}
+
+/// Writes an 8-bit sRGB PNG (with alpha) or JPEG (over black), chosen by the extension:
+/// the LDR counterpart of the linear inputs `read_ldr` takes.
+pub fn write_ldr(path: &Path, image: &Image) -> Result<()> {
+    let format = ldr_format(path)
+        .ok_or_else(|| Error::input(path, "8-bit output must end in .png, .jpg or .jpeg"))?;
+    write_encoded(path, image, format)
+}
+
+fn write_encoded(path: &Path, image: &Image, format: image::ImageFormat) -> Result<()> {
     let encode = |v: f32| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0).round() as u8;
+    let with_alpha = format != image::ImageFormat::Jpeg;
     let mut bytes = Vec::with_capacity(image.pixels.len() * 4);
     for p in &image.pixels {
         let a = p[3].clamp(0.0, 1.0);
-        let straight = |c: f32| if a > 0.0 { c / a } else { 0.0 };
+        // PNG stores straight alpha; JPEG has none, so it gets the premultiplied colour (over black).
+        let straight = |c: f32| {
+            if !with_alpha {
+                c
+            } else if a > 0.0 {
+                c / a
+            } else {
+                0.0
+            }
+        };
         bytes.extend_from_slice(&[
             encode(straight(p[0])),
             encode(straight(p[1])),
             encode(straight(p[2])),
-            (a * 255.0).round() as u8,
         ]);
+        if with_alpha {
+            bytes.push((a * 255.0).round() as u8);
+        }
     }
+    let colour = if with_alpha {
+        image::ExtendedColorType::Rgba8
+    } else {
+        image::ExtendedColorType::Rgb8
+    };
     let (w, h) = (image.width as u32, image.height as u32);
     write_atomically(path, |tmp| {
-        image::save_buffer_with_format(tmp, &bytes, w, h, image::ExtendedColorType::Rgba8, image::ImageFormat::Png)
-            .map_err(|e| Error::input(path, format!("cannot write PNG: {e}")))
+        image::save_buffer_with_format(tmp, &bytes, w, h, colour, format)
+            .map_err(|e| Error::input(path, format!("cannot write {format:?}: {e}")))
     })
 }
 

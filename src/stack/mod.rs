@@ -14,9 +14,9 @@ pub mod naming;
 
 pub use autolayer::{split_into_layers, AutoLayerOptions};
 pub use exr_read::{read_parts, read_stack, ReadOptions};
-pub use exr_write::{write_image, write_stack, StackNaming, WriteOptions};
+pub use exr_write::{write_image, write_stack, StackNaming, StackWriteOptions, WriteOptions};
 pub use info::{ExtraChannel, LayerInfo, SampleType, StackFile, StackInfo, Window};
-pub use ldr::{read_ldr, write_png_preview, LdrInput};
+pub use ldr::{is_ldr_path, read_ldr, write_ldr, write_png_preview, LdrInput};
 pub use naming::Convention;
 
 use crate::image::Image;
@@ -60,7 +60,9 @@ impl DepthKind {
     #[inline]
     pub fn disparity_derivative(self, stored: f32) -> f32 {
         match self {
-            DepthKind::Z if stored < crate::camera::FAR_DEPTH_SENTINEL && stored.is_finite() => -1.0 / (stored * stored),
+            DepthKind::Z if stored < crate::camera::FAR_DEPTH_SENTINEL && stored.is_finite() => {
+                -1.0 / (stored * stored)
+            }
             DepthKind::Z => 0.0,
             DepthKind::Disparity | DepthKind::InverseZ => 1.0,
         }
@@ -74,7 +76,9 @@ impl std::str::FromStr for DepthKind {
             "z" => Ok(DepthKind::Z),
             "disparity" => Ok(DepthKind::Disparity),
             "inverse-z" | "inverse_z" | "1/z" => Ok(DepthKind::InverseZ),
-            other => Err(Error::param(format!("unknown depth kind '{other}' (expected z, disparity or inverse-z)"))),
+            other => Err(Error::param(format!(
+                "unknown depth kind '{other}' (expected z, disparity or inverse-z)"
+            ))),
         }
     }
 }
@@ -100,14 +104,21 @@ pub struct LayerStack {
 impl LayerStack {
     pub fn new(width: usize, height: usize, layers: Vec<Layer>) -> Result<Self> {
         for layer in &layers {
-            if layer.rgba.width != width || layer.rgba.height != height || layer.disparity.len() != width * height {
+            if layer.rgba.width != width
+                || layer.rgba.height != height
+                || layer.disparity.len() != width * height
+            {
                 return Err(Error::param(format!(
                     "layer '{}' is {}x{} but the stack is {width}x{height}",
                     layer.name, layer.rgba.width, layer.rgba.height
                 )));
             }
         }
-        Ok(Self { width, height, layers })
+        Ok(Self {
+            width,
+            height,
+            layers,
+        })
     }
 
     /// Smallest and largest disparity over all pixels of all layers.
@@ -115,7 +126,40 @@ impl LayerStack {
         self.layers
             .iter()
             .flat_map(|l| l.disparity.iter().copied())
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| (lo.min(d), hi.max(d)))
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| {
+                (lo.min(d), hi.max(d))
+            })
+    }
+
+    /// The stack as one image: colour composited front to back with "over", disparity of
+    /// the nearest layer that covers at least half of the pixel (else the nearest covering
+    /// layer, else 0 = far). Exact for a single opaque layer.
+    pub fn flatten(&self) -> (Image, Vec<f32>) {
+        let n = self.width * self.height;
+        let mut image = Image::new(self.width, self.height);
+        let mut disparity = vec![0.0f32; n];
+        for i in 0..n {
+            let (mut rgba, mut chosen) = ([0.0f32; 4], None);
+            for layer in &self.layers {
+                let p = layer.rgba.pixels[i];
+                let transmitted = 1.0 - rgba[3];
+                for c in 0..4 {
+                    rgba[c] += transmitted * p[c];
+                }
+                if chosen.is_none() && p[3] > 0.0 && (p[3] >= 0.5 || rgba[3] >= 0.5) {
+                    chosen = Some(layer.disparity[i]);
+                }
+            }
+            let fallback = || {
+                self.layers
+                    .iter()
+                    .find(|l| l.rgba.pixels[i][3] > 0.0)
+                    .map(|l| l.disparity[i])
+            };
+            image.pixels[i] = rgba;
+            disparity[i] = chosen.or_else(fallback).unwrap_or(0.0);
+        }
+        (image, disparity)
     }
 
     /// Orders layers front to back by their alpha-weighted mean disparity.
@@ -126,7 +170,11 @@ impl LayerStack {
                 sum += (p[3] * d) as f64;
                 weight += p[3] as f64;
             }
-            if weight > 0.0 { sum / weight } else { 0.0 }
+            if weight > 0.0 {
+                sum / weight
+            } else {
+                0.0
+            }
         };
         self.layers.sort_by(|a, b| key(b).total_cmp(&key(a)));
     }

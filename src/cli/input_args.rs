@@ -1,0 +1,162 @@
+//! Input flags shared by `render`, `grad` and `fit-depth`: which file, which layers, how
+//! depth is encoded, and how a single image is split into layers. Loading resolves the camera
+//! too, because auto-layering spaces layers by CoC.
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context as _};
+use lensblur::camera::CameraHints;
+use lensblur::render::InputKind;
+use lensblur::stack::{
+    is_ldr_path, read_ldr, read_stack, split_into_layers, AutoLayerOptions, DepthKind, Layer,
+    LayerStack, ReadOptions, StackInfo,
+};
+
+use super::camera_args::{CameraArgs, ResolvedCamera};
+
+#[derive(clap::Args, Clone, Debug)]
+pub struct InputArgs {
+    /// Layers to use, by name or glob (`fg*`), comma-separated, any order (they are sorted
+    /// front to back by depth). Default: every layer with colour, alpha and depth.
+    #[arg(
+        long,
+        value_name = "NAME,...",
+        value_delimiter = ',',
+        help_heading = "Input"
+    )]
+    pub layers: Option<Vec<String>>,
+    /// How depth is stored: z (planar, 1e10/inf = far), disparity (normalised, 1 = near) or
+    /// inverse-z (1/z, 0 = far). [default: z for EXR, disparity for a --depth image]
+    #[arg(long, value_name = "KIND", help_heading = "Input")]
+    pub depth_kind: Option<DepthKind>,
+    /// Depth image (PNG, 8/16-bit grey) for a PNG/JPEG input; values in [0, 1] per --depth-kind.
+    #[arg(long, value_name = "FILE", help_heading = "Input")]
+    pub depth: Option<PathBuf>,
+    /// Auto-layering of a single image: CoC spacing between layers, in pixels (Lee et al. 2009).
+    #[arg(long, value_name = "PX", help_heading = "Input")]
+    pub layer_spacing: Option<f32>,
+    /// Auto-layering of a single image: most layers to cut it into.
+    #[arg(long, value_name = "N", help_heading = "Input")]
+    pub max_layers: Option<usize>,
+}
+
+/// A loaded input, ready for a renderer.
+pub struct LoadedInput {
+    pub stack: LayerStack,
+    /// Header facts of an EXR input (None for PNG/JPEG).
+    pub info: Option<StackInfo>,
+    pub depth_kind: DepthKind,
+    pub camera: ResolvedCamera,
+    /// The single input image was split into this many layers.
+    pub auto_layered: Option<usize>,
+    pub read_time: Duration,
+    pub layering_time: Duration,
+}
+
+impl InputArgs {
+    /// Reads `path`, resolves the camera and, when `input` wants layers and the file holds
+    /// one image, splits it into layers.
+    pub fn load(
+        &self,
+        path: &Path,
+        camera: &CameraArgs,
+        input: InputKind,
+    ) -> anyhow::Result<LoadedInput> {
+        let start = Instant::now();
+        let (stack, info, depth_kind) = self.read(path)?;
+        let read_time = start.elapsed();
+        let hints = info
+            .as_ref()
+            .map(|i| CameraHints::from_attributes(&i.camera))
+            .unwrap_or_default();
+        let camera = camera.resolve(stack.width, &hints)?;
+        let start = Instant::now();
+        let single = info.as_ref().map_or(true, |i| i.single_image) && stack.layers.len() == 1;
+        let (stack, auto_layered) = if single && input == InputKind::Layers {
+            let layered = split_into_layers(
+                &stack.layers[0].rgba,
+                &stack.layers[0].disparity,
+                &camera.lens.coc,
+                &self.auto_layer_options(),
+            );
+            let count = layered.layers.len();
+            (layered, Some(count))
+        } else {
+            (stack, None)
+        };
+        Ok(LoadedInput {
+            stack,
+            info,
+            depth_kind,
+            camera,
+            auto_layered,
+            read_time,
+            layering_time: start.elapsed(),
+        })
+    }
+
+    fn read(&self, path: &Path) -> anyhow::Result<(LayerStack, Option<StackInfo>, DepthKind)> {
+        if is_ldr_path(path) {
+            let Some(depth_path) = &self.depth else {
+                bail!(
+                    "{}: a PNG/JPEG input needs its depth image: --depth DEPTH.png",
+                    path.display()
+                );
+            };
+            if self.layers.is_some() {
+                bail!(
+                    "--layers selects layers of an EXR; {} is a single image",
+                    path.display()
+                );
+            }
+            let kind = self.depth_kind.unwrap_or(DepthKind::Disparity);
+            let ldr = read_ldr(path, depth_path, kind)?;
+            let (w, h) = (ldr.image.width, ldr.image.height);
+            let layer = Layer {
+                name: "image".into(),
+                rgba: ldr.image,
+                disparity: ldr.disparity,
+            };
+            return Ok((LayerStack::new(w, h, vec![layer])?, None, kind));
+        }
+        if self.depth.is_some() {
+            bail!(
+                "--depth is for PNG/JPEG inputs; {} carries its depth in its channels",
+                path.display()
+            );
+        }
+        let kind = self.depth_kind.unwrap_or(DepthKind::Z);
+        let options = ReadOptions {
+            layers: self.layers.clone(),
+            depth_kind: kind,
+            ..ReadOptions::default()
+        };
+        let file =
+            read_stack(path, &options).with_context(|| format!("reading {}", path.display()))?;
+        Ok((file.stack, Some(file.info), kind))
+    }
+
+    fn auto_layer_options(&self) -> AutoLayerOptions {
+        let defaults = AutoLayerOptions::default();
+        AutoLayerOptions {
+            coc_spacing_px: self.layer_spacing.unwrap_or(defaults.coc_spacing_px),
+            max_layers: self.max_layers.unwrap_or(defaults.max_layers),
+            ..defaults
+        }
+    }
+}
+
+/// Refuses to overwrite an input: compositors call us with generated paths, and a typo that
+/// points the output at the source would destroy it.
+pub fn check_output_is_not_input(output: &Path, inputs: &[&Path]) -> anyhow::Result<()> {
+    let canonical = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    for input in inputs {
+        if output.exists() && canonical(output) == canonical(input) {
+            bail!(
+                "output {} is the input file; choose another -o path",
+                output.display()
+            );
+        }
+    }
+    Ok(())
+}

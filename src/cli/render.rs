@@ -1,0 +1,294 @@
+//! `lensblur render FILE -o OUT`: read a stack, render it with one method, write the result.
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::Context as _;
+use indicatif::{ProgressBar, ProgressStyle};
+use lensblur::image::Image;
+use lensblur::render::{Lens, Method};
+use lensblur::stack::{
+    is_ldr_path, write_image, write_ldr, write_png_preview, LayerStack, SampleType, WriteOptions,
+};
+use lensblur::vk::Context;
+
+use super::camera_args::CameraArgs;
+use super::input_args::{check_output_is_not_input, InputArgs, LoadedInput};
+
+const EXAMPLES: &str = "\
+Examples:
+  lensblur render shot.exr -o blurred.exr --focal-length 50 --fstop 1.4 --focus-distance 3
+  lensblur render shot.exr -o blurred.exr --layers 'fg*,bg' --aperture polygon:6:rotation=15
+  lensblur render shot.exr -o comp.exr --output-layer Defocus --keep-channels --half
+  lensblur render photo.jpg --depth depth.png -o out.jpg --blur 40 --focus-disparity 0.7
+  lensblur render example-out/layers.exr -o out.exr --json      (camera read from the header)
+
+Input: Blender multilayer EXR (<ViewLayer>.Combined.RGBA + <ViewLayer>.Depth.Z), OpenEXR/OIIO/Nuke
+layer.R,G,B,A,Z, multi-part (one layer per part), plain R,G,B,A,Z; or PNG/JPEG + --depth. A single
+image is split into layers automatically for layered methods. Output: EXR (plain R,G,B,A, linear,
+premultiplied) or, for .png/.jpg, 8-bit sRGB. Files appear atomically; the input is never overwritten.";
+
+#[derive(clap::Args)]
+#[command(after_help = EXAMPLES)]
+pub struct Args {
+    /// Layered EXR, or PNG/JPEG with --depth.
+    pub input: PathBuf,
+    /// Output file: .exr (linear) or .png/.jpg (8-bit sRGB).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    /// Rendering method: drbokeh, drbokeh-compat, multiview, vdslr, oracle, gather, scatter.
+    #[arg(long, default_value = "drbokeh", help_heading = "Output")]
+    pub method: Method,
+    /// Write colour as NAME.Combined.R,G,B,A (what Blender's Image node reads as a layer).
+    #[arg(long, value_name = "NAME", help_heading = "Output")]
+    pub output_layer: Option<String>,
+    /// Write colour as half floats (default: 32-bit float).
+    #[arg(long, help_heading = "Output")]
+    pub half: bool,
+    /// Copy the input's other channels (cryptomatte, passes) to the output, unblurred.
+    #[arg(long, help_heading = "Output")]
+    pub keep_channels: bool,
+    /// Also write an 8-bit sRGB PNG preview.
+    #[arg(long, value_name = "FILE.png", help_heading = "Output")]
+    pub preview: Option<PathBuf>,
+    /// Print a JSON report (layers and their order, CoC range, timings) on stdout.
+    #[arg(long, help_heading = "Output")]
+    pub json: bool,
+}
+
+/// What `--json` prints.
+#[derive(serde::Serialize)]
+struct Report<'a> {
+    input: &'a Path,
+    output: &'a Path,
+    method: Method,
+    device: Option<String>,
+    width: usize,
+    height: usize,
+    k_px: f32,
+    focus_disparity: f32,
+    camera: Option<lensblur::camera::PhysicalCamera>,
+    depth_kind: lensblur::stack::DepthKind,
+    auto_layered: bool,
+    /// Front to back.
+    layers: Vec<LayerReport>,
+    coc_range_px: [f32; 2],
+    timings_ms: Timings,
+}
+
+#[derive(serde::Serialize)]
+struct LayerReport {
+    name: String,
+    disparity_range: [f32; 2],
+    coc_range_px: [f32; 2],
+}
+
+#[derive(serde::Serialize)]
+struct Timings {
+    read: f64,
+    layering: f64,
+    render: f64,
+    write: f64,
+    total: f64,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let total = Instant::now();
+    check_output_is_not_input(&args.output, &[&args.input])?;
+    let spinner = spinner(&args);
+    spinner.set_message(format!("reading {}", args.input.display()));
+    let loaded = args
+        .input_args
+        .load(&args.input, &args.camera, args.method.input())?;
+    let ctx = if args.method.uses_gpu() {
+        Some(Context::from_env().context("opening the Vulkan device")?)
+    } else {
+        None
+    };
+    spinner.set_message(format!(
+        "rendering {} layer(s) with {}",
+        loaded.stack.layers.len(),
+        args.method
+    ));
+    let start = Instant::now();
+    let image = args
+        .method
+        .render(ctx.as_ref(), &loaded.stack, &loaded.camera.lens)
+        .with_context(|| format!("rendering {} with {}", args.input.display(), args.method))?;
+    let render_time = start.elapsed();
+    spinner.set_message(format!("writing {}", args.output.display()));
+    let start = Instant::now();
+    write_output(&args, &loaded, &image)?;
+    let write_time = start.elapsed();
+    spinner.finish_and_clear();
+    let device = ctx.as_ref().map(|c| c.info().name.clone());
+    if let Some(ctx) = ctx {
+        ctx.finish()?;
+    }
+    let timings = Timings {
+        read: ms(loaded.read_time),
+        layering: ms(loaded.layering_time),
+        render: ms(render_time),
+        write: ms(write_time),
+        total: ms(total.elapsed()),
+    };
+    let report = report(&args, &loaded, device, timings);
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_summary(&report);
+    }
+    Ok(())
+}
+
+fn spinner(args: &Args) -> ProgressBar {
+    let bar = if args.json {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new_spinner()
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {msg} {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(Duration::from_millis(120));
+    bar
+}
+
+fn write_output(args: &Args, loaded: &LoadedInput, image: &Image) -> anyhow::Result<()> {
+    if is_ldr_path(&args.output) {
+        if args.output_layer.is_some() || args.keep_channels || args.half {
+            anyhow::bail!(
+                "--output-layer, --keep-channels and --half apply to EXR output; {} is 8-bit",
+                args.output.display()
+            );
+        }
+        write_ldr(&args.output, image)?;
+    } else {
+        let extra_channels = match (&loaded.info, args.keep_channels) {
+            (Some(info), true) => info.extra_channels.clone(),
+            _ => Vec::new(),
+        };
+        let options = WriteOptions {
+            output_layer: args.output_layer.clone(),
+            sample_type: if args.half {
+                SampleType::Half
+            } else {
+                SampleType::Float
+            },
+            extra_channels,
+            camera: loaded.camera.physical,
+        };
+        write_image(&args.output, image, &options)
+            .with_context(|| format!("writing {}", args.output.display()))?;
+    }
+    if let Some(preview) = &args.preview {
+        write_png_preview(preview, image)
+            .with_context(|| format!("writing {}", preview.display()))?;
+    }
+    Ok(())
+}
+
+fn report<'a>(
+    args: &'a Args,
+    loaded: &LoadedInput,
+    device: Option<String>,
+    timings_ms: Timings,
+) -> Report<'a> {
+    let layers = layer_reports(&loaded.stack, &loaded.camera.lens);
+    let coc_range_px = layers.iter().fold([f32::INFINITY, 0.0f32], |[lo, hi], l| {
+        [lo.min(l.coc_range_px[0]), hi.max(l.coc_range_px[1])]
+    });
+    Report {
+        input: &args.input,
+        output: &args.output,
+        method: args.method,
+        device,
+        width: loaded.stack.width,
+        height: loaded.stack.height,
+        k_px: loaded.camera.lens.coc.k_px,
+        focus_disparity: loaded.camera.lens.coc.focus_disparity,
+        camera: loaded.camera.physical,
+        depth_kind: loaded.depth_kind,
+        auto_layered: loaded.auto_layered.is_some(),
+        layers,
+        coc_range_px: if coc_range_px[0].is_finite() {
+            coc_range_px
+        } else {
+            [0.0, 0.0]
+        },
+        timings_ms,
+    }
+}
+
+/// Disparity and CoC ranges over each layer's covered pixels (alpha > 0).
+fn layer_reports(stack: &LayerStack, lens: &Lens) -> Vec<LayerReport> {
+    stack
+        .layers
+        .iter()
+        .map(|layer| {
+            let covered = layer
+                .rgba
+                .pixels
+                .iter()
+                .zip(&layer.disparity)
+                .filter(|(p, _)| p[3] > 0.0)
+                .map(|(_, &d)| d);
+            let (lo, hi) = covered.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| {
+                (lo.min(d), hi.max(d))
+            });
+            let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 0.0) };
+            let (r_lo, r_hi) = (lens.coc.radius(lo), lens.coc.radius(hi));
+            // |d - df| is smallest inside the range when the focus plane crosses the layer.
+            let crosses = (lo..=hi).contains(&lens.coc.focus_disparity);
+            let min_radius = if crosses { 0.0 } else { r_lo.min(r_hi) };
+            LayerReport {
+                name: layer.name.clone(),
+                disparity_range: [lo, hi],
+                coc_range_px: [min_radius, r_lo.max(r_hi)],
+            }
+        })
+        .collect()
+}
+
+fn print_summary(report: &Report) {
+    let layers: Vec<String> = report
+        .layers
+        .iter()
+        .map(|l| {
+            format!(
+                "{} ({:.1}-{:.1} px)",
+                l.name, l.coc_range_px[0], l.coc_range_px[1]
+            )
+        })
+        .collect();
+    println!(
+        "{} -> {}: {}x{}, {} {}, {} layer(s) front to back: {}; render {:.0} ms, total {:.0} ms{}",
+        report.input.display(),
+        report.output.display(),
+        report.width,
+        report.height,
+        report.method,
+        report
+            .device
+            .as_deref()
+            .map(|d| format!("on {d}"))
+            .unwrap_or_else(|| "on the CPU".into()),
+        report.layers.len(),
+        layers.join(", "),
+        report.timings_ms.render,
+        report.timings_ms.total,
+        if report.auto_layered {
+            " (auto-layered from one image)"
+        } else {
+            ""
+        },
+    );
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
