@@ -1,14 +1,14 @@
-// Dr.Bokeh pass 4 of 4: front-to-back composite
+// Dr.Bokeh pass 3 of 3: front-to-back composite
 // B = sum_l V_l prod_{k<l} (1 - V_k) C_l / W_l, alpha = sum_l V_l prod_{k<l} (1 - V_k);
 // the default model gates V_l by the layer's existence (W_l > 0). Premultiplied, unclamped.
 // CPU reference: src/render/drbokeh/cpu.rs `composite_pixel`.
 //
-// Bindings (set 0, std430):
-//   0: layer_cw   readonly  vec4[layer_count * width * height]  (C_l.rgb, W_l)
-//   1: layer_vis  readonly  float[layer_count * width * height] V_l
-//   2: result     writeonly vec4[width * height]                premultiplied RGBA
-// Push constants: DrBokehPush; reads width, height, layer_count, model.
-// Dispatch: (ceil(width / 16), ceil(height / 16), 1), once, after every layer pass.
+// Bindings (set 0, std430), all core-local (pc.core = the frame tile):
+//   0: layer_cw   readonly  vec4[layer_count * core pixels]  (C_l.rgb, W_l)
+//   1: layer_vis  readonly  float[layer_count * core pixels] V_l
+//   2: result     writeonly vec4[core pixels]                premultiplied RGBA
+// Push constants: DrBokehPush; reads core, layer_count, model.
+// Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once, after every layer pass.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "drbokeh.glsl"
@@ -28,17 +28,15 @@ float aperture_kernel_texel(int index) {
 }
 
 void main() {
-    ivec2 x = ivec2(gl_GlobalInvocationID.xy);
-    if (!drbokeh_inside(x)) {
+    ivec2 x = drbokeh_core_pixel(gl_GlobalInvocationID);
+    if (x.x < 0) {
         return;
     }
-    int n = pc.width * pc.height;
-    int i = x.y * pc.width + x.x;
     vec4 outp = vec4(0.0);
     float transmittance = 1.0;
     for (int l = 0; l < pc.layer_count; ++l) {
-        vec4 cw = layer_cw[l * n + i];
-        float v = layer_vis[l * n + i];
+        vec4 cw = layer_cw[drbokeh_core_index(l, x)];
+        float v = layer_vis[drbokeh_core_index(l, x)];
         if (pc.model == DRBOKEH_MODEL_DRBOKEH) {
             v *= drbokeh_existence_gate(cw.w);
         }
@@ -47,5 +45,5 @@ void main() {
         outp.w += transmittance * v;
         transmittance *= 1.0 - v;
     }
-    result[i] = outp;
+    result[drbokeh_core_index(0, x)] = outp;
 }

@@ -1,18 +1,19 @@
-// Dr.Bokeh pass 3 of 4 (per layer): C_l, W_l and V_l of every pixel, gathered over its tile's
+// Dr.Bokeh pass 2 of 3 (per layer): C_l, W_l and V_l of every pixel, gathered over its tile's
 // window. C_l = sum_y P(y) S K O / A (P premultiplied RGB), W_l = sum_y a(y) S K O / A,
 // V_l = soft-disk mean alpha over x's CoC (default) or the released square box (compat).
 // CPU reference: src/render/drbokeh/cpu.rs `layer_pixel` (same loops, same order).
 //
-// Bindings (set 0, std430):
-//   0: rgba         readonly  vec4[layer_count * width * height]  premultiplied, layer-major
-//   1: disparity    readonly  float[layer_count * width * height]
-//   2: tile_window  readonly  int[layer_count * tiles_x * tiles_y] from drbokeh_tile_window
+// Bindings (set 0, std430), "read" = the uploaded rect pc.read, "core" = the frame tile pc.core:
+//   0: rgba         readonly  vec4[layer_count * read pixels]      premultiplied, layer-major
+//   1: disparity    readonly  float[layer_count * read pixels]
+//   2: tile_window  readonly  int[layer_count * tiles_x * tiles_y] whole image, bounds.rs
 //   3: area_lut     readonly  float[area_count]                    Params::area_lut_f32
 //   4: kernel       readonly  float[max(1, kernel_size^2)]         Params::kernel_f32
-//   5: layer_cw     writeonly vec4[layer_count * width * height]   (C_l.rgb, W_l)
-//   6: layer_vis    writeonly float[layer_count * width * height]  V_l
-// Push constants: DrBokehPush (all fields but max_support).
-// Dispatch: (ceil(width / 16), ceil(height / 16), 1), once per layer, after tile_window.
+//   5: layer_cw     writeonly vec4[layer_count * core pixels]      (C_l.rgb, W_l)
+//   6: layer_vis    writeonly float[layer_count * core pixels]     V_l
+// Push constants: DrBokehPush (all fields but max_support). The read rect holds every source
+// within the window of every pixel of the core; borders are the image's, not the tile's.
+// Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "drbokeh.glsl"
@@ -36,12 +37,11 @@ float aperture_kernel_texel(int index) {
 }
 
 void main() {
-    ivec2 x = ivec2(gl_GlobalInvocationID.xy);
-    if (!drbokeh_inside(x)) {
+    ivec2 x = drbokeh_core_pixel(gl_GlobalInvocationID);
+    if (x.x < 0) {
         return;
     }
-    int base = pc.layer * pc.width * pc.height;
-    int ix = base + x.y * pc.width + x.x;
+    int ix = drbokeh_read_index(pc.layer, x);
     int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x.y / DRBOKEH_TILE) * pc.tiles_x + x.x / DRBOKEH_TILE];
     float rel_x = disparity[ix] - pc.focus_disparity;
     float s_x = pc.k_px * rel_x;
@@ -63,7 +63,7 @@ void main() {
             if (sx < 0 || sx >= pc.width) {
                 continue;
             }
-            int iy = base + sy * pc.width + sx;
+            int iy = drbokeh_read_index(pc.layer, ivec2(sx, sy));
             vec4 p = rgba[iy];
             float rel_y = disparity[iy] - pc.focus_disparity;
             float s_y = pc.k_px * rel_y;
@@ -95,6 +95,7 @@ void main() {
             }
         }
     }
-    layer_cw[ix] = cw;
-    layer_vis[ix] = vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
+    int out_index = drbokeh_core_index(pc.layer, x);
+    layer_cw[out_index] = cw;
+    layer_vis[out_index] = vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
 }

@@ -29,4 +29,16 @@ impl Error {
     pub fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
         Error::Input { path: path.into(), message: message.into() }
     }
+
+    /// The device (or the driver's host side) ran out of memory: worth retrying smaller.
+    pub fn is_out_of_memory(&self) -> bool {
+        use ash::vk::Result as VkResult;
+        match self {
+            Error::Allocation(gpu_allocator::AllocationError::OutOfMemory) => true,
+            Error::Vulkan { result, .. } => {
+                matches!(*result, VkResult::ERROR_OUT_OF_DEVICE_MEMORY | VkResult::ERROR_OUT_OF_HOST_MEMORY)
+            }
+            _ => false,
+        }
+    }
 }

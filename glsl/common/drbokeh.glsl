@@ -1,6 +1,6 @@
 // Dr.Bokeh forward renderer: push constants and per-term math shared by the
 // glsl/drbokeh_*.comp passes. Mirrors src/render/drbokeh/math.rs (f64) term for term; the
-// push block mirrors `DrBokehPush` in src/render/drbokeh/mod.rs (80 bytes).
+// push block mirrors `DrBokehPush` in src/render/drbokeh/mod.rs (112 bytes).
 //
 // Units: r = CoC radius in pixels, s = signed CoC radius (positive = nearer than focus),
 // g = aperture gauge of an offset in pixels, rel = relative disparity d - d_f.
@@ -35,12 +35,35 @@ layout(push_constant) uniform DrBokehPush {
     int pad1;             // 56
     int pad2;             // 60
     vec4 aperture;        // 64  Aperture::gpu_params
+    ivec4 core;           // 80  frame tile written: x, y, width, height (outputs core-local)
+    ivec4 read;           // 96  uploaded rect: x, y, width, height (sources read-local)
 } pc;
 
 float drbokeh_area_lut(int index);
 
 bool drbokeh_inside(ivec2 p) {
     return p.x >= 0 && p.y >= 0 && p.x < pc.width && p.y < pc.height;
+}
+
+// Image pixel of this invocation in a (core-width x core-height) dispatch; (-1, -1) outside.
+ivec2 drbokeh_core_pixel(uvec3 id) {
+    ivec2 local = ivec2(id.xy);
+    if (local.x >= pc.core.z || local.y >= pc.core.w) {
+        return ivec2(-1);
+    }
+    return pc.core.xy + local;
+}
+
+// Index of image pixel p in a core-sized per-pixel buffer of layer l.
+int drbokeh_core_index(int l, ivec2 p) {
+    ivec2 q = p - pc.core.xy;
+    return (l * pc.core.w + q.y) * pc.core.z + q.x;
+}
+
+// Index of image pixel p in a read-rect-sized source buffer of layer l.
+int drbokeh_read_index(int l, ivec2 p) {
+    ivec2 q = p - pc.read.xy;
+    return (l * pc.read.w + q.y) * pc.read.z + q.x;
 }
 
 // ---------------------------------------------------------------- default model

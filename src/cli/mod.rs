@@ -48,6 +48,12 @@ enum Command {
 
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    // Ctrl-C: outputs appear by rename only when complete; remove any temporary being written.
+    let _ = ctrlc::set_handler(|| {
+        lensblur::stack::remove_partial_outputs();
+        eprintln!("lensblur: interrupted; no output written");
+        std::process::exit(130);
+    });
     let result = match cli.command {
         Command::Render(args) => render::run(args),
         Command::Example(args) => example::run(args),

@@ -5,6 +5,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
 use lensblur::image::Image;
+use lensblur::render::drbokeh::RenderOptions;
 use lensblur::render::{Lens, Method};
 use lensblur::stack::{
     is_ldr_path, write_image, write_ldr, write_png_preview, LayerStack, SampleType, WriteOptions,
@@ -54,6 +55,9 @@ pub struct Args {
     /// Also write an 8-bit sRGB PNG preview.
     #[arg(long, value_name = "FILE.png", help_heading = "Output")]
     pub preview: Option<PathBuf>,
+    /// Frame tile side in pixels (default: the largest the device's limits and memory allow).
+    #[arg(long, value_name = "N", help_heading = "Output")]
+    pub tile: Option<usize>,
     /// Print a JSON report (layers and their order, CoC range, timings) on stdout.
     #[arg(long, help_heading = "Output")]
     pub json: bool,
@@ -114,9 +118,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.method
     ));
     let start = Instant::now();
+    let layer_count = loaded.stack.layers.len();
+    let progress = |done: usize, total: usize| {
+        if total > 1 {
+            spinner.set_message(format!("rendering {layer_count} layer(s) with {}: tile {done}/{total}", args.method));
+        }
+    };
+    let options = RenderOptions { tile: args.tile, progress: Some(&progress) };
     let image = args
         .method
-        .render(ctx.as_ref(), &loaded.stack, &loaded.camera.lens)
+        .render_with(ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options)
         .with_context(|| format!("rendering {} with {}", args.input.display(), args.method))?;
     let render_time = start.elapsed();
     spinner.set_message(format!("writing {}", args.output.display()));

@@ -2,7 +2,7 @@
 use std::str::FromStr;
 
 use crate::image::Image;
-use crate::render::drbokeh::{DrBokehGpu, Model};
+use crate::render::drbokeh::{DrBokehGpu, Model, RenderOptions};
 use crate::render::multiview::{Multiview, MultiviewParams};
 use crate::render::vdslr::{Vdslr, VdslrParams};
 use crate::render::Lens;
@@ -80,6 +80,11 @@ impl Method {
 
     /// Renders `stack` (front to back) through `lens`. `ctx` is required by Vulkan methods.
     pub fn render(self, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens) -> Result<Image> {
+        self.render_with(ctx, stack, lens, &RenderOptions::default())
+    }
+
+    /// [`Self::render`] with frame tiling and progress (honoured by the tiled methods: drbokeh).
+    pub fn render_with(self, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens, options: &RenderOptions) -> Result<Image> {
         let gpu = || {
             ctx.ok_or_else(|| {
                 Error::param(format!("method '{}' needs a Vulkan device", self.name()))
@@ -87,8 +92,8 @@ impl Method {
         };
         let single = || stack.flatten();
         match self {
-            Method::DrBokeh => DrBokehGpu::new(gpu()?)?.render(stack, lens, Model::DrBokeh),
-            Method::DrBokehCompat => DrBokehGpu::new(gpu()?)?.render(stack, lens, Model::Compat),
+            Method::DrBokeh => Ok(DrBokehGpu::new(gpu()?)?.render_with(stack, lens, Model::DrBokeh, options)?.0),
+            Method::DrBokehCompat => Ok(DrBokehGpu::new(gpu()?)?.render_with(stack, lens, Model::Compat, options)?.0),
             Method::Multiview => {
                 Multiview::new(gpu()?)?.run(stack, lens, &MultiviewParams::default())
             }

@@ -1,19 +1,22 @@
-//! Search windows: CPU reference of `drbokeh_tile_bounds.comp` and `drbokeh_tile_window.comp`.
+//! Search windows, computed on the host before anything is uploaded: they bound both the
+//! gather loops of `drbokeh_layer.comp` and the halo each frame tile must upload.
 //!
 //! Each 16x16 output tile loops over a square window of half-width `h_T` pixels around each
 //! of its pixels. A source y of radius r reaches x only if `|x - y| < support(r)` (every
 //! aperture gauge is at least the Euclidean length), and V at x gathers over
 //! `|x - y| < r_x + 1/2`. So `h_T = ceil(reach_T) - 1` with
 //! `reach_T = max(gather_T, max { support_U : tile U's support reaches tile T })` covers both.
+use rayon::prelude::*;
+
 use super::{math, Model, Params, TILE};
-use crate::stack::Layer;
+use crate::stack::{Layer, LayerStack};
 
 /// Per tile `[scatter support, gather radius]` (mirrors the `tile_bounds` vec2 buffer):
 /// support = max over pixels with alpha > 0 (transparent sources scatter nothing),
 /// gather = max over all pixels of `r + 1/2` (V is evaluated everywhere).
 pub fn tile_bounds_cpu(params: &Params, layer: &Layer) -> Vec<[f64; 2]> {
     let mut bounds = vec![[0.0f64; 2]; params.tiles_x * params.tiles_y];
-    for (t, bound) in bounds.iter_mut().enumerate() {
+    bounds.par_iter_mut().enumerate().for_each(|(t, bound)| {
         let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
         let mut support = 0.0f64;
         let mut gather = 0.0f64;
@@ -32,7 +35,7 @@ pub fn tile_bounds_cpu(params: &Params, layer: &Layer) -> Vec<[f64; 2]> {
             }
         }
         *bound = [support, gather];
-    }
+    });
     bounds
 }
 
@@ -52,7 +55,7 @@ pub fn tile_window_cpu(params: &Params, bounds: &[[f64; 2]]) -> Vec<i32> {
     // Tiles farther than this cannot be reached by any support in the stack.
     let range = (params.max_support / TILE as f64).ceil() as i64 + 1;
     let mut windows = vec![0i32; bounds.len()];
-    for (t, window) in windows.iter_mut().enumerate() {
+    windows.par_iter_mut().enumerate().for_each(|(t, window)| {
         let (tx, ty) = (t as i64 % tiles_x, t as i64 / tiles_x);
         let mut reach = bounds[t][1];
         for uy in (ty - range).max(0)..=(ty + range).min(tiles_y - 1) {
@@ -65,6 +68,12 @@ pub fn tile_window_cpu(params: &Params, bounds: &[[f64; 2]]) -> Vec<i32> {
             }
         }
         *window = (reach.ceil() as i32 - 1).max(0);
-    }
+    });
     windows
+}
+
+/// Window half-widths of every layer, layer-major (`[layer * tiles + tile]`): the
+/// `tile_window` buffer of `drbokeh_layer.comp`, and the frame tiles' halos.
+pub fn search_windows(params: &Params, stack: &LayerStack) -> Vec<i32> {
+    stack.layers.iter().flat_map(|layer| tile_window_cpu(params, &tile_bounds_cpu(params, layer))).collect()
 }

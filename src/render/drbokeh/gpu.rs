@@ -1,33 +1,52 @@
-//! GPU host code of the Dr.Bokeh forward renderer: uploads a stack, runs the four passes of
-//! `glsl/drbokeh_*.comp` in one command batch, reads the composite back. The CPU reference of
-//! the same passes is [`super::cpu`]; `Params` (validation, lens, area table, push constants)
-//! is shared with it, so the two differ only in f32 vs f64 arithmetic.
-use super::{Model, Params};
+//! GPU host code of the Dr.Bokeh forward renderer. The frame is cut into tiles: each uploads
+//! its core plus the halo its search windows reach, runs the layer passes and the composite of
+//! `glsl/drbokeh_*.comp` in one submission, and reads its core back. Every pixel reads the same
+//! sources in the same order whatever the tiling, so the output is bit-identical for every
+//! tile size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
+//! lens, area table, push constants) and the search windows are shared with it.
+use super::bounds::search_windows;
+use super::{Model, Params, TILE};
 use crate::image::Image;
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
+use crate::tiling::Rect;
 use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
 use crate::Result;
 
-/// Bytes of one `vec2` / `vec4` in std430.
-const VEC2: u64 = 8;
+/// Bytes per pixel of one layer: uploaded rgba + disparity, or written (C, W) + V.
+const LAYER_BYTES_PER_PIXEL: u64 = 20;
 const VEC4: u64 = 16;
 
 /// The Dr.Bokeh pipelines on one device; build once, render many stacks.
 pub struct DrBokehGpu {
     ctx: Context,
-    tile_bounds: ComputePipeline,
-    tile_window: ComputePipeline,
     layer: ComputePipeline,
     composite: ComputePipeline,
 }
 
-/// What one render measured on the device.
+/// How to cut and report a render.
+#[derive(Clone, Copy, Default)]
+pub struct RenderOptions<'a> {
+    /// Frame tile side in pixels (rounded up to a multiple of 16); `None` picks the largest
+    /// that fits the device's buffer range and a quarter of its memory.
+    pub tile: Option<usize>,
+    /// Called after each finished tile with (tiles done, tiles in all).
+    pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
+}
+
+/// What one render measured.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct RenderStats {
-    /// Device time of the passes (timestamp queries), if the queue supports them.
+    /// Device time of all passes (timestamp queries), if the queue supports them.
     pub device_ns: Option<f64>,
+    /// Frame tiles rendered and their side (after any out-of-memory retries).
+    pub tiles: usize,
+    pub tile_size: usize,
+    /// Most device memory this renderer's buffers held at once.
+    pub peak_device_bytes: u64,
+    /// Source pixels gathered (sum over layers and pixels of the window area): the work.
+    pub taps: u64,
 }
 
 impl DrBokehGpu {
@@ -35,8 +54,6 @@ impl DrBokehGpu {
         let push = std::mem::size_of::<super::DrBokehPush>();
         Ok(Self {
             ctx: ctx.clone(),
-            tile_bounds: ComputePipeline::new(ctx, &shaders::DRBOKEH_TILE_BOUNDS, 3, push)?,
-            tile_window: ComputePipeline::new(ctx, &shaders::DRBOKEH_TILE_WINDOW, 2, push)?,
             layer: ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER, 7, push)?,
             composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_COMPOSITE, 3, push)?,
         })
@@ -48,46 +65,193 @@ impl DrBokehGpu {
 
     /// Renders `stack` through `lens`: premultiplied linear RGBA, HDR unclamped.
     pub fn render(&self, stack: &LayerStack, lens: &Lens, model: Model) -> Result<Image> {
-        Ok(self.render_with_stats(stack, lens, model)?.0)
+        Ok(self.render_with(stack, lens, model, &RenderOptions::default())?.0)
     }
 
-    pub fn render_with_stats(&self, stack: &LayerStack, lens: &Lens, model: Model) -> Result<(Image, RenderStats)> {
+    pub fn render_with(
+        &self,
+        stack: &LayerStack,
+        lens: &Lens,
+        model: Model,
+        options: &RenderOptions,
+    ) -> Result<(Image, RenderStats)> {
         let params = Params::new(stack, lens, model)?;
+        let windows = search_windows(&params, stack);
+        let mut tile = match options.tile {
+            Some(tile) => round_to_tile(tile),
+            None => self.auto_tile_size(&params, windows.iter().copied().max().unwrap_or(0)),
+        };
+        loop {
+            match self.render_tiles(stack, &params, &windows, tile, options) {
+                // Drivers report a budget they cannot always honour: retry with smaller tiles.
+                Err(error) if error.is_out_of_memory() && tile > TILE => {
+                    log::warn!("out of device memory with {tile} px tiles; retrying with {} px", tile / 2);
+                    tile = round_to_tile(tile / 2);
+                }
+                result => return result,
+            }
+        }
+    }
+
+    /// The largest tile (multiple of 16, at most the frame) whose buffers fit the device's
+    /// storage-buffer range and a quarter of its memory, assuming the worst halo everywhere.
+    fn auto_tile_size(&self, params: &Params, max_window: i32) -> usize {
+        let info = self.ctx.info();
+        let range = info.max_storage_buffer_range as u64;
+        let budget = info.device_local_bytes.min(info.max_allocation_bytes) / 4;
+        let layers = params.layer_count as u64;
+        let fits = |tile: usize| {
+            let read = (tile.min(params.width.max(params.height)) as u64 + 2 * max_window as u64).pow(2);
+            let core = (tile as u64).pow(2);
+            let largest_binding = layers * read.max(core) * VEC4;
+            let total = layers * (read + core) * LAYER_BYTES_PER_PIXEL + core * VEC4;
+            largest_binding <= range && total <= budget
+        };
+        let mut tile = round_to_tile(params.width.max(params.height));
+        while tile > TILE && !fits(tile) {
+            tile = round_to_tile(tile * 3 / 4);
+        }
+        tile
+    }
+
+    fn render_tiles(
+        &self,
+        stack: &LayerStack,
+        params: &Params,
+        windows: &[i32],
+        tile: usize,
+        options: &RenderOptions,
+    ) -> Result<(Image, RenderStats)> {
+        let ctx = &self.ctx;
+        let baseline = ctx.allocated_bytes();
+        let shared = SharedBuffers {
+            windows: Buffer::from_slice(ctx, "drbokeh tile_window", windows)?,
+            area_lut: Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?,
+            kernel: Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?,
+        };
+        let cores = frame_cores(params.width, params.height, tile);
+        let mut image = Image::new(params.width, params.height);
+        let mut stats = RenderStats { tiles: cores.len(), tile_size: tile, ..RenderStats::default() };
+        let mut device_ns = Some(0.0);
+        for (done, &core) in cores.iter().enumerate() {
+            let read = core.grown(halo(params, windows, core), params.width, params.height);
+            let (result, tile_ns, peak) = self.render_tile(stack, params, &shared, core, read)?;
+            device_ns = device_ns.zip(tile_ns).map(|(a, b)| a + b);
+            stats.peak_device_bytes = stats.peak_device_bytes.max(peak.saturating_sub(baseline));
+            stats.taps += taps(params, windows, core);
+            for y in 0..core.height() {
+                let row = &result[y * core.width()..(y + 1) * core.width()];
+                let start = (core.y0 + y) * params.width + core.x0;
+                image.pixels[start..start + core.width()].copy_from_slice(row);
+            }
+            if let Some(progress) = options.progress {
+                progress(done + 1, cores.len());
+            }
+        }
+        stats.device_ns = device_ns;
+        Ok((image, stats))
+    }
+
+    /// One frame tile in one submission; returns its core's pixels, device time and the
+    /// device memory held while it ran.
+    fn render_tile(
+        &self,
+        stack: &LayerStack,
+        params: &Params,
+        shared: &SharedBuffers,
+        core: Rect,
+        read: Rect,
+    ) -> Result<(Vec<[f32; 4]>, Option<f64>, u64)> {
         let ctx = &self.ctx;
         let layers = params.layer_count as u64;
-        let pixels = (params.width * params.height) as u64;
-        let tiles = (params.tiles_x * params.tiles_y) as u64;
-
-        let rgba: Vec<[f32; 4]> = stack.layers.iter().flat_map(|l| l.rgba.pixels.iter().copied()).collect();
-        let disparity: Vec<f32> = stack.layers.iter().flat_map(|l| l.disparity.iter().copied()).collect();
+        let core_pixels = core.area() as u64;
+        let rgba: Vec<[f32; 4]> = stack.layers.iter().flat_map(|l| crop(&l.rgba.pixels, params.width, read)).collect();
+        let disparity: Vec<f32> = stack.layers.iter().flat_map(|l| crop(&l.disparity, params.width, read)).collect();
         let rgba = Buffer::from_slice(ctx, "drbokeh rgba", &rgba)?;
         let disparity = Buffer::from_slice(ctx, "drbokeh disparity", &disparity)?;
-        let area_lut = Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?;
-        let kernel = Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?;
-        let tile_bounds = Buffer::zeroed(ctx, "drbokeh tile_bounds", layers * tiles * VEC2)?;
-        let tile_window = Buffer::zeroed(ctx, "drbokeh tile_window", layers * tiles * 4)?;
-        let layer_cw = Buffer::zeroed(ctx, "drbokeh layer_cw", layers * pixels * VEC4)?;
-        let layer_vis = Buffer::zeroed(ctx, "drbokeh layer_vis", layers * pixels * 4)?;
-        let result = Buffer::zeroed(ctx, "drbokeh result", pixels * VEC4)?;
+        let layer_cw = Buffer::zeroed(ctx, "drbokeh layer_cw", layers * core_pixels * VEC4)?;
+        let layer_vis = Buffer::zeroed(ctx, "drbokeh layer_vis", layers * core_pixels * 4)?;
+        let result = Buffer::zeroed(ctx, "drbokeh result", core_pixels * VEC4)?;
+        let peak = ctx.allocated_bytes();
 
-        let image_groups = self.layer.groups_for([params.width as u32, params.height as u32, 1]);
-        let tile_groups = self.tile_bounds.groups_for([tiles as u32, 1, 1]);
+        let groups = self.layer.groups_for([core.width() as u32, core.height() as u32, 1]);
         let mut batch = CommandBatch::new(ctx)?;
         for layer in 0..params.layer_count {
-            let push = params.push(layer);
-            batch.dispatch(&self.tile_bounds, &[rgba.all(), disparity.all(), tile_bounds.all()], &push, tile_groups)?;
-            batch.dispatch(&self.tile_window, &[tile_bounds.all(), tile_window.all()], &push, tile_groups)?;
-            batch.dispatch(
-                &self.layer,
-                &[rgba.all(), disparity.all(), tile_window.all(), area_lut.all(), kernel.all(), layer_cw.all(), layer_vis.all()],
-                &push,
-                image_groups,
-            )?;
+            let bindings = [
+                rgba.all(),
+                disparity.all(),
+                shared.windows.all(),
+                shared.area_lut.all(),
+                shared.kernel.all(),
+                layer_cw.all(),
+                layer_vis.all(),
+            ];
+            batch.dispatch(&self.layer, &bindings, &params.push_tile(layer, core, read), groups)?;
         }
-        batch.dispatch(&self.composite, &[layer_cw.all(), layer_vis.all(), result.all()], &params.push(0), image_groups)?;
+        let push = params.push_tile(0, core, read);
+        batch.dispatch(&self.composite, &[layer_cw.all(), layer_vis.all(), result.all()], &push, groups)?;
         batch.submit_and_wait()?;
-        let stats = RenderStats { device_ns: batch.last_device_time_ns() };
-        let pixels: Vec<[f32; 4]> = result.read(ctx)?;
-        Ok((Image { width: params.width, height: params.height, pixels }, stats))
+        Ok((result.read(ctx)?, batch.last_device_time_ns(), peak))
     }
+}
+
+/// Buffers every tile of one render binds.
+struct SharedBuffers {
+    windows: Buffer,
+    area_lut: Buffer,
+    kernel: Buffer,
+}
+
+fn round_to_tile(pixels: usize) -> usize {
+    pixels.max(1).div_ceil(TILE) * TILE
+}
+
+/// `tile x tile` cores in row-major order, the last row and column cut by the frame.
+pub fn frame_cores(width: usize, height: usize, tile: usize) -> Vec<Rect> {
+    let mut cores = Vec::new();
+    for y0 in (0..height).step_by(tile) {
+        for x0 in (0..width).step_by(tile) {
+            cores.push(Rect { x0, y0, x1: (x0 + tile).min(width), y1: (y0 + tile).min(height) });
+        }
+    }
+    cores
+}
+
+/// The 16x16 search tiles a frame core overlaps (cores start on multiples of 16).
+fn search_tiles(params: &Params, core: Rect) -> impl Iterator<Item = usize> + '_ {
+    let (tx0, tx1) = (core.x0 / TILE, core.x1.div_ceil(TILE));
+    let (ty0, ty1) = (core.y0 / TILE, core.y1.div_ceil(TILE));
+    (ty0..ty1).flat_map(move |ty| (tx0..tx1).map(move |tx| ty * params.tiles_x + tx))
+}
+
+/// Pixels around `core` its gathers read: the largest window over its search tiles and layers.
+fn halo(params: &Params, windows: &[i32], core: Rect) -> usize {
+    let per_layer = params.tiles_x * params.tiles_y;
+    let mut halo = 0;
+    for layer in 0..params.layer_count {
+        for t in search_tiles(params, core) {
+            halo = halo.max(windows[layer * per_layer + t].max(0) as usize);
+        }
+    }
+    halo
+}
+
+/// Source pixels the core's gathers visit (upper bound: windows are not clipped at borders).
+fn taps(params: &Params, windows: &[i32], core: Rect) -> u64 {
+    let per_layer = params.tiles_x * params.tiles_y;
+    let mut taps = 0u64;
+    for layer in 0..params.layer_count {
+        for t in search_tiles(params, core) {
+            let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
+            let tile = Rect { x0: tx * TILE, y0: ty * TILE, x1: ((tx + 1) * TILE).min(params.width), y1: ((ty + 1) * TILE).min(params.height) };
+            let side = 2 * windows[layer * per_layer + t].max(0) as u64 + 1;
+            taps += tile.area() as u64 * side * side;
+        }
+    }
+    taps
+}
+
+/// The pixels of `rect` from a row-major image `width` wide.
+fn crop<T: Copy>(pixels: &[T], width: usize, rect: Rect) -> impl Iterator<Item = T> + '_ {
+    (rect.y0..rect.y1).flat_map(move |y| pixels[y * width + rect.x0..y * width + rect.x1].iter().copied())
 }

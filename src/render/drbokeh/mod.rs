@@ -7,13 +7,18 @@
 //!
 //! Two models share every pass ([`Model`]); the per-term math is in [`math`].
 //!
-//! Passes (GPU: `glsl/drbokeh_<pass>.comp`; CPU reference: [`cpu`], same loops, same order):
-//! 1. `tile_bounds` (per layer): per 16x16 tile, the largest scatter support of a source with
-//!    alpha > 0, and the largest gather radius (for V) of any pixel.
-//! 2. `tile_window` (per layer): dilation — a tile's window half-width covers every source tile
-//!    whose support reaches it, and its own gather radius.
-//! 3. `layer` (per layer): C_l, W_l and V_l of every pixel over its tile's window.
-//! 4. `composite`: front-to-back blend of all layers.
+//! Passes (CPU reference: [`cpu`], same loops, same order):
+//! 1. Search windows, on the host ([`bounds`]): per 16x16 tile and layer, the largest scatter
+//!    support of a source with alpha > 0 and gather radius, dilated so a tile's window
+//!    half-width covers every source tile whose support reaches it. They also give each frame
+//!    tile its halo, so they are computed before any upload.
+//! 2. `layer` (GPU `glsl/drbokeh_layer.comp`, per layer): C_l, W_l and V_l of every pixel over
+//!    its tile's window.
+//! 3. `composite` (GPU `glsl/drbokeh_composite.comp`): front-to-back blend of all layers.
+//!
+//! Large frames are rendered in frame tiles ([`gpu`]): each uploads its core plus halo, and
+//! since every pixel reads the same sources in the same order, the output is bit-identical
+//! whatever the tile size.
 use crate::camera::{Aperture, CocModel};
 
 pub mod bounds;
@@ -28,7 +33,7 @@ mod compat_direct;
 mod tests;
 
 pub use cpu::{render_cpu, render_cpu_terms, LayerTerms, Terms, Window};
-pub use gpu::{DrBokehGpu, RenderStats};
+pub use gpu::{DrBokehGpu, RenderOptions, RenderStats};
 pub use params::Params;
 
 /// Side of the square output tile a workgroup owns, in pixels (`local_size` 16x16).
@@ -89,9 +94,15 @@ pub struct DrBokehPush {
     pub pad: [i32; 3], // 52
     /// [`Aperture::gpu_params`]: blades (0 = disk), rotation (rad), roundness, kernel flag.
     pub aperture: [f32; 4], // 64
+    /// Frame tile this dispatch writes: x, y, width, height in image pixels (the whole image
+    /// when untiled). Per-pixel outputs are stored core-local.
+    pub core: [i32; 4], // 80
+    /// Rectangle of the image uploaded for this tile (core + halo, clipped): x, y, width,
+    /// height. Source buffers are indexed read-local.
+    pub read: [i32; 4], // 96
 }
 
-const _: () = assert!(std::mem::size_of::<DrBokehPush>() == 80);
+const _: () = assert!(std::mem::size_of::<DrBokehPush>() == 112);
 const _: () = assert!(std::mem::size_of::<DrBokehPush>() <= 128);
 
 /// The lens as the renderer reads it, in f64 (GPU-form aperture plus kernel weights).

@@ -3,6 +3,7 @@
 //! host code derive from a stack and a lens, computed in one place.
 use super::{math, DrBokehPush, LensView, Model, AREA_STEP_PX, AREA_TABLE_RADIUS_PX, TILE};
 use crate::render::Lens;
+use crate::tiling::Rect;
 use crate::stack::LayerStack;
 use crate::{Error, Result};
 
@@ -65,8 +66,15 @@ impl Params {
         }
     }
 
-    /// Push constants for a dispatch on `layer`.
+    /// Push constants for a dispatch on `layer` over the whole image (one frame tile).
     pub fn push(&self, layer: usize) -> DrBokehPush {
+        let whole = Rect { x0: 0, y0: 0, x1: self.width, y1: self.height };
+        self.push_tile(layer, whole, whole)
+    }
+
+    /// Push constants for a dispatch on `layer` writing `core` from the uploaded `read` rect.
+    pub fn push_tile(&self, layer: usize, core: Rect, read: Rect) -> DrBokehPush {
+        let rect = |r: Rect| [r.x0 as i32, r.y0 as i32, r.width() as i32, r.height() as i32];
         DrBokehPush {
             width: self.width as i32,
             height: self.height as i32,
@@ -83,6 +91,8 @@ impl Params {
             area_count: self.area_lut.len() as i32,
             pad: [0; 3],
             aperture: self.lens.aperture.map(|v| v as f32),
+            core: rect(core),
+            read: rect(read),
         }
     }
 

@@ -69,11 +69,13 @@ fn aperture_mirrors_match_the_camera_module() {
 
 #[test]
 fn push_constants_match_the_glsl_layout() {
-    assert_eq!(std::mem::size_of::<DrBokehPush>(), 80);
+    assert_eq!(std::mem::size_of::<DrBokehPush>(), 112);
     assert_eq!(std::mem::offset_of!(DrBokehPush, k_px), 32);
     assert_eq!(std::mem::offset_of!(DrBokehPush, area_count), 48);
     // vec4 members must sit on a 16-byte boundary in the push-constant block.
     assert_eq!(std::mem::offset_of!(DrBokehPush, aperture), 64);
+    assert_eq!(std::mem::offset_of!(DrBokehPush, core), 80);
+    assert_eq!(std::mem::offset_of!(DrBokehPush, read), 96);
 }
 
 #[test]
