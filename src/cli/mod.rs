@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 
 mod bench;
+mod bench_large;
 mod camera_args;
 mod devices;
 mod example;
@@ -44,6 +45,8 @@ enum Command {
     Raytrace(raytrace::Args),
     /// Score every rendering method against ray-traced ground truth (metrics table, JSON, PNG sheet).
     Bench(bench::Args),
+    /// Benchmark the tiled renderer on a 4K-8K two-layer frame (time, memory, taps/s).
+    BenchLarge(bench_large::Args),
 }
 
 pub fn main() -> std::process::ExitCode {
@@ -61,6 +64,7 @@ pub fn main() -> std::process::ExitCode {
         Command::Info(args) => info::run(args),
         Command::Raytrace(args) => raytrace::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::BenchLarge(args) => bench_large::run(args),
     };
     // Validation messages raised while contexts were torn down fail the command too.
     let result = result.and_then(|()| Ok(lensblur::vk::validation::check_unreported()?));

@@ -39,6 +39,9 @@ pub fn tile_bounds_cpu(params: &Params, layer: &Layer) -> Vec<[f64; 2]> {
     bounds
 }
 
+/// Window of a tile that no source reaches: the gather loops `-h..=h` run zero times.
+pub const EMPTY_WINDOW: i32 = -1;
+
 /// Pixel gap along one axis between two tiles `k` tiles apart: `16k - 15`, or 0 for the same.
 #[inline]
 fn tile_gap(k: i64) -> f64 {
@@ -49,7 +52,9 @@ fn tile_gap(k: i64) -> f64 {
     }
 }
 
-/// Window half-width per tile (mirrors the `tile_window` int buffer).
+/// Window half-width per tile (mirrors the `tile_window` int buffer); `EMPTY_WINDOW` where
+/// the default model's layer contributes exactly nothing (no source with alpha > 0 reaches the
+/// tile, so W = 0 and the existence gate zeroes V): those tiles skip their gathers.
 pub fn tile_window_cpu(params: &Params, bounds: &[[f64; 2]]) -> Vec<i32> {
     let (tiles_x, tiles_y) = (params.tiles_x as i64, params.tiles_y as i64);
     // Tiles farther than this cannot be reached by any support in the stack.
@@ -58,16 +63,18 @@ pub fn tile_window_cpu(params: &Params, bounds: &[[f64; 2]]) -> Vec<i32> {
     windows.par_iter_mut().enumerate().for_each(|(t, window)| {
         let (tx, ty) = (t as i64 % tiles_x, t as i64 / tiles_x);
         let mut reach = bounds[t][1];
+        let mut reached = false;
         for uy in (ty - range).max(0)..=(ty + range).min(tiles_y - 1) {
             for ux in (tx - range).max(0)..=(tx + range).min(tiles_x - 1) {
                 let support = bounds[(uy * tiles_x + ux) as usize][0];
                 let gap = tile_gap(ux - tx).max(tile_gap(uy - ty));
                 if gap < support {
                     reach = reach.max(support);
+                    reached = true;
                 }
             }
         }
-        *window = (reach.ceil() as i32 - 1).max(0);
+        *window = if !reached && params.model == Model::DrBokeh { EMPTY_WINDOW } else { (reach.ceil() as i32 - 1).max(0) };
     });
     windows
 }

@@ -244,7 +244,8 @@ fn taps(params: &Params, windows: &[i32], core: Rect) -> u64 {
         for t in search_tiles(params, core) {
             let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
             let tile = Rect { x0: tx * TILE, y0: ty * TILE, x1: ((tx + 1) * TILE).min(params.width), y1: ((ty + 1) * TILE).min(params.height) };
-            let side = 2 * windows[layer * per_layer + t].max(0) as u64 + 1;
+            // An empty window (-1) gathers nothing.
+            let side = (2 * windows[layer * per_layer + t] + 1).max(0) as u64;
             taps += tile.area() as u64 * side * side;
         }
     }
