@@ -16,6 +16,8 @@
 //! 4. `composite`: front-to-back blend of all layers.
 use crate::camera::{Aperture, CocModel};
 
+pub mod backward;
+pub mod backward_cpu;
 pub mod bounds;
 pub mod cpu;
 mod gpu;
@@ -27,7 +29,9 @@ mod compat_direct;
 #[cfg(test)]
 mod tests;
 
-pub use cpu::{render_cpu, render_cpu_terms, LayerTerms, Terms, Window};
+pub use backward::{BackwardOptions, DrBokehCpu};
+pub use backward_cpu::{backward_cpu, CpuGradients, CpuLayerGradients};
+pub use cpu::{render_cpu, render_cpu_params, render_cpu_terms, LayerTerms, Terms, Window};
 pub use gpu::{DrBokehGpu, RenderStats};
 pub use params::Params;
 
