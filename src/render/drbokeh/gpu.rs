@@ -12,7 +12,7 @@ use crate::Result;
 
 /// Bytes of one `vec2` / `vec4` in std430.
 const VEC2: u64 = 8;
-const VEC4: u64 = 16;
+pub(crate) const VEC4: u64 = 16;
 
 /// The Dr.Bokeh pipelines on one device; build once, render many stacks.
 pub struct DrBokehGpu {
@@ -53,41 +53,67 @@ impl DrBokehGpu {
 
     pub fn render_with_stats(&self, stack: &LayerStack, lens: &Lens, model: Model) -> Result<(Image, RenderStats)> {
         let params = Params::new(stack, lens, model)?;
-        let ctx = &self.ctx;
-        let layers = params.layer_count as u64;
-        let pixels = (params.width * params.height) as u64;
-        let tiles = (params.tiles_x * params.tiles_y) as u64;
+        let buffers = ForwardBuffers::new(&self.ctx, stack, &params)?;
+        let mut batch = CommandBatch::new(&self.ctx)?;
+        self.record(&mut batch, &params, &buffers)?;
+        batch.submit_and_wait()?;
+        let stats = RenderStats { device_ns: batch.last_device_time_ns() };
+        let pixels: Vec<[f32; 4]> = buffers.result.read(&self.ctx)?;
+        Ok((Image { width: params.width, height: params.height, pixels }, stats))
+    }
 
-        let rgba: Vec<[f32; 4]> = stack.layers.iter().flat_map(|l| l.rgba.pixels.iter().copied()).collect();
-        let disparity: Vec<f32> = stack.layers.iter().flat_map(|l| l.disparity.iter().copied()).collect();
-        let rgba = Buffer::from_slice(ctx, "drbokeh rgba", &rgba)?;
-        let disparity = Buffer::from_slice(ctx, "drbokeh disparity", &disparity)?;
-        let area_lut = Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?;
-        let kernel = Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?;
-        let tile_bounds = Buffer::zeroed(ctx, "drbokeh tile_bounds", layers * tiles * VEC2)?;
-        let tile_window = Buffer::zeroed(ctx, "drbokeh tile_window", layers * tiles * 4)?;
-        let layer_cw = Buffer::zeroed(ctx, "drbokeh layer_cw", layers * pixels * VEC4)?;
-        let layer_vis = Buffer::zeroed(ctx, "drbokeh layer_vis", layers * pixels * 4)?;
-        let result = Buffer::zeroed(ctx, "drbokeh result", pixels * VEC4)?;
-
+    /// Records the four forward passes over `buffers` (the backward reuses the intermediates).
+    pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
+        let tiles = (params.tiles_x * params.tiles_y) as u32;
         let image_groups = self.layer.groups_for([params.width as u32, params.height as u32, 1]);
-        let tile_groups = self.tile_bounds.groups_for([tiles as u32, 1, 1]);
-        let mut batch = CommandBatch::new(ctx)?;
+        let tile_groups = self.tile_bounds.groups_for([tiles, 1, 1]);
         for layer in 0..params.layer_count {
             let push = params.push(layer);
-            batch.dispatch(&self.tile_bounds, &[rgba.all(), disparity.all(), tile_bounds.all()], &push, tile_groups)?;
-            batch.dispatch(&self.tile_window, &[tile_bounds.all(), tile_window.all()], &push, tile_groups)?;
+            batch.dispatch(&self.tile_bounds, &[b.rgba.all(), b.disparity.all(), b.tile_bounds.all()], &push, tile_groups)?;
+            batch.dispatch(&self.tile_window, &[b.tile_bounds.all(), b.tile_window.all()], &push, tile_groups)?;
             batch.dispatch(
                 &self.layer,
-                &[rgba.all(), disparity.all(), tile_window.all(), area_lut.all(), kernel.all(), layer_cw.all(), layer_vis.all()],
+                &[b.rgba.all(), b.disparity.all(), b.tile_window.all(), b.area_lut.all(), b.kernel.all(), b.layer_cw.all(), b.layer_vis.all()],
                 &push,
                 image_groups,
             )?;
         }
-        batch.dispatch(&self.composite, &[layer_cw.all(), layer_vis.all(), result.all()], &params.push(0), image_groups)?;
-        batch.submit_and_wait()?;
-        let stats = RenderStats { device_ns: batch.last_device_time_ns() };
-        let pixels: Vec<[f32; 4]> = result.read(ctx)?;
-        Ok((Image { width: params.width, height: params.height, pixels }, stats))
+        batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &params.push(0), image_groups)?;
+        Ok(())
+    }
+}
+
+/// The device buffers of one forward render: the uploaded stack and lens tables, and every
+/// pass's output.
+pub(crate) struct ForwardBuffers {
+    pub rgba: Buffer,
+    pub disparity: Buffer,
+    pub area_lut: Buffer,
+    pub kernel: Buffer,
+    pub tile_bounds: Buffer,
+    pub tile_window: Buffer,
+    pub layer_cw: Buffer,
+    pub layer_vis: Buffer,
+    pub result: Buffer,
+}
+
+impl ForwardBuffers {
+    pub fn new(ctx: &Context, stack: &LayerStack, params: &Params) -> Result<Self> {
+        let layers = params.layer_count as u64;
+        let pixels = (params.width * params.height) as u64;
+        let tiles = (params.tiles_x * params.tiles_y) as u64;
+        let rgba: Vec<[f32; 4]> = stack.layers.iter().flat_map(|l| l.rgba.pixels.iter().copied()).collect();
+        let disparity: Vec<f32> = stack.layers.iter().flat_map(|l| l.disparity.iter().copied()).collect();
+        Ok(Self {
+            rgba: Buffer::from_slice(ctx, "drbokeh rgba", &rgba)?,
+            disparity: Buffer::from_slice(ctx, "drbokeh disparity", &disparity)?,
+            area_lut: Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?,
+            kernel: Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?,
+            tile_bounds: Buffer::zeroed(ctx, "drbokeh tile_bounds", layers * tiles * VEC2)?,
+            tile_window: Buffer::zeroed(ctx, "drbokeh tile_window", layers * tiles * 4)?,
+            layer_cw: Buffer::zeroed(ctx, "drbokeh layer_cw", layers * pixels * VEC4)?,
+            layer_vis: Buffer::zeroed(ctx, "drbokeh layer_vis", layers * pixels * 4)?,
+            result: Buffer::zeroed(ctx, "drbokeh result", pixels * VEC4)?,
+        })
     }
 }

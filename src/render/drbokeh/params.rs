@@ -81,7 +81,8 @@ impl Params {
             max_support: self.max_support as f32,
             area_step: AREA_STEP_PX as f32,
             area_count: self.area_lut.len() as i32,
-            pad: [0; 3],
+            leaky_slope: 0.0,
+            pad: [0; 2],
             aperture: self.lens.aperture.map(|v| v as f32),
         }
     }
