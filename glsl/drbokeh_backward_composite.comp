@@ -1,4 +1,4 @@
-// Dr.Bokeh backward pass 1 of 3: reverse of drbokeh_composite.comp. Per pixel and layer,
+// Dr.Bokeh backward pass 1 of 4: reverse of drbokeh_composite.comp. Per pixel and layer,
 // dL/d(C_l.rgb, W_l) and dL/dV_l from dL/d(output). With G_l = gout . (C_l / W_l, 1) and
 // acc_l = v_l G_l + (1 - v_l) acc_{l+1}, dL/dv_l = T_l (G_l - acc_{l+1}) (no division by
 // 1 - v). T_l is recomputed per layer (O(layers^2) reads of V: no fixed-size arrays).

@@ -1,6 +1,6 @@
-// Dr.Bokeh backward pass 2 of 3 (per layer): each pixel x as a receiver, over its forward
+// Dr.Bokeh backward pass 2 of 4 (per layer): each pixel x as a receiver, over its forward
 // window (same loops as drbokeh_layer.comp): dL/dalpha_x and dL/ds_x, dL/drel_x through the
-// occlusion O(y, x) and V_l(x), and dL/dV_l(x) / sum D (normalised adjoint of V for pass 3).
+// occlusion O(y, x) and V_l(x), and dL/dV_l(x) / sum D (normalised adjoint of V for pass 4).
 // CPU reference: src/render/drbokeh/backward_cpu.rs `own_pixel`.
 //
 // Bindings (set 0, std430):

@@ -1,4 +1,4 @@
-// Dr.Bokeh backward pass 3 of 3 (per layer): each pixel y as a source, gathered over every
+// Dr.Bokeh backward pass 4 of 4 (per layer): each pixel y as a source, gathered over every
 // receiver x whose forward window holds y (|x - y| within x's tile window): dL/d(premultiplied
 // RGBA) through C/W and V, dL/ds_y and dL/drel_y through the weight; plus pass 2's terms.
 // Writes the final gradients and rel_y * dL/ds_y, y's share of dL/dK (summed on the host).
@@ -15,8 +15,10 @@
 //   7: grad_rgba       writeonly vec4[layer_count * width * height]
 //   8: grad_disparity  writeonly float[layer_count * width * height]
 //   9: k_partial       writeonly float[layer_count * width * height]
+//  10: tile_reach      readonly  int[layer_count * tiles_x * tiles_y] (drbokeh_backward_tile_reach)
 // Push constants: DrBokehPush (leaky_slope included).
-// Dispatch: (ceil(width / 16), ceil(height / 16), 1), once per layer, after pass 2.
+// Dispatch: (ceil(width / 16), ceil(height / 16), 1), once per layer, after pass 2 and
+// tile_reach (pass 3).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "drbokeh_grad.glsl"
@@ -33,6 +35,7 @@ layout(std430, set = 0, binding = 6) readonly buffer Own { vec4 own[]; };
 layout(std430, set = 0, binding = 7) writeonly buffer GradRgba { vec4 grad_rgba[]; };
 layout(std430, set = 0, binding = 8) writeonly buffer GradDisparity { float grad_disparity[]; };
 layout(std430, set = 0, binding = 9) writeonly buffer KPartial { float k_partial[]; };
+layout(std430, set = 0, binding = 10) readonly buffer TileReach { int tile_reach[]; };
 
 float drbokeh_area_lut(int index) {
     return area_lut[index];
@@ -65,8 +68,7 @@ void main() {
     vec4 d_p = vec4(0.0, 0.0, 0.0, own_y.x);
     float d_s = own_y.y;
     float d_rel = own_y.z;
-    // Every tile window is at most ceil(max_support) - 1; one more ring absorbs f32 rounding.
-    int reach = int(ceil(pc.max_support));
+    int reach = tile_reach[tile_base + (y.y / DRBOKEH_TILE) * pc.tiles_x + y.x / DRBOKEH_TILE];
     for (int oy = -reach; oy <= reach; ++oy) {
         int ry = y.y + oy;
         if (ry < 0 || ry >= pc.height) {

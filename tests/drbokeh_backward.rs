@@ -13,6 +13,7 @@
 //! excluded (the count is asserted to be small); where they agree, the backward must match.
 use lensblur::camera::{Aperture, CocModel, KernelImage};
 use lensblur::image::Image;
+use lensblur::render::drbokeh::backward_cpu::tile_reach_cpu;
 use lensblur::render::drbokeh::{backward_cpu, render_cpu_params, BackwardOptions, CpuGradients, Model, Params, Window};
 use lensblur::render::Lens;
 use lensblur::stack::{Layer, LayerStack};
@@ -296,3 +297,35 @@ fn leaky_gradients_differ_only_through_saturated_soft_steps() {
     }
 }
 
+
+#[test]
+fn tile_reach_covers_every_receiver_window_holding_the_tile() {
+    // 50x40 px: 4x3 tiles with ragged edges. Windows up to ceil(max_support) - 1 (what the
+    // forward's dilation can produce); K = 40 makes max_support ~ 20 px.
+    let (w, h) = (50, 40);
+    let layer = Layer { name: "l".into(), rgba: Image::new(w, h), disparity: (0..w * h).map(|i| 0.5 + 0.5 * (i % 7) as f32 / 6.0).collect() };
+    let stack = LayerStack::new(w, h, vec![layer]).unwrap();
+    let params = Params::new(&stack, &lens(40.0, 0.5), Model::DrBokeh).unwrap();
+    let max_h = params.max_support.ceil() as usize - 1;
+    let windows: Vec<i32> = (0..12).map(|t| ((hash(t + 99).abs() * (max_h + 1) as f64) as usize).min(max_h) as i32).collect();
+    let reach = tile_reach_cpu(&params, &windows);
+    let tile = |x: usize, y: usize| (y / 16) * params.tiles_x + x / 16;
+    let mut tight = vec![0i32; 12];
+    for ry in 0..h {
+        for rx in 0..w {
+            let hw = windows[tile(rx, ry)];
+            for sy in 0..h {
+                for sx in 0..w {
+                    let d = (rx as i32 - sx as i32).abs().max((ry as i32 - sy as i32).abs());
+                    if d <= hw {
+                        let t = tile(sx, sy);
+                        assert!(d <= reach[t], "receiver ({rx},{ry}) holds ({sx},{sy}) at {d} > reach {}", reach[t]);
+                        tight[t] = tight[t].max(hw);
+                    }
+                }
+            }
+        }
+    }
+    // And no wider than the largest window that actually holds a pixel of the tile.
+    assert_eq!(reach, tight);
+}

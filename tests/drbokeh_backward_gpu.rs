@@ -223,6 +223,9 @@ fn timing_forward_vs_backward_256() {
         b.push(t.elapsed().as_secs_f64());
     }
     eprintln!("256x256x3 wall: forward {:.3} s, forward+backward {:.3} s (median of 3)", median(f), median(b));
+    let (_, fs) = forward.render_with_stats(&stack, &lens, Model::DrBokeh).unwrap();
+    let (_, bs) = backward.backward_with_stats(&stack, &lens, &gout).unwrap();
+    eprintln!("device: forward {:?} ns, forward+backward {:?} ns", fs.device_ns, bs.device_ns);
     finish(ctx);
 }
 

@@ -3,13 +3,15 @@
 //!
 //! Gradients are gathers: every input-gradient element is owned by one loop iteration (one
 //! future shader invocation), which sums over the outputs its input influences. No scattered
-//! adds, so the GPU version is deterministic. Passes (CPU: [`super::backward_cpu`], GPU:
-//! `glsl/drbokeh_backward_<pass>.comp`):
+//! adds, so the GPU version is deterministic. Passes, after the forward's four (CPU:
+//! [`super::backward_cpu`], GPU: `glsl/drbokeh_backward_<pass>.comp`):
 //! 1. `composite` (per pixel): dL/dC_l, dL/dW_l, dL/dV_l of every layer from dL/d(output).
 //! 2. `own` (per layer, per pixel x, over x's forward window): the terms of x's own outputs
 //!    that depend on x's inputs as the *receiver* — alpha_x and s_x in the occlusion O(y, x),
-//!    r_x in V_l(x) — and `dL/dV / sum D`, the normalised adjoint of V for pass 3.
-//! 3. `source` (per layer, per pixel y, over every x whose window holds y): y as a *source* —
+//!    r_x in V_l(x) — and `dL/dV / sum D`, the normalised adjoint of V for pass 4.
+//! 3. `tile_reach` (per layer, per tile): the transpose of the tile windows — how far the
+//!    receivers whose windows hold a source of the tile can be.
+//! 4. `source` (per layer, per pixel y, over every x whose window holds y): y as a *source* —
 //!    premultiplied colour and alpha in C/W, r_y and s_y in the weight, alpha_y in V(x).
 //!
 //! Non-smooth pieces of the forward are held constant (the gradient is that of the piece the

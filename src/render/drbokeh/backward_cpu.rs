@@ -1,6 +1,7 @@
 //! f64 CPU reference of the Dr.Bokeh backward passes, shaped like the shaders:
 //! `composite_pixel` is the body of `drbokeh_backward_composite.comp`, `own_pixel` of
-//! `drbokeh_backward_own.comp`, `source_pixel` of `drbokeh_backward_source.comp` (pass roles
+//! `drbokeh_backward_own.comp`, `tile_reach_cpu` of `drbokeh_backward_tile_reach.comp`,
+//! `source_pixel` of `drbokeh_backward_source.comp` (pass roles
 //! in [`super::backward`]). Each function owns the values it returns: gathers only.
 use rayon::prelude::*;
 
@@ -209,12 +210,13 @@ pub fn source_cpu(
     own: &[[f64; 4]],
     options: BackwardOptions,
 ) -> CpuLayerGradients {
-    let reach = source_reach(params);
+    let reach = tile_reach_cpu(params, window);
     let per_pixel: Vec<([f64; 4], f64, f64)> = (0..params.width * params.height)
         .into_par_iter()
         .map(|i| {
             let (x, y) = ((i % params.width) as i64, (i / params.width) as i64);
-            source_pixel(params, layer, window, adjoint, own, options.leaky_slope, x, y, reach)
+            let tile = (y as usize / TILE) * params.tiles_x + x as usize / TILE;
+            source_pixel(params, layer, window, adjoint, own, options.leaky_slope, x, y, reach[tile] as i64)
         })
         .collect();
     CpuLayerGradients {
@@ -224,10 +226,29 @@ pub fn source_cpu(
     }
 }
 
-/// Half-width of the square of receivers a source may reach: every tile window is
-/// `ceil(reach) - 1 <= ceil(max_support) - 1`; one more ring absorbs f32 rounding on the GPU.
-pub fn source_reach(params: &Params) -> i64 {
-    params.max_support.ceil() as i64
+/// Per tile, the half-width of the square of receivers whose windows may hold a source of
+/// the tile (mirrors `drbokeh_backward_tile_reach.comp`): a receiver in tile U holds sources
+/// up to `h_U` px away, so `reach_T = max { h_U : gap(U, T) <= h_U }`.
+pub fn tile_reach_cpu(params: &Params, window: &[i32]) -> Vec<i32> {
+    let (tiles_x, tiles_y) = (params.tiles_x as i64, params.tiles_y as i64);
+    // Windows are at most ceil(max_support) - 1 px: tiles farther apart never see each other.
+    let range = (params.max_support / TILE as f64).ceil() as i64 + 1;
+    let gap = |k: i64| if k == 0 { 0 } else { k.abs() * TILE as i64 - (TILE as i64 - 1) };
+    (0..window.len() as i64)
+        .map(|t| {
+            let (tx, ty) = (t % tiles_x, t / tiles_x);
+            let mut reach = 0;
+            for uy in (ty - range).max(0)..=(ty + range).min(tiles_y - 1) {
+                for ux in (tx - range).max(0)..=(tx + range).min(tiles_x - 1) {
+                    let h = window[(uy * tiles_x + ux) as usize];
+                    if gap(ux - tx).max(gap(uy - ty)) <= h as i64 {
+                        reach = reach.max(h);
+                    }
+                }
+            }
+            reach
+        })
+        .collect()
 }
 
 /// Source y = (x, y) over every receiver whose window holds it: `(dL/dP.rgba, dL/dd, rel g_s)`.

@@ -19,6 +19,7 @@ pub struct DrBokehGpuGrad {
     forward: DrBokehGpu,
     composite: ComputePipeline,
     own: ComputePipeline,
+    tile_reach: ComputePipeline,
     source: ComputePipeline,
     pub model: Model,
     pub options: BackwardOptions,
@@ -30,6 +31,7 @@ struct BackwardBuffers {
     adj_cw: Buffer,
     adj_vis: Buffer,
     own: Buffer,
+    tile_reach: Buffer,
     grad_rgba: Buffer,
     grad_disparity: Buffer,
     k_partial: Buffer,
@@ -42,7 +44,8 @@ impl DrBokehGpuGrad {
             forward: DrBokehGpu::new(ctx)?,
             composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_COMPOSITE, 5, push)?,
             own: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN, 8, push)?,
-            source: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE, 10, push)?,
+            tile_reach: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_TILE_REACH, 2, push)?,
+            source: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE, 11, push)?,
             model,
             options,
         })
@@ -80,6 +83,7 @@ impl DrBokehGpuGrad {
             adj_cw: Buffer::zeroed(ctx, "drbokeh adj_cw", n * VEC4)?,
             adj_vis: Buffer::zeroed(ctx, "drbokeh adj_vis", n * 4)?,
             own: Buffer::zeroed(ctx, "drbokeh own", n * VEC4)?,
+            tile_reach: Buffer::zeroed(ctx, "drbokeh tile_reach", (params.layer_count * params.tiles_x * params.tiles_y) as u64 * 4)?,
             grad_rgba: Buffer::zeroed(ctx, "drbokeh grad_rgba", n * VEC4)?,
             grad_disparity: Buffer::zeroed(ctx, "drbokeh grad_disparity", n * 4)?,
             k_partial: Buffer::zeroed(ctx, "drbokeh k_partial", n * 4)?,
@@ -88,6 +92,7 @@ impl DrBokehGpuGrad {
 
     fn record(&self, batch: &mut CommandBatch, params: &Params, f: &ForwardBuffers, b: &BackwardBuffers) -> Result<()> {
         let groups = self.own.groups_for([params.width as u32, params.height as u32, 1]);
+        let tile_groups = self.tile_reach.groups_for([(params.tiles_x * params.tiles_y) as u32, 1, 1]);
         let push = |layer| super::DrBokehPush { leaky_slope: self.options.leaky_slope as f32, ..params.push(layer) };
         let composite = [f.layer_cw.all(), f.layer_vis.all(), b.grad_output.all(), b.adj_cw.all(), b.adj_vis.all()];
         batch.dispatch(&self.composite, &composite, &push(0), groups)?;
@@ -103,6 +108,7 @@ impl DrBokehGpuGrad {
                 b.own.all(),
             ];
             batch.dispatch(&self.own, &own, &push(layer), groups)?;
+            batch.dispatch(&self.tile_reach, &[f.tile_window.all(), b.tile_reach.all()], &push(layer), tile_groups)?;
             let source = [
                 f.rgba.all(),
                 f.disparity.all(),
@@ -114,6 +120,7 @@ impl DrBokehGpuGrad {
                 b.grad_rgba.all(),
                 b.grad_disparity.all(),
                 b.k_partial.all(),
+                b.tile_reach.all(),
             ];
             batch.dispatch(&self.source, &source, &push(layer), groups)?;
         }
