@@ -14,7 +14,8 @@
 use lensblur::camera::{Aperture, CocModel, KernelImage};
 use lensblur::image::Image;
 use lensblur::render::drbokeh::backward_cpu::tile_reach_cpu;
-use lensblur::render::drbokeh::{backward_cpu, render_cpu_params, BackwardOptions, CpuGradients, Model, Params, Window};
+use lensblur::render::drbokeh::{backward_cpu, render_cpu_params, BackwardOptions, CpuGradients, DrBokehCpu, Model, Params, Window};
+use lensblur::render::grad::Differentiable;
 use lensblur::render::Lens;
 use lensblur::stack::{Layer, LayerStack};
 
@@ -328,4 +329,12 @@ fn tile_reach_covers_every_receiver_window_holding_the_tile() {
     }
     // And no wider than the largest window that actually holds a pixel of the tile.
     assert_eq!(reach, tight);
+}
+
+#[test]
+fn backward_rejects_an_output_gradient_of_another_size() {
+    let renderer = DrBokehCpu { model: Model::DrBokeh, options: BackwardOptions::exact() };
+    let wrong = Image::new(W + 1, H);
+    let err = renderer.backward(&stack(), &lens(6.0, 0.5), &wrong).unwrap_err();
+    assert!(err.to_string().contains("13x10"), "{err}");
 }

@@ -195,6 +195,7 @@ fn gpu_backward_is_deterministic() {
     assert_eq!(first.k_px.to_bits(), second.k_px.to_bits());
     assert_eq!(first.focus_disparity.to_bits(), second.focus_disparity.to_bits());
     assert!(first.k_px != 0.0 && first.layers[0].disparity.iter().any(|&g| g != 0.0));
+    assert!(renderer.backward(&stack, &lens(Aperture::Disk), &grad_output(w, h + 1)).is_err());
     finish(ctx);
 }
 
