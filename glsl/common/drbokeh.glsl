@@ -31,7 +31,7 @@ layout(push_constant) uniform DrBokehPush {
     float max_support;    // 40  largest support / gather radius in the stack (px)
     float area_step;      // 44  px of radius per area-table entry
     int area_count;       // 48  entries in the area table
-    int pad0;             // 52
+    float leaky_slope;    // 52  backward passes only: smallest scatter slope (0 = exact)
     int pad1;             // 56
     int pad2;             // 60
     vec4 aperture;        // 64  Aperture::gpu_params

@@ -44,7 +44,12 @@ pub fn render_cpu(stack: &LayerStack, lens: &Lens, model: Model) -> Result<Image
 
 /// [`render_cpu`] keeping every intermediate (for tests and the backward pass).
 pub fn render_cpu_terms(stack: &LayerStack, lens: &Lens, model: Model, window: Window) -> Result<Terms> {
-    let params = Params::new(stack, lens, model)?;
+    Ok(render_cpu_params(stack, Params::new(stack, lens, model)?, window))
+}
+
+/// [`render_cpu_terms`] with prepared parameters (tests set the lens scalars in f64 through
+/// `params.lens`, for finite differences finer than f32 can step).
+pub fn render_cpu_params(stack: &LayerStack, params: Params, window: Window) -> Terms {
     let layers: Vec<LayerTerms> = stack
         .layers
         .iter()
@@ -62,7 +67,7 @@ pub fn render_cpu_terms(stack: &LayerStack, lens: &Lens, model: Model, window: W
     for (out, c) in image.pixels.iter_mut().zip(&composite) {
         *out = c.map(|v| v as f32);
     }
-    Ok(Terms { params, layers, composite, image })
+    Terms { params, layers, composite, image }
 }
 
 /// One dispatch of `drbokeh_layer.comp` on `layer`.

@@ -16,7 +16,7 @@ use crate::Result;
 
 /// Bytes per pixel of one layer: uploaded rgba + disparity, or written (C, W) + V.
 const LAYER_BYTES_PER_PIXEL: u64 = 20;
-const VEC4: u64 = 16;
+pub(crate) const VEC4: u64 = 16;
 
 /// The Dr.Bokeh pipelines on one device; build once, render many stacks.
 pub struct DrBokehGpu {
@@ -124,20 +124,19 @@ impl DrBokehGpu {
     ) -> Result<(Image, RenderStats)> {
         let ctx = &self.ctx;
         let baseline = ctx.allocated_bytes();
-        let shared = SharedBuffers {
-            windows: Buffer::from_slice(ctx, "drbokeh tile_window", windows)?,
-            area_lut: Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?,
-            kernel: Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?,
-        };
         let cores = frame_cores(params.width, params.height, tile);
         let mut image = Image::new(params.width, params.height);
         let mut stats = RenderStats { tiles: cores.len(), tile_size: tile, ..RenderStats::default() };
         let mut device_ns = Some(0.0);
         for (done, &core) in cores.iter().enumerate() {
             let read = core.grown(halo(params, windows, core), params.width, params.height);
-            let (result, tile_ns, peak) = self.render_tile(stack, params, &shared, core, read)?;
-            device_ns = device_ns.zip(tile_ns).map(|(a, b)| a + b);
-            stats.peak_device_bytes = stats.peak_device_bytes.max(peak.saturating_sub(baseline));
+            let buffers = ForwardBuffers::new(ctx, stack, params, windows, core, read)?;
+            stats.peak_device_bytes = stats.peak_device_bytes.max(ctx.allocated_bytes().saturating_sub(baseline));
+            let mut batch = CommandBatch::new(ctx)?;
+            self.record(&mut batch, params, &buffers)?;
+            batch.submit_and_wait()?;
+            device_ns = device_ns.zip(batch.last_device_time_ns()).map(|(a, b)| a + b);
+            let result: Vec<[f32; 4]> = buffers.result.read(ctx)?;
             stats.taps += taps(params, windows, core);
             for y in 0..core.height() {
                 let row = &result[y * core.width()..(y + 1) * core.width()];
@@ -152,54 +151,67 @@ impl DrBokehGpu {
         Ok((image, stats))
     }
 
-    /// One frame tile in one submission; returns its core's pixels, device time and the
-    /// device memory held while it ran.
-    fn render_tile(
-        &self,
-        stack: &LayerStack,
-        params: &Params,
-        shared: &SharedBuffers,
-        core: Rect,
-        read: Rect,
-    ) -> Result<(Vec<[f32; 4]>, Option<f64>, u64)> {
-        let ctx = &self.ctx;
+    /// Records the layer passes and the composite of one frame tile (the backward pass records
+    /// the whole frame as one tile and reads every intermediate).
+    pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
+        let groups = self.layer.groups_for([b.core.width() as u32, b.core.height() as u32, 1]);
+        for layer in 0..params.layer_count {
+            let bindings = [
+                b.rgba.all(),
+                b.disparity.all(),
+                b.tile_window.all(),
+                b.area_lut.all(),
+                b.kernel.all(),
+                b.layer_cw.all(),
+                b.layer_vis.all(),
+            ];
+            batch.dispatch(&self.layer, &bindings, &params.push_tile(layer, b.core, b.read), groups)?;
+        }
+        let push = params.push_tile(0, b.core, b.read);
+        batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
+    }
+}
+
+/// The device buffers of one frame tile: the uploaded `read` rect of every layer, the search
+/// windows and lens tables, and every pass's output over the `core`.
+pub(crate) struct ForwardBuffers {
+    pub core: Rect,
+    pub read: Rect,
+    pub rgba: Buffer,
+    pub disparity: Buffer,
+    pub tile_window: Buffer,
+    pub area_lut: Buffer,
+    pub kernel: Buffer,
+    pub layer_cw: Buffer,
+    pub layer_vis: Buffer,
+    pub result: Buffer,
+}
+
+impl ForwardBuffers {
+    pub fn new(ctx: &Context, stack: &LayerStack, params: &Params, windows: &[i32], core: Rect, read: Rect) -> Result<Self> {
         let layers = params.layer_count as u64;
         let core_pixels = core.area() as u64;
         let rgba: Vec<[f32; 4]> = stack.layers.iter().flat_map(|l| crop(&l.rgba.pixels, params.width, read)).collect();
         let disparity: Vec<f32> = stack.layers.iter().flat_map(|l| crop(&l.disparity, params.width, read)).collect();
-        let rgba = Buffer::from_slice(ctx, "drbokeh rgba", &rgba)?;
-        let disparity = Buffer::from_slice(ctx, "drbokeh disparity", &disparity)?;
-        let layer_cw = Buffer::zeroed(ctx, "drbokeh layer_cw", layers * core_pixels * VEC4)?;
-        let layer_vis = Buffer::zeroed(ctx, "drbokeh layer_vis", layers * core_pixels * 4)?;
-        let result = Buffer::zeroed(ctx, "drbokeh result", core_pixels * VEC4)?;
-        let peak = ctx.allocated_bytes();
-
-        let groups = self.layer.groups_for([core.width() as u32, core.height() as u32, 1]);
-        let mut batch = CommandBatch::new(ctx)?;
-        for layer in 0..params.layer_count {
-            let bindings = [
-                rgba.all(),
-                disparity.all(),
-                shared.windows.all(),
-                shared.area_lut.all(),
-                shared.kernel.all(),
-                layer_cw.all(),
-                layer_vis.all(),
-            ];
-            batch.dispatch(&self.layer, &bindings, &params.push_tile(layer, core, read), groups)?;
-        }
-        let push = params.push_tile(0, core, read);
-        batch.dispatch(&self.composite, &[layer_cw.all(), layer_vis.all(), result.all()], &push, groups)?;
-        batch.submit_and_wait()?;
-        Ok((result.read(ctx)?, batch.last_device_time_ns(), peak))
+        Ok(Self {
+            core,
+            read,
+            rgba: Buffer::from_slice(ctx, "drbokeh rgba", &rgba)?,
+            disparity: Buffer::from_slice(ctx, "drbokeh disparity", &disparity)?,
+            tile_window: Buffer::from_slice(ctx, "drbokeh tile_window", windows)?,
+            area_lut: Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?,
+            kernel: Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?,
+            layer_cw: Buffer::zeroed(ctx, "drbokeh layer_cw", layers * core_pixels * VEC4)?,
+            layer_vis: Buffer::zeroed(ctx, "drbokeh layer_vis", layers * core_pixels * 4)?,
+            result: Buffer::zeroed(ctx, "drbokeh result", core_pixels * VEC4)?,
+        })
     }
-}
 
-/// Buffers every tile of one render binds.
-struct SharedBuffers {
-    windows: Buffer,
-    area_lut: Buffer,
-    kernel: Buffer,
+    /// The whole frame as one tile, with its search windows.
+    pub fn whole_frame(ctx: &Context, stack: &LayerStack, params: &Params) -> Result<Self> {
+        let whole = Rect { x0: 0, y0: 0, x1: params.width, y1: params.height };
+        Self::new(ctx, stack, params, &search_windows(params, stack), whole, whole)
+    }
 }
 
 fn round_to_tile(pixels: usize) -> usize {

@@ -176,3 +176,157 @@ pub fn kernel_sample(weights: &[f64], size: usize, u: f64, v: f64) -> f64 {
     let bottom = at(x0, y0 + 1.0) * (1.0 - tx) + at(x0 + 1.0, y0 + 1.0) * tx;
     top * (1.0 - ty) + bottom * ty
 }
+
+// ---------------------------------------------------------------- derivatives (backward pass)
+//
+// `d_*` is the derivative of the forward function of the same name, exact wherever the
+// forward is differentiable. At its finitely many kinks (smoothstep edges, area-table nodes,
+// `|s|` at 0, the compat tail cut and tanh clamp) it returns one of the one-sided values, as
+// the backward treats every piecewise choice of the forward as a constant.
+
+/// d/dx of [`smoothstep`]`(e0, e1, x)`; 0 outside the open ramp.
+#[inline]
+pub fn d_smoothstep(e0: f64, e1: f64, x: f64) -> f64 {
+    let t = (x - e0) / (e1 - e0);
+    if t <= 0.0 || t >= 1.0 {
+        0.0
+    } else {
+        6.0 * t * (1.0 - t) / (e1 - e0)
+    }
+}
+
+/// d/dw of [`existence_gate`].
+#[inline]
+pub fn d_existence_gate(w: f64) -> f64 {
+    d_smoothstep(0.0, 1.0e-3, w)
+}
+
+/// d/dr of [`scatter`]`(r, g)`: the rim ramp's slope, >= 0.
+#[inline]
+pub fn d_scatter(r: f64, g: f64) -> f64 {
+    d_smoothstep(0.0, 1.0, r + 0.5 - g)
+}
+
+/// d/dr of [`area_from_lut`]: the slope of the table segment holding `r` (the right one at a
+/// node), then the derivative of the `r^2 + 1/20` growth.
+pub fn d_area_from_lut(lut: &[f64], step: f64, r: f64) -> f64 {
+    let last = lut.len() - 1;
+    let r_last = last as f64 * step;
+    if r >= r_last {
+        return lut[last] * 2.0 * r / (r_last * r_last + 0.05);
+    }
+    let i = ((r / step).floor() as usize).min(last - 1);
+    (lut[i + 1] - lut[i]) / step
+}
+
+/// Partial derivatives of an occlusion term O(y, x). `src`/`dst` are w.r.t. the signed radii
+/// `s_y`/`s_x` (default model) or the relative disparities `rel_y`/`rel_x` (compat), holding
+/// `r_x` fixed; `r_x` is the separate dependence through `|s_x|`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct OcclusionPartials {
+    pub src: f64,
+    pub dst: f64,
+    pub r_x: f64,
+    pub alpha_x: f64,
+}
+
+/// Partials of [`occlusion`].
+pub fn d_occlusion(s_y: f64, s_x: f64, r_x: f64, alpha_x: f64, is_self: bool) -> OcclusionPartials {
+    if is_self {
+        return OcclusionPartials::default();
+    }
+    let in_focus = 1.0 - smoothstep(0.5, 1.5, r_x);
+    let behind = 1.0 - smoothstep(-0.5, 0.0, s_y - s_x);
+    let d_behind = -d_smoothstep(-0.5, 0.0, s_y - s_x);
+    let d_in_focus = -d_smoothstep(0.5, 1.5, r_x);
+    OcclusionPartials {
+        src: -alpha_x * in_focus * d_behind,
+        dst: alpha_x * in_focus * d_behind,
+        r_x: -alpha_x * d_in_focus * behind,
+        alpha_x: -in_focus * behind,
+    }
+}
+
+/// d/da of [`softstep`]`(a, b)` (= -d/db), >= 0. The compat support keeps `a - b > -4`, so
+/// the exponential cannot overflow.
+#[inline]
+pub fn d_softstep(a: f64, b: f64) -> f64 {
+    let e = (-(a - b) * 3.0).exp();
+    let den = 0.1 + e + 1.0e-6;
+    0.3 * e / (den * den)
+}
+
+/// d/dr of [`scatter_compat`] (0 past the tail cut, where the forward is a constant 0).
+#[inline]
+pub fn d_scatter_compat(r: f64, g: f64) -> f64 {
+    if g >= support_compat(r) {
+        0.0
+    } else {
+        d_softstep(r + 1.0, g)
+    }
+}
+
+/// d/dr of [`area_compat`].
+#[inline]
+pub fn d_area_compat(r: f64) -> f64 {
+    2.0 * (r + 1.0)
+}
+
+/// Partials of [`occlusion_compat`] (`src`/`dst` w.r.t. `rel_y`/`rel_x`; no alpha term).
+pub fn d_occlusion_compat(rel_y: f64, rel_x: f64, r_x: f64, is_self: bool) -> OcclusionPartials {
+    if is_self {
+        return OcclusionPartials::default();
+    }
+    let gauss = (-3.0 * r_x * r_x).exp();
+    let in_focal = 1.0 - gauss;
+    let z = 10.0 * (rel_y - rel_x - 0.1);
+    let th = z.clamp(-15.0, 15.0).tanh();
+    let rel = 0.5 + 0.5 * th;
+    // The clamp holds tanh constant outside +-15.
+    let d_rel = if z.abs() < 15.0 { 5.0 * (1.0 - th * th) } else { 0.0 };
+    OcclusionPartials {
+        src: (1.0 - in_focal) * d_rel,
+        dst: -(1.0 - in_focal) * d_rel,
+        r_x: 6.0 * r_x * gauss * (1.0 - rel),
+        alpha_x: 0.0,
+    }
+}
+
+/// d/dr of [`kernel_blend`].
+#[inline]
+pub fn d_kernel_blend(r: f64) -> f64 {
+    d_smoothstep(KERNEL_FADE_START_PX, KERNEL_FADE_END_PX, r)
+}
+
+/// [`kernel_sample`] and its gradient `(value, d/du, d/dv)` (bilinear: piecewise linear
+/// between texel centres, the gradient of the cell holding `(u, v)`).
+pub fn kernel_sample_grad(weights: &[f64], size: usize, u: f64, v: f64) -> (f64, f64, f64) {
+    let n = size as f64;
+    let fx = (u * 0.5 + 0.5) * n - 0.5;
+    let fy = (v * 0.5 + 0.5) * n - 0.5;
+    if !(fx > -1.0 && fy > -1.0 && fx < n && fy < n) {
+        return (0.0, 0.0, 0.0);
+    }
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (tx, ty) = (fx - x0, fy - y0);
+    let at = |x: f64, y: f64| -> f64 {
+        if x < 0.0 || y < 0.0 || x >= n || y >= n {
+            0.0
+        } else {
+            weights[y as usize * size + x as usize]
+        }
+    };
+    let (a, b, c, d) = (at(x0, y0), at(x0 + 1.0, y0), at(x0, y0 + 1.0), at(x0 + 1.0, y0 + 1.0));
+    let top = a * (1.0 - tx) + b * tx;
+    let bottom = c * (1.0 - tx) + d * tx;
+    let d_fx = (b - a) * (1.0 - ty) + (d - c) * ty;
+    let d_fy = bottom - top;
+    (top * (1.0 - ty) + bottom * ty, d_fx * 0.5 * n, d_fy * 0.5 * n)
+}
+
+/// The monotonic leaky slope: a soft step's derivative never falls below `slope` (0 = the
+/// exact derivative, since soft-step derivatives are >= 0).
+#[inline]
+pub fn leaky(derivative: f64, slope: f64) -> f64 {
+    derivative.max(slope)
+}

@@ -21,9 +21,12 @@
 //! whatever the tile size.
 use crate::camera::{Aperture, CocModel};
 
+pub mod backward;
+pub mod backward_cpu;
 pub mod bounds;
 pub mod cpu;
 mod gpu;
+mod gpu_backward;
 pub mod math;
 mod params;
 
@@ -32,8 +35,11 @@ mod compat_direct;
 #[cfg(test)]
 mod tests;
 
-pub use cpu::{render_cpu, render_cpu_terms, LayerTerms, Terms, Window};
+pub use backward::{BackwardOptions, DrBokehCpu};
+pub use backward_cpu::{backward_cpu, CpuGradients, CpuLayerGradients};
+pub use cpu::{render_cpu, render_cpu_params, render_cpu_terms, LayerTerms, Terms, Window};
 pub use gpu::{DrBokehGpu, RenderOptions, RenderStats};
+pub use gpu_backward::DrBokehGpuGrad;
 pub use params::Params;
 
 /// Side of the square output tile a workgroup owns, in pixels (`local_size` 16x16).
@@ -91,7 +97,9 @@ pub struct DrBokehPush {
     pub max_support: f32, // 40
     pub area_step: f32, // 44
     pub area_count: i32, // 48
-    pub pad: [i32; 3], // 52
+    /// [`BackwardOptions::leaky_slope`]; read by the backward passes only.
+    pub leaky_slope: f32, // 52
+    pub pad: [i32; 2], // 56
     /// [`Aperture::gpu_params`]: blades (0 = disk), rotation (rad), roundness, kernel flag.
     pub aperture: [f32; 4], // 64
     /// Frame tile this dispatch writes: x, y, width, height in image pixels (the whole image

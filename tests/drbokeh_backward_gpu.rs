@@ -1,0 +1,232 @@
+//! The Dr.Bokeh backward shaders against their f64 CPU reference, against finite differences
+//! of the GPU forward, and for determinism.
+mod common;
+
+use common::{finish, gpu};
+use lensblur::camera::{Aperture, CocModel, KernelImage};
+use lensblur::image::Image;
+use lensblur::render::drbokeh::{backward_cpu, BackwardOptions, DrBokehGpu, DrBokehGpuGrad, Model};
+use lensblur::render::grad::{Differentiable, StackGradients};
+use lensblur::render::Lens;
+use lensblur::stack::{Layer, LayerStack};
+
+fn hash(i: usize) -> f32 {
+    let x = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x5851_F42D_4C95_7F2D;
+    let x = (x ^ (x >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    ((x >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+}
+
+/// Three layers, sizes that do not divide the 16x16 tiles: a near blob with a soft alpha rim,
+/// a near-focus textured layer with holes, an opaque far layer. K = 12, focus 0.5: CoC up to
+/// `12 * max |d - 0.5|` px. Slopes keep radii off the compat box steps int((r + 1) / 2),
+/// where f32 and f64 could round to different integer boxes.
+fn scene(w: usize, h: usize, near_d: f32) -> LayerStack {
+    let (cx, cy) = (w as f32 * 0.4, h as f32 * 0.45);
+    let near = Layer {
+        name: "near".into(),
+        rgba: Image::from_fn(w, h, |x, y| {
+            let d = ((x as f32 - cx).powi(2) + (y as f32 - cy).powi(2)).sqrt() / (h as f32 * 0.25);
+            let a = if d < 0.8 { 1.0 } else if d < 1.1 { 0.5 } else { 0.0 };
+            [0.9 * a, (0.2 + 0.01 * x as f32) * a, 0.4 * a, a]
+        }),
+        disparity: (0..w * h).map(|i| near_d + 0.0013 * (i % w) as f32 / w as f32 * 16.0 - 0.0007 * (i / w) as f32 / h as f32 * 16.0).collect(),
+    };
+    let mid = Layer {
+        name: "mid".into(),
+        rgba: Image::from_fn(w, h, |x, y| {
+            let a = if (x + 2 * y) % 7 == 0 { 0.0 } else if x > w / 2 { 0.75 } else { 1.0 };
+            [(0.3 + 0.1 * (y % 3) as f32) * a, 0.7 * a, 2.0 * a, a]
+        }),
+        disparity: (0..w * h).map(|i| 0.5137 + 0.1 * (i % w) as f32 / w as f32 + 0.011 * (i / w) as f32 / h as f32).collect(),
+    };
+    let far = Layer {
+        name: "far".into(),
+        rgba: Image::from_fn(w, h, |x, y| {
+            let highlight = if (x * 7 + y * 13) % 53 == 0 { 8.0 } else { 0.0 };
+            let v = ((x * 5 + y * 3) % 7) as f32 / 7.0;
+            [v + highlight, 0.5 - 0.3 * v, 3.0 * v + 0.1, 1.0]
+        }),
+        disparity: (0..w * h).map(|i| 0.2113 + 0.03 * (i % w) as f32 / w as f32 + 0.021 * (i / w) as f32 / h as f32).collect(),
+    };
+    LayerStack::new(w, h, vec![near, mid, far]).unwrap()
+}
+
+fn grad_output(w: usize, h: usize) -> Image {
+    Image::from_fn(w, h, |x, y| std::array::from_fn(|c| hash((y * w + x) * 4 + c)))
+}
+
+fn lens(aperture: Aperture) -> Lens {
+    Lens { coc: CocModel::new(12.0, 0.5).unwrap(), aperture }
+}
+
+/// Largest |gpu - cpu| of a gradient family relative to the family's largest |cpu| entry.
+fn worst(gpu: impl Iterator<Item = f32>, cpu: impl Iterator<Item = f64>) -> f64 {
+    let pairs: Vec<(f64, f64)> = gpu.map(|v| v as f64).zip(cpu).collect();
+    let scale = pairs.iter().fold(0.0f64, |m, p| m.max(p.1.abs()));
+    pairs.iter().fold(0.0f64, |m, p| m.max((p.0 - p.1).abs())) / scale.max(f64::MIN_POSITIVE)
+}
+
+#[test]
+fn gpu_backward_matches_cpu_reference_for_both_models_and_apertures() {
+    let ctx = gpu();
+    let (w, h) = (37, 29);
+    let stack = scene(w, h, 0.83);
+    let gout = grad_output(w, h);
+    let kernel = KernelImage::from_weights(4, vec![0.2, 1.0, 1.0, 0.2, 1.0, 0.5, 0.5, 1.0, 1.0, 0.5, 0.5, 1.0, 0.2, 1.0, 1.0, 0.2]).unwrap();
+    let apertures = [Aperture::Disk, Aperture::polygon(6, 15.0, 0.2).unwrap(), Aperture::Kernel(kernel)];
+    for model in [Model::DrBokeh, Model::Compat] {
+        for (a, aperture) in apertures.iter().enumerate() {
+            // The leak changes only dS/dr terms, the same code for every aperture: disk only.
+            let leaks: &[BackwardOptions] = if a == 0 { &[BackwardOptions::exact(), BackwardOptions::leaky()] } else { &[BackwardOptions::exact()] };
+            for &options in leaks {
+                let lens = lens(aperture.clone());
+                let renderer = DrBokehGpuGrad::new(&ctx, model, options).unwrap();
+                let got = renderer.backward(&stack, &lens, &gout).unwrap();
+                let want = backward_cpu(&stack, &lens, model, options, &gout).unwrap();
+                let label = format!("{model:?} aperture {a} leak {}", options.leaky_slope);
+                for (l, (g, c)) in got.layers.iter().zip(&want.layers).enumerate() {
+                    let rgba = worst(g.rgba.iter().flatten().copied(), c.rgba.iter().flatten().copied());
+                    let disparity = worst(g.disparity.iter().copied(), c.disparity.iter().copied());
+                    eprintln!("{label} layer {l}: rgba {rgba:e}, disparity {disparity:e}");
+                    // f32 sums of a few hundred terms per entry (plus the 1/W^2 of the colour
+                    // ratio): ~1e-5 of the largest entry; 1e-4 leaves margin for cancellation.
+                    assert!(rgba < 1e-4 && disparity < 1e-4, "{label} layer {l}: rgba {rgba:e}, disparity {disparity:e}");
+                }
+                // The scalars sum ~3000 f32 shares of both signs.
+                let k = (got.k_px - want.k_px).abs() / want.k_px.abs().max(1.0);
+                let f = (got.focus_disparity - want.focus_disparity).abs() / want.focus_disparity.abs().max(1.0);
+                assert!(k < 1e-4 && f < 1e-4, "{label}: K {} vs {}, focus {} vs {}", got.k_px, want.k_px, got.focus_disparity, want.focus_disparity);
+            }
+        }
+    }
+    finish(ctx);
+}
+
+/// `sum_x u(x) . out(x)` in f64 from the GPU forward.
+fn projected(renderer: &DrBokehGpu, stack: &LayerStack, lens: &Lens, model: Model, u: &Image) -> f64 {
+    let out = renderer.render(stack, lens, model).unwrap();
+    out.pixels.iter().zip(&u.pixels).map(|(o, g)| (0..4).map(|c| o[c] as f64 * g[c] as f64).sum::<f64>()).sum()
+}
+
+/// `stack + t v` for the direction v: colour, alpha (where it stays inside (0, 1]) and, with
+/// `depth`, disparity (weight `depth` per unit of direction).
+fn moved(stack: &LayerStack, t: f32, depth: f32) -> LayerStack {
+    let mut s = stack.clone();
+    for (l, layer) in s.layers.iter_mut().enumerate() {
+        let n = layer.disparity.len();
+        for (i, p) in layer.rgba.pixels.iter_mut().enumerate() {
+            let j = (l * n + i) * 6;
+            for (c, v) in p.iter_mut().enumerate().take(3) {
+                *v += t * hash(j + c);
+            }
+            if p[3] > 0.1 && p[3] < 0.9 {
+                p[3] += t * hash(j + 3);
+            }
+            layer.disparity[i] += t * hash(j + 4) * depth;
+        }
+    }
+    s
+}
+
+/// `v . grad` for the direction of [`moved`].
+fn directional(stack: &LayerStack, grads: &StackGradients, depth: f32) -> f64 {
+    let mut sum = 0.0f64;
+    for (l, (layer, g)) in stack.layers.iter().zip(&grads.layers).enumerate() {
+        let n = layer.disparity.len();
+        for i in 0..n {
+            let j = (l * n + i) * 6;
+            for c in 0..3 {
+                sum += hash(j + c) as f64 * g.rgba[i][c] as f64;
+            }
+            let a = layer.rgba.pixels[i][3];
+            if a > 0.1 && a < 0.9 {
+                sum += hash(j + 3) as f64 * g.rgba[i][3] as f64;
+            }
+            sum += hash(j + 4) as f64 * depth as f64 * g.disparity[i] as f64;
+        }
+    }
+    sum
+}
+
+#[test]
+fn gpu_backward_matches_directional_finite_difference_of_gpu_forward() {
+    let ctx = gpu();
+    let (w, h) = (96, 64);
+    // Near layer at d ~ 0.83: CoC up to 12 * 0.35 ~ 4 px; far up to 12 * 0.29 ~ 3.5; at 1.15, ~8 px.
+    let stack = scene(w, h, 1.15);
+    let u = grad_output(w, h);
+    // The compat visibility box int((r + 1) / 2) jumps as radii cross odd integers: a step in
+    // disparity crosses dozens of them over the image, so compat moves colour and alpha only
+    // (its disparity gradient is checked against finite differences on the CPU, kinks excluded).
+    for (model, depth) in [(Model::DrBokeh, 0.5f32), (Model::Compat, 0.0)] {
+        let lens = lens(Aperture::Disk);
+        let grad = DrBokehGpuGrad::new(&ctx, model, BackwardOptions::exact()).unwrap();
+        let forward = DrBokehGpu::new(&ctx).unwrap();
+        let analytic = directional(&stack, &grad.backward(&stack, &lens, &u).unwrap(), depth);
+        // t = 1e-3 moves radii by <= 6e-3 px. The difference quotient is then limited by the
+        // forward's curvature, not f32: the f64 CPU forward at this step differs from the
+        // backward by 6e-4 as well (1e-4 steps get to 6e-5 in f64, but f32 inputs cannot
+        // take them exactly). Smaller steps would measure f32 rounding of the inputs instead.
+        let t = 1e-3;
+        let up = projected(&forward, &moved(&stack, t, depth), &lens, model, &u);
+        let down = projected(&forward, &moved(&stack, -t, depth), &lens, model, &u);
+        let numeric = (up - down) / (2.0 * t as f64);
+        let rel = (analytic - numeric).abs() / numeric.abs();
+        eprintln!("{model:?}: <u, J v> backward {analytic:e}, FD {numeric:e}, rel {rel:e}");
+        assert!(rel < 1e-3, "{model:?}: backward {analytic} vs FD {numeric}");
+    }
+    finish(ctx);
+}
+
+#[test]
+fn gpu_backward_is_deterministic() {
+    let ctx = gpu();
+    let (w, h) = (40, 33);
+    let stack = scene(w, h, 0.95);
+    let gout = grad_output(w, h);
+    let renderer = DrBokehGpuGrad::new(&ctx, Model::DrBokeh, BackwardOptions::leaky()).unwrap();
+    let first = renderer.backward(&stack, &lens(Aperture::Disk), &gout).unwrap();
+    let second = renderer.backward(&stack, &lens(Aperture::Disk), &gout).unwrap();
+    // Gathers only, host sums in a fixed order: bit-identical, not merely close.
+    assert!(first.layers.iter().zip(&second.layers).all(|(a, b)| {
+        a.rgba.iter().flatten().zip(b.rgba.iter().flatten()).all(|(x, y)| x.to_bits() == y.to_bits())
+            && a.disparity.iter().zip(&b.disparity).all(|(x, y)| x.to_bits() == y.to_bits())
+    }));
+    assert_eq!(first.k_px.to_bits(), second.k_px.to_bits());
+    assert_eq!(first.focus_disparity.to_bits(), second.focus_disparity.to_bits());
+    assert!(first.k_px != 0.0 && first.layers[0].disparity.iter().any(|&g| g != 0.0));
+    assert!(renderer.backward(&stack, &lens(Aperture::Disk), &grad_output(w, h + 1)).is_err());
+    finish(ctx);
+}
+
+/// Timing on the test device (run by hand: `cargo test --test drbokeh_backward_gpu timing -- --ignored --nocapture`).
+#[test]
+#[ignore]
+fn timing_forward_vs_backward_256() {
+    let ctx = gpu();
+    let stack = scene(256, 256, 0.9);
+    let gout = grad_output(256, 256);
+    let lens = lens(Aperture::Disk);
+    let forward = DrBokehGpu::new(&ctx).unwrap();
+    let backward = DrBokehGpuGrad::new(&ctx, Model::DrBokeh, BackwardOptions::exact()).unwrap();
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        v[v.len() / 2]
+    };
+    let mut f = Vec::new();
+    let mut b = Vec::new();
+    for _ in 0..3 {
+        let t = std::time::Instant::now();
+        forward.render(&stack, &lens, Model::DrBokeh).unwrap();
+        f.push(t.elapsed().as_secs_f64());
+        let t = std::time::Instant::now();
+        backward.backward(&stack, &lens, &gout).unwrap();
+        b.push(t.elapsed().as_secs_f64());
+    }
+    eprintln!("256x256x3 wall: forward {:.3} s, forward+backward {:.3} s (median of 3)", median(f), median(b));
+    let (_, fs) = forward.render_with(&stack, &lens, Model::DrBokeh, &Default::default()).unwrap();
+    let (_, bs) = backward.backward_with_stats(&stack, &lens, &gout).unwrap();
+    eprintln!("device: forward {:?} ns, forward+backward {:?} ns", fs.device_ns, bs.device_ns);
+    finish(ctx);
+}
+
