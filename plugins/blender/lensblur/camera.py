@@ -1,0 +1,103 @@
+"""The scene camera's depth-of-field settings as lensblur `render` flags.
+
+lensblur's physical camera is Cycles' thin lens: aperture radius focal_length / (2 f-stop)
+(both read as millimetres, i.e. 1e-3 scene units, as Cycles does), field of view from the
+focal length and the sensor width, and a planar focus distance in scene units. The camera's
+"Depth of Field" checkbox is ignored on purpose: the layers are rendered with it off (pinhole)
+and its settings describe the lens to simulate.
+"""
+import math
+
+from .errors import LensblurError
+
+# lensblur's polygon apertures have 3 to 16 blades.
+MAX_BLADES = 16
+
+
+def camera_flags(scene):
+    """Returns (flags, summary, warnings) for the scene camera."""
+    obj = scene.camera
+    if obj is None or obj.type != "CAMERA":
+        raise LensblurError("the scene has no camera: set Scene Properties > Camera")
+    cam = obj.data
+    if cam.type != "PERSP":
+        raise LensblurError(
+            f"camera '{obj.name}' is {cam.type.lower()}: lensblur needs a perspective camera"
+        )
+    dof = cam.dof
+    summary = {
+        "focal_length": cam.lens,
+        "sensor_width": effective_sensor_width(scene, cam),
+        "fstop": dof.aperture_fstop,
+        "focus_distance": focus_distance(obj, dof),
+        "aperture": aperture_spec(dof),
+    }
+    if summary["focus_distance"] <= 0.0:
+        raise LensblurError(
+            f"camera '{obj.name}' focuses at {summary['focus_distance']:.3g}: "
+            "the focus distance (or focus object) must be in front of the camera"
+        )
+    flags = [
+        "--focal-length", fmt(summary["focal_length"]),
+        "--sensor-width", fmt(summary["sensor_width"]),
+        "--fstop", fmt(summary["fstop"]),
+        "--focus-distance", fmt(summary["focus_distance"]),
+        "--aperture", summary["aperture"],
+    ]
+    return flags, summary, warnings_for(scene, dof)
+
+
+def fmt(value):
+    # repr round-trips a Python float exactly; the CLI parses it as f32.
+    return repr(float(value))
+
+
+def effective_sensor_width(scene, cam):
+    """Sensor width (mm) spanning the image width, following Blender's sensor fit."""
+    render = scene.render
+    width = render.resolution_x * render.pixel_aspect_x
+    height = render.resolution_y * render.pixel_aspect_y
+    fit = cam.sensor_fit
+    if fit == "AUTO":
+        fit = "HORIZONTAL" if width >= height else "VERTICAL"
+        size = cam.sensor_width
+    else:
+        size = cam.sensor_width if fit == "HORIZONTAL" else cam.sensor_height
+    return size if fit == "HORIZONTAL" else size * width / height
+
+
+def focus_distance(obj, dof):
+    """Planar distance of the focus plane: the focus object's depth along the view axis
+    (what Cycles uses), else the distance setting."""
+    if dof.focus_object is None:
+        return dof.focus_distance
+    cam_matrix = obj.matrix_world
+    view_axis = -(cam_matrix.to_3x3() @ _z_axis()).normalized()
+    offset = dof.focus_object.matrix_world.translation - cam_matrix.translation
+    return abs(offset.dot(view_axis))
+
+
+def _z_axis():
+    from mathutils import Vector
+
+    return Vector((0.0, 0.0, 1.0))
+
+
+def aperture_spec(dof):
+    """Blender: 0-2 blades = circle. Rotation: Blender turns the polygon counter-clockwise
+    in camera space (y up); lensblur's image rows grow downwards, hence the sign flip."""
+    if dof.aperture_blades < 3 or dof.aperture_blades > MAX_BLADES:
+        return "disk"
+    rotation = -math.degrees(dof.aperture_rotation)
+    return f"polygon:{dof.aperture_blades}:rotation={rotation:.6g}"
+
+
+def warnings_for(scene, dof):
+    out = []
+    if abs(dof.aperture_ratio - 1.0) > 1e-6:
+        out.append(f"anamorphic aperture ratio {dof.aperture_ratio:.3g} is ignored (round bokeh)")
+    if scene.render.pixel_aspect_x != scene.render.pixel_aspect_y:
+        out.append("non-square pixels: blur is computed for square pixels")
+    if dof.aperture_blades > MAX_BLADES:
+        out.append(f"more than {MAX_BLADES} blades: rendered as a disk")
+    return out
