@@ -7,6 +7,7 @@ mod bench_large;
 mod camera_args;
 mod devices;
 mod example;
+mod grad;
 mod info;
 mod input_args;
 mod raytrace;
@@ -35,6 +36,8 @@ struct Cli {
 enum Command {
     /// Render a layer stack (EXR, or PNG/JPEG + depth) with lens blur; write EXR or PNG/JPEG.
     Render(render::Args),
+    /// Gradients of a loss w.r.t. every channel of a stack and the camera (backward pass).
+    Grad(grad::Args),
     /// Ray-trace a built-in scene, render its layers, compare with the ground truth.
     Example(example::Args),
     /// List the Vulkan devices and the one lensblur would use.
@@ -60,6 +63,7 @@ pub fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Render(args) => render::run(args),
         Command::Example(args) => example::run(args),
+        Command::Grad(args) => grad::run(args),
         Command::Devices(args) => devices::run(args),
         Command::Info(args) => info::run(args),
         Command::Raytrace(args) => raytrace::run(args),

@@ -77,6 +77,47 @@ pub fn read_stack(path: &Path, options: &ReadOptions) -> Result<StackFile> {
     Ok(StackFile { stack, info })
 }
 
+/// Reads one colour image (no depth needed) onto the display window: plain `R,G,B[,A]`, or the
+/// layer named `layer` in any naming convention. Missing alpha is 1 inside the data window.
+/// For inputs such as the output gradient of `lensblur grad`.
+pub fn read_rgba(path: &Path, layer: Option<&str>, max_pixels: u64) -> Result<Image> {
+    read_headers(path, max_pixels)?;
+    let image = read_pixels(path)?;
+    let display = window_of(&image.attributes.display_window);
+    let candidates = candidates(&image);
+    let coloured: Vec<&Candidate> = candidates
+        .iter()
+        .filter(|c| c.group.channels.red.is_some() && c.group.channels.green.is_some() && c.group.channels.blue.is_some())
+        .collect();
+    let names = || coloured.iter().map(|c| format!("'{}'", c.name)).collect::<Vec<_>>().join(", ");
+    let chosen = match layer {
+        Some(name) => coloured.iter().find(|c| glob_match(name, &c.name)).copied(),
+        None if coloured.len() == 1 => coloured.first().copied(),
+        None => {
+            return Err(Error::input(path, format!("several colour layers ({}); name the one to read", names())));
+        }
+    };
+    let Some(candidate) = chosen else {
+        return Err(Error::input(path, format!("no colour layer {} (found {})", layer.unwrap_or(""), names())));
+    };
+    let part = &image.layer_data[candidate.part];
+    let data = part_window(part);
+    let ch = &candidate.group.channels;
+    let fetch = |name: &str| -> Result<Vec<f32>> {
+        let channel = find_channel(part, name).ok_or_else(|| Error::input(path, format!("channel '{name}' vanished")))?;
+        check_finite(path, &candidate.name, name, &channel.sample_data)?;
+        Ok(place(&channel.sample_data, data, display, 0.0))
+    };
+    let [red, green, blue] = [&ch.red, &ch.green, &ch.blue].map(|name| fetch(name.as_deref().unwrap_or_default()));
+    let (red, green, blue) = (red?, green?, blue?);
+    let alpha = match &ch.alpha {
+        Some(name) => fetch(name)?,
+        None => place(&FlatSamples::F32(vec![1.0; data.width * data.height]), data, display, 0.0),
+    };
+    let pixels = (0..red.len()).map(|i| [red[i], green[i], blue[i], alpha[i]]).collect();
+    Ok(Image { width: display.width, height: display.height, pixels })
+}
+
 /// Header-only view of a file (parts and channels), for `lensblur info` on files that are
 /// not valid stacks.
 pub fn read_parts(path: &Path, max_pixels: u64) -> Result<(Vec<PartInfo>, BTreeMap<String, String>)> {

@@ -171,6 +171,21 @@ pub fn write_stack(path: &Path, stack: &LayerStack, options: &StackWriteOptions)
     )
 }
 
+/// Writes float channels by name (single part, ZIP scanlines), e.g. gradients named after the
+/// channels of an input file.
+pub fn write_named_channels(path: &Path, width: usize, height: usize, channels: Vec<(String, Vec<f32>)>) -> Result<()> {
+    let channels = channels
+        .into_iter()
+        .map(|(name, values)| {
+            if values.len() != width * height {
+                return Err(Error::param(format!("channel '{name}' has {} samples, the image {}", values.len(), width * height)));
+            }
+            Ok(AnyChannel::new(name.as_str(), FlatSamples::F32(values)))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    write_channels(path, width, height, channels, None)
+}
+
 /// Header attributes holding a camera, named as [`crate::camera::CameraHints`] reads them.
 fn camera_attributes(camera: Option<&PhysicalCamera>) -> LayerAttributes {
     let mut attributes = LayerAttributes::default();

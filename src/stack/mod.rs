@@ -13,8 +13,8 @@ pub mod ldr;
 pub mod naming;
 
 pub use autolayer::{split_into_layers, AutoLayerOptions};
-pub use exr_read::{read_parts, read_stack, ReadOptions};
-pub use exr_write::{remove_partial_outputs, write_image, write_stack, StackNaming, StackWriteOptions, WriteOptions};
+pub use exr_read::{read_parts, read_rgba, read_stack, ReadOptions};
+pub use exr_write::{remove_partial_outputs, write_image, write_named_channels, write_stack, StackNaming, StackWriteOptions, WriteOptions};
 pub use info::{ExtraChannel, LayerInfo, SampleType, StackFile, StackInfo, Window};
 pub use ldr::{is_ldr_path, read_ldr, write_ldr, write_png_preview, LdrInput};
 pub use naming::Convention;

@@ -1,0 +1,167 @@
+//! `lensblur grad FILE --grad-output G.exr -o GRADS.exr`: the backward pass on files. GRADS
+//! has the channel names of FILE, each holding dL/d(that channel as stored): colour and alpha
+//! directly (premultiplied, as stored), depth through the file's depth convention; channels
+//! that do not reach the render (unselected layers, passes) are zero. The camera gradients are
+//! printed (and in `--json`).
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context as _};
+use lensblur::image::Image;
+use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpuGrad, Model};
+use lensblur::render::grad::{Differentiable, StackGradients};
+use lensblur::render::{InputKind, Method};
+use lensblur::stack::{read_rgba, write_named_channels, DepthKind, StackInfo};
+use lensblur::vk::Context;
+
+use super::camera_args::CameraArgs;
+use super::input_args::{check_output_is_not_input, InputArgs, LoadedInput};
+
+const EXAMPLES: &str = "\
+Examples:
+  lensblur grad shot.exr --grad-output dL_dB.exr -o grads.exr --focal-length 50 --fstop 2 --focus-distance 3
+  lensblur grad shot.exr --grad-output g.exr -o grads.exr --blur 30 --focus-disparity 0.4 --leaky --json
+
+G (--grad-output) holds dL/dB of the rendered image in its R,G,B channels (same size as FILE;
+alpha is not differentiated). GRADS has FILE's channel names: dL/dR,G,B,A of each layer as stored
+(premultiplied), dL/dZ through the depth convention (--depth-kind), zero for channels that do not
+reach the render. Multi-part inputs are written single-part as <part>.<channel>.
+Printed: dL/dK and dL/d(focus disparity); with a physical camera also dL/d(focus distance),
+dL/d(f-stop) and dL/d(focal length).";
+
+#[derive(clap::Args)]
+#[command(after_help = EXAMPLES)]
+pub struct Args {
+    /// Layered EXR (the stack to differentiate).
+    pub input: PathBuf,
+    /// EXR holding dL/d(rendered image) in R,G,B.
+    #[arg(long, value_name = "G.exr")]
+    pub grad_output: PathBuf,
+    /// Output EXR of gradients, named after FILE's channels.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub input_args: InputArgs,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    /// drbokeh or drbokeh-compat (the methods with a backward pass).
+    #[arg(long, default_value = "drbokeh")]
+    pub method: Method,
+    /// Leaky soft step: the scatter edge keeps a small slope so far-away sources still get
+    /// depth gradients (for optimisation; off = the exact gradient of the render).
+    #[arg(long)]
+    pub leaky: bool,
+    /// Print a JSON report on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// dL/d(camera parameter), as printed and in `--json`.
+#[derive(serde::Serialize)]
+struct CameraGradients {
+    k_px: f64,
+    focus_disparity: f64,
+    focus_distance: Option<f64>,
+    fstop: Option<f64>,
+    focal_length_mm: Option<f64>,
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let start = Instant::now();
+    check_output_is_not_input(&args.output, &[&args.input, &args.grad_output])?;
+    let model = match args.method {
+        Method::DrBokeh => Model::DrBokeh,
+        Method::DrBokehCompat => Model::Compat,
+        other => bail!("method '{other}' has no backward pass; use drbokeh or drbokeh-compat"),
+    };
+    // No auto-layering: gradients must map back onto the file's own channels.
+    let loaded = args.input_args.load(&args.input, &args.camera, InputKind::SingleImage)?;
+    let Some(info) = &loaded.info else { bail!("{}: grad needs an EXR stack", args.input.display()) };
+    let grad_output = read_grad_output(&args.grad_output, &loaded)?;
+    let ctx = Context::from_env().context("opening the Vulkan device")?;
+    let options = if args.leaky { BackwardOptions::leaky() } else { BackwardOptions::exact() };
+    let renderer = DrBokehGpuGrad::new(&ctx, model, options)?;
+    let grads = renderer.backward(&loaded.stack, &loaded.camera.lens, &grad_output)?;
+    drop(renderer);
+    let channels = gradient_channels(info, &loaded, &grads);
+    write_named_channels(&args.output, loaded.stack.width, loaded.stack.height, channels)
+        .with_context(|| format!("writing {}", args.output.display()))?;
+    ctx.finish()?;
+    let camera = camera_gradients(&loaded, &grads);
+    if args.json {
+        let report = serde_json::json!({
+            "input": args.input, "output": args.output, "method": args.method, "leaky": args.leaky,
+            "layers": loaded.stack.layers.iter().map(|l| &l.name).collect::<Vec<_>>(),
+            "camera_gradients": camera, "seconds": start.elapsed().as_secs_f64(),
+        });
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!("dL/dK = {:.6e}  dL/d(focus disparity) = {:.6e}", camera.k_px, camera.focus_disparity);
+        if let (Some(d), Some(n), Some(f)) = (camera.focus_distance, camera.fstop, camera.focal_length_mm) {
+            println!("dL/d(focus distance) = {d:.6e}  dL/d(f-stop) = {n:.6e}  dL/d(focal length mm) = {f:.6e}");
+        }
+        println!("wrote {} ({:.2} s)", args.output.display(), start.elapsed().as_secs_f64());
+    }
+    Ok(())
+}
+
+fn read_grad_output(path: &Path, loaded: &LoadedInput) -> anyhow::Result<Image> {
+    let mut g = read_rgba(path, None, 1 << 28).with_context(|| format!("reading the output gradient {}", path.display()))?;
+    if (g.width, g.height) != (loaded.stack.width, loaded.stack.height) {
+        bail!("{}: the output gradient is {}x{} but the stack is {}x{}", path.display(), g.width, g.height, loaded.stack.width, loaded.stack.height);
+    }
+    for p in &mut g.pixels {
+        p[3] = 0.0; // alpha of the render is not differentiated
+    }
+    Ok(g)
+}
+
+/// Every channel of the file, zero unless a rendered layer's gradient lands on it.
+fn gradient_channels(info: &StackInfo, loaded: &LoadedInput, grads: &StackGradients) -> Vec<(String, Vec<f32>)> {
+    let n = loaded.stack.width * loaded.stack.height;
+    let multi_part = info.parts.len() > 1;
+    let output_name = |part: usize, channel: &str| match (multi_part, info.parts[part].name.as_deref()) {
+        (true, Some(part_name)) => format!("{part_name}.{channel}"),
+        (true, None) => format!("part{part}.{channel}"),
+        (false, _) => channel.to_string(),
+    };
+    let mut channels: BTreeMap<String, Vec<f32>> = BTreeMap::new();
+    for (p, part) in info.parts.iter().enumerate() {
+        for channel in &part.channels {
+            channels.insert(output_name(p, &channel.name), vec![0.0; n]);
+        }
+    }
+    for (layer, grad) in loaded.stack.layers.iter().zip(&grads.layers) {
+        let Some(layer_info) = info.layers.iter().find(|l| l.name == layer.name) else { continue };
+        let ch = &layer_info.channels;
+        for (c, name) in [&ch.red, &ch.green, &ch.blue, &ch.alpha].into_iter().enumerate() {
+            if let Some(name) = name {
+                channels.insert(output_name(layer_info.part, name), grad.rgba.iter().map(|g| g[c]).collect());
+            }
+        }
+        if let Some(name) = &ch.depth {
+            let chain = depth_chain(loaded.depth_kind, &layer.disparity, &grad.disparity);
+            channels.insert(output_name(layer_info.part, name), chain);
+        }
+    }
+    channels.into_iter().collect()
+}
+
+/// dL/d(stored depth) = dL/d(disparity) * d(disparity)/d(stored).
+fn depth_chain(kind: DepthKind, disparity: &[f32], grad: &[f32]) -> Vec<f32> {
+    disparity.iter().zip(grad).map(|(&d, &g)| g * kind.disparity_derivative(kind.from_disparity(d))).collect()
+}
+
+/// K = (f / 2N) (f / sensor) width and d_f = 1 / D, so dK/dN = -K/N, dK/df = 2K/f, dd_f/dD = -1/D^2.
+fn camera_gradients(loaded: &LoadedInput, grads: &StackGradients) -> CameraGradients {
+    let k = loaded.camera.lens.coc.k_px as f64;
+    let physical = loaded.camera.physical;
+    CameraGradients {
+        k_px: grads.k_px,
+        focus_disparity: grads.focus_disparity,
+        focus_distance: physical.map(|c| grads.focus_disparity * -1.0 / (c.focus_distance as f64).powi(2)),
+        fstop: physical.map(|c| grads.k_px * -k / c.fstop as f64),
+        focal_length_mm: physical.map(|c| grads.k_px * 2.0 * k / c.focal_length_mm as f64),
+    }
+}
