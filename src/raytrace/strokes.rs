@@ -1,5 +1,6 @@
 //! Thin structures as sets of thick segments (capsules): branches, fences, glyph strokes and
 //! hair. These are what single-image defocus gets wrong, so every scene has some.
+use super::grid::Grid;
 use super::noise::scatter;
 
 #[derive(Clone, Copy, Debug)]
@@ -30,16 +31,6 @@ pub struct Strokes {
     grid: Grid,
 }
 
-/// Cells of `cell_size[0] x cell_size[1]` from `min`; cell `c` lists
-/// `indices[offsets[c]..offsets[c + 1]]`.
-#[derive(Debug)]
-struct Grid {
-    cells: [usize; 2],
-    inverse_size: [f32; 2],
-    offsets: Vec<u32>,
-    indices: Vec<u32>,
-}
-
 impl Strokes {
     pub fn new(segments: Vec<Segment>) -> Self {
         let (mut min, mut max) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
@@ -50,15 +41,21 @@ impl Strokes {
                 max[axis] = max[axis].max(hi[axis]);
             }
         }
-        let grid = Grid::new(&segments, min, max);
+        let boxes: Vec<_> = segments.iter().map(Segment::padded_box).collect();
+        let grid = Grid::new(&boxes, min, max);
         Self { segments, min, max, grid }
+    }
+
+    /// The box `(lo, hi)` holding every covered point.
+    pub fn bounds(&self) -> ([f32; 2], [f32; 2]) {
+        (self.min, self.max)
     }
 
     pub fn covers(&self, u: f32, v: f32) -> bool {
         if u < self.min[0] || u > self.max[0] || v < self.min[1] || v > self.max[1] {
             return false;
         }
-        self.grid.candidates(self.min, [u, v]).iter().any(|&i| {
+        self.grid.candidates([u, v]).iter().any(|&i| {
             let s = &self.segments[i as usize];
             let (lo, hi) = s.padded_box();
             u >= lo[0] && u <= hi[0] && v >= lo[1] && v <= hi[1] && s.distance_sq([u, v]) <= s.half_width * s.half_width
@@ -72,50 +69,6 @@ impl Segment {
         let lo = [self.a[0].min(self.b[0]) - self.half_width, self.a[1].min(self.b[1]) - self.half_width];
         let hi = [self.a[0].max(self.b[0]) + self.half_width, self.a[1].max(self.b[1]) + self.half_width];
         (lo, hi)
-    }
-}
-
-impl Grid {
-    /// About two cells per segment along each axis, at most 256: lists stay a few entries long.
-    fn new(segments: &[Segment], min: [f32; 2], max: [f32; 2]) -> Self {
-        let side = ((segments.len() as f32).sqrt() * 2.0).ceil().clamp(1.0, 256.0) as usize;
-        let extent = [(max[0] - min[0]).max(f32::MIN_POSITIVE), (max[1] - min[1]).max(f32::MIN_POSITIVE)];
-        let mut grid = Grid { cells: [side; 2], inverse_size: [side as f32 / extent[0], side as f32 / extent[1]], offsets: Vec::new(), indices: Vec::new() };
-        if segments.is_empty() {
-            grid.offsets = vec![0; side * side + 1];
-            return grid;
-        }
-        let mut lists = vec![Vec::new(); side * side];
-        for (i, s) in segments.iter().enumerate() {
-            let (lo, hi) = s.padded_box();
-            // The same (monotonic) cell mapping as the lookup: a point inside the padded box
-            // maps to a cell between those of the box corners.
-            let (c0, c1) = (grid.cell_of(min, lo), grid.cell_of(min, hi));
-            for cy in c0[1]..=c1[1] {
-                for cx in c0[0]..=c1[0] {
-                    lists[cy * side + cx].push(i as u32);
-                }
-            }
-        }
-        grid.offsets.push(0);
-        for list in lists {
-            grid.indices.extend(list);
-            grid.offsets.push(grid.indices.len() as u32);
-        }
-        grid
-    }
-
-    #[inline]
-    fn cell_of(&self, min: [f32; 2], p: [f32; 2]) -> [usize; 2] {
-        let axis = |a: usize| (((p[a] - min[a]) * self.inverse_size[a]).floor().max(0.0) as usize).min(self.cells[a] - 1);
-        [axis(0), axis(1)]
-    }
-
-    #[inline]
-    fn candidates(&self, min: [f32; 2], p: [f32; 2]) -> &[u32] {
-        let [cx, cy] = self.cell_of(min, p);
-        let c = cy * self.cells[0] + cx;
-        &self.indices[self.offsets[c] as usize..self.offsets[c + 1] as usize]
     }
 }
 
