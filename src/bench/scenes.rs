@@ -11,10 +11,12 @@ use crate::{Error, Result};
 
 /// The sampling of the benchmark's ground truth. Rounds of 8 x 8 stratified rays until the
 /// display-space standard error of a pixel is below the tolerance: the truth's own noise
-/// must stay well under the differences between methods (self-PSNR of two seeds is 44 to
-/// 52 dB on scenes without HDR lights; the small HDR discs stay the noisiest, 31 to 38 dB in
-/// `--quick`). `--quick`: half the native resolution (CoC radii halve too), a looser
-/// tolerance and fewer rounds.
+/// must stay well under the differences between methods. Measured as the PSNR between two
+/// seeds: `--quick` 43 to 49 dB on scenes without HDR lights, 31 to 38 dB with them (small
+/// bright discs far out of focus stay the noisiest; the methods score 20 to 25 dB there);
+/// the full settings at half scale 47 to 52 and 34 to 40 dB (it was 15 to 32 dB with the
+/// former 4 x 4 rays of `--quick`). `--quick`: half the native resolution (CoC radii halve
+/// too), a looser tolerance and fewer rounds.
 pub fn trace_options(quick: bool, progress: Option<ProgressBar>) -> TraceOptions {
     let defaults = TraceOptions::default();
     if quick {
