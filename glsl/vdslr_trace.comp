@@ -61,20 +61,24 @@ bool hits(vec2 p, vec2 u, ivec2 q, float s_q) {
 // Randomized intersection search along p + u s (u already scaled by K).
 Hit search(vec2 p, vec2 u, int centre) {
     float s_t = pc.s_max;
-    int index = centre;
+    int other = centre;
     for (int t = 0; t <= pc.iterations; ++t) {
         precise float px = p.x + u.x * s_t;
         precise float py = p.y + u.y * s_t;
         int qx = nearest_pixel(px, pc.width);
         int qy = nearest_pixel(py, pc.height);
-        index = qy * pc.width + qx;
+        int index = qy * pc.width + qx;
         float s_q = relative[index];
         if (hits(p, u, ivec2(qx, qy), s_q)) {
             return Hit(index, true);
         }
+        if (index != centre) {
+            other = index;
+        }
         s_t = s_q;
     }
-    return Hit(index, false);
+    // Failed: the last pixel read other than the centre (CPU reference: `Tracer::search`).
+    return Hit(other, false);
 }
 
 float highlight_weight(vec4 c) {
@@ -108,10 +112,10 @@ void main() {
                 hit = mirrored;
             }
         }
-        // Guard, extended as in the CPU reference: also when the centre is a nearer hit.
+        // Guard as in the CPU reference: when the centre is a nearer hit of this ray.
         bool farther = disparity[hit.index] < disparity[centre];
         bool centre_hit = hits(p, u, x, relative[centre]);
-        bool guard = pc.bleeding_guard != 0 && farther && (!hit.valid || centre_hit);
+        bool guard = pc.bleeding_guard != 0 && farther && centre_hit;
         int index = guard ? centre : hit.index;
         vec4 colour = source[index];
         float w = s.z * highlight_weight(colour);

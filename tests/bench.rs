@@ -1,7 +1,9 @@
 //! The benchmark runner on synthetic ground truths whose "defocused" image is the layered
 //! oracle itself: proves the registry, the metrics table, the JSON report and the contact
 //! sheet work end to end, and that the scoring ranks a perfect method first.
-use lensblur::bench::{contact_sheet, cpu_methods, run, select_methods, write_png, InputKind};
+mod common;
+
+use lensblur::bench::{all_methods, contact_sheet, cpu_methods, run, select_methods, write_png, InputKind};
 use lensblur::camera::{CocModel, PhysicalCamera};
 use lensblur::image::Image;
 use lensblur::raytrace::GroundTruth;
@@ -100,9 +102,47 @@ fn contact_sheet_refuses_renders_of_another_run() {
 
 #[test]
 fn methods_are_selected_by_name_and_unknown_names_are_refused() {
-    let picked = select_methods(cpu_methods(), &["scatter".into(), "oracle".into()]).expect("known names");
+    let picked = select_methods(cpu_methods(), &["scatter-cpu".into(), "oracle".into()]).expect("known names");
     let names: Vec<&str> = picked.iter().map(|m| m.name).collect();
-    assert_eq!(names, ["oracle", "scatter"], "registry order is kept");
+    assert_eq!(names, ["oracle", "scatter-cpu"], "registry order is kept");
     let error = select_methods(cpu_methods(), &["nope".into()]).err().expect("unknown name refused");
     assert!(error.to_string().contains("gather"), "the message lists what exists: {error}");
+}
+
+#[test]
+fn every_renderer_is_registered_with_the_input_it_may_read() {
+    let ctx = common::gpu();
+    let methods = all_methods(&ctx).expect("every pipeline builds");
+    let listed: Vec<(&str, InputKind)> = methods.iter().map(|m| (m.name, m.input)).collect();
+    let (single, layers) = (InputKind::SingleImage, InputKind::Layers);
+    let expected = [
+        ("oracle", layers),
+        ("gather", single),
+        ("scatter", single),
+        ("vdslr", single),
+        ("multiview", layers),
+        ("drbokeh", layers),
+        ("drbokeh-compat", layers),
+        ("gather-cpu", single),
+        ("scatter-cpu", single),
+    ];
+    assert_eq!(listed, expected);
+    drop(methods);
+    common::finish(ctx);
+}
+
+#[test]
+fn gpu_baselines_score_as_their_cpu_references() {
+    let ctx = common::gpu();
+    let names: Vec<String> = ["gather", "scatter", "gather-cpu", "scatter-cpu"].map(String::from).to_vec();
+    let methods = select_methods(all_methods(&ctx).expect("pipelines build"), &names).expect("registered");
+    let report = run(&scenes(), &methods).expect("benchmark runs");
+    let psnr = |name: &str| report.methods.iter().find(|m| m.name == name).map(|m| m.mean.psnr).expect("ran");
+    for base in ["gather", "scatter"] {
+        // The renders agree within 1e-5 relative (tests/baselines_gpu.rs): PSNRs within 0.01 dB.
+        let (gpu, cpu) = (psnr(base), psnr(&format!("{base}-cpu")));
+        assert!((gpu - cpu).abs() < 0.01, "{base}: {gpu} dB on the GPU, {cpu} dB on the CPU");
+    }
+    drop(methods);
+    common::finish(ctx);
 }

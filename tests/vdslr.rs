@@ -174,3 +174,18 @@ fn several_focal_planes_are_sharp_at_once() {
     }
     assert!(column_change(w / 2) > 0.2, "the band between the planes is blurred");
 }
+
+#[test]
+fn thin_blurred_foreground_over_a_sharp_background_turns_transparent() {
+    // A 1 px white bar at r = 3 px in front of an in-focus grey background: the lens sees
+    // past the bar, so the bar fades to about 0.2 + 0.8 * (2 r) / (pi r^2) = 0.37 and spreads
+    // sideways. (A guard that gives every failed ray the centre kept the bar at 1.0.)
+    let (w, h) = (31, 21);
+    let image = Image::from_fn(w, h, |x, _| if x == 15 { [1.0; 4] } else { [0.2, 0.2, 0.2, 1.0] });
+    let disparity: Vec<f32> = (0..w * h).map(|i| if i % w == 15 { 0.8 } else { 0.5 }).collect();
+    let out = render_vdslr_cpu(&image, &disparity, &lens(10.0, 0.5), &VdslrParams { samples: 256, ..Default::default() }).unwrap();
+    let (bar, beside) = (out.get(15, 10)[0], out.get(17, 10)[0]);
+    // Bounds allow for the 256-sample estimate and the pixel-rounded search (~0.1).
+    assert!(bar < 0.55, "the bar must fade: {bar}");
+    assert!(beside > 0.25, "the bar must spread 2 px sideways: {beside}");
+}

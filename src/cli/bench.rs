@@ -17,9 +17,16 @@ The sheet has two rows per scene: pinhole input, ground truth and each method's 
 the corner); then the pinhole disparity (white = near), the error colour scale, and each method's\n\
 absolute error (black = 0; the scale is printed on the legend tile).")]
 pub struct Args {
-    /// Half resolution and 4x4 rays per pixel: ranks the methods in about a minute.
+    /// Half resolution and a looser ground-truth tolerance: ranks the methods in a few minutes
+    /// with a cold cache, seconds with a warm one.
     #[arg(long)]
     quick: bool,
+    /// Folder caching the ray-traced ground truths (keyed by scene and sampling options).
+    #[arg(long, value_name = "DIR", default_value = "target/lensblur-gt-cache")]
+    cache: PathBuf,
+    /// Always ray-trace the ground truth; neither read nor write the cache.
+    #[arg(long)]
+    no_cache: bool,
     /// Comma-separated methods to run (default: all registered).
     #[arg(long, value_delimiter = ',')]
     methods: Vec<String>,
@@ -38,7 +45,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let gpu = GpuContext::from_env().context("opening the Vulkan device")?;
     let methods = select_methods(all_methods(&gpu)?, &args.methods)?;
     let tracing = bar("ray tracing {msg}", "rows")?;
-    let truths = scenes::ground_truths(&args.scenes, args.quick, Some(tracing.clone())).context("ray tracing the scenes")?;
+    let truths = scenes::ground_truths(&args.scenes, args.quick, Some(tracing.clone()), (!args.no_cache).then_some(args.cache.as_path())).context("ray tracing the scenes")?;
     tracing.finish_and_clear();
     let progress = bar("{msg}", "renders")?;
     let report = run_with_progress(&truths, &methods, &progress)?;

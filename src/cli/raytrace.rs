@@ -17,8 +17,8 @@ pub struct Args {
     /// Output folder.
     #[arg(short, long)]
     output: Option<PathBuf>,
-    /// Samples per pixel axis: N x N stratified pixel x lens rays per pixel.
-    #[arg(long, default_value_t = 16)]
+    /// Samples per pixel axis: a round is N x N stratified pixel x lens rays per pixel.
+    #[arg(long, default_value_t = 8)]
     samples: usize,
     /// Resolution scale of the scene's native size (CoC radii in pixels scale with it).
     #[arg(long, default_value_t = 1.0)]
@@ -26,9 +26,15 @@ pub struct Args {
     /// Seed of the per-pixel sample streams (equal seeds give identical images).
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Most rounds of N x N rays a pixel seeing HDR highlights may take (1 = no extra rounds).
-    #[arg(long, default_value_t = 8)]
+    /// Rounds of N x N rays every pixel takes (the pinhole image and layers use them too).
+    #[arg(long, default_value_t = 4)]
+    min_rounds: usize,
+    /// Most rounds a pixel may take while its error is above the tolerance (1 = one round).
+    #[arg(long, default_value_t = 64)]
     max_rounds: usize,
+    /// Target standard error of a defocused pixel, in sRGB display units (0.002 = half an 8-bit step).
+    #[arg(long, default_value_t = 0.002)]
+    tolerance: f32,
     /// List the built-in scenes with their size and CoC range, then exit.
     #[arg(long)]
     list: bool,
@@ -52,17 +58,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn render_one(scene: &Scene, args: &Args, dir: PathBuf) -> anyhow::Result<()> {
     let bar = ProgressBar::new(0).with_message(scene.name.clone());
     bar.set_style(ProgressStyle::with_template("{msg:>14} [{bar:40}] {pos}/{len} rows {elapsed}").unwrap_or_else(|_| ProgressStyle::default_bar()));
-    let options = TraceOptions { samples_per_axis: args.samples, scale: args.scale, seed: args.seed, max_rounds: args.max_rounds, progress: Some(bar.clone()) };
+    let options = TraceOptions { samples_per_axis: args.samples, scale: args.scale, seed: args.seed, min_rounds: args.min_rounds, max_rounds: args.max_rounds, tolerance: args.tolerance, progress: Some(bar.clone()) };
     let start = Instant::now();
     let truth = render_ground_truth(scene, &options).with_context(|| format!("rendering scene '{}'", scene.name))?;
     bar.finish_and_clear();
     let files = output::write_ground_truth(&truth, &dir).with_context(|| format!("writing '{}'", dir.display()))?;
     println!(
-        "{}: {}x{}, {} rays/pixel, {:.2} s -> {} files in {}",
+        "{}: {}x{}, {} to {} rays/pixel, {:.2} s -> {} files in {}",
         scene.name,
         truth.pinhole.width,
         truth.pinhole.height,
-        args.samples * args.samples,
+        args.samples * args.samples * args.min_rounds.min(args.max_rounds),
+        args.samples * args.samples * args.max_rounds,
         start.elapsed().as_secs_f64(),
         files.len(),
         dir.display()

@@ -58,14 +58,17 @@ fn render_row(scene: &Scene, options: &TraceOptions, view: &View, y: usize) -> R
     };
     let mut layer_sum = vec![[0.0f32; 4]; count];
     for x in 0..view.width {
-        let samples = pixel_samples(options, x, y, 0);
-        let weight = 1.0 / samples.pixel.len() as f32;
+        // The rounds every pixel takes: the pinhole pass uses their pixel positions too, so an
+        // in-focus pixel that stops after them sees exactly the points its pinhole pixel sees.
+        let rounds: Vec<PixelSamples> = (0..options.first_rounds()).map(|r| pixel_samples(options, x, y, r)).collect();
+        let offsets: Vec<[f32; 2]> = rounds.iter().flat_map(|r| r.pixel.iter().copied()).collect();
+        let weight = 1.0 / offsets.len() as f32;
         let mut pinhole = [0.0f32; 4];
         layer_sum.iter_mut().for_each(|s| *s = [0.0; 4]);
-        for offset in &samples.pixel {
+        for offset in &offsets {
             accumulate(&mut pinhole, pinhole_sample(scene, view, x as f32 + offset[0], y as f32 + offset[1], &mut layer_sum), weight);
         }
-        let defocused = defocus_pixel(scene, options, view, x, y, &samples);
+        let defocused = defocus_pixel(scene, options, view, x, y, &rounds);
         row.pinhole.push(pinhole);
         row.defocused.push(defocused);
         for (l, sum) in layer_sum.iter().enumerate() {
@@ -80,35 +83,63 @@ fn render_row(scene: &Scene, options: &TraceOptions, view: &View, y: usize) -> R
     row
 }
 
-/// Relative standard error a pixel seeing HDR highlights must reach before it stops taking
-/// extra rounds; 2% keeps bokeh balls visibly smooth.
-const HIGHLIGHT_TOLERANCE: f32 = 0.02;
-
-/// The thin-lens estimate of one pixel. A small, very bright disc far out of focus is seen
-/// through a small part of the lens, so one round of 256 stratified rays leaves bokeh balls
-/// grainy; pixels whose samples saw HDR values (luminance > 1) and whose standard error
-/// (per-sample variance / count, an over-estimate for stratified samples) exceeds
-/// [`HIGHLIGHT_TOLERANCE`] of their mean take more rounds, up to `options.max_rounds`.
-fn defocus_pixel(scene: &Scene, options: &TraceOptions, view: &View, x: usize, y: usize, first: &PixelSamples) -> Rgba {
-    let (mut sum, mut lum_sum, mut lum_sq, mut count, mut brightest) = ([0.0f32; 4], 0.0f64, 0.0f64, 0usize, 0.0f32);
+/// The thin-lens estimate of one pixel: rounds of `n x n` stratified pixel x lens rays, each
+/// round an independent estimate, until the standard error of their mean, measured where the
+/// metrics measure it (sRGB-encoded and clipped, see [`display_error`]), is below
+/// `options.tolerance` in every channel, or `options.max_rounds` are spent. The spread of the
+/// round means is the honest error of a stratified estimate (the per-ray variance would
+/// overstate it many times on smooth content). Small bright discs far out of focus, fine
+/// texture under a small CoC and cut-out edges are what take extra rounds.
+fn defocus_pixel(scene: &Scene, options: &TraceOptions, view: &View, x: usize, y: usize, first: &[PixelSamples]) -> Rgba {
+    let (mut sum, mut sum_sq, mut alpha) = ([0.0f64; 3], [0.0f64; 3], 0.0f64);
+    let mut taken = 0usize;
     for round in 0..options.max_rounds {
         let fresh;
-        let samples = if round == 0 { first } else { fresh = pixel_samples(options, x, y, round); &fresh };
+        let samples = match first.get(round) {
+            Some(s) => s,
+            None => {
+                fresh = pixel_samples(options, x, y, round);
+                &fresh
+            }
+        };
+        let mut round_sum = [0.0f32; 4];
         for (offset, lens) in samples.pixel.iter().zip(&samples.lens) {
             let (origin, dir) = view.lens_ray(x as f32 + offset[0], y as f32 + offset[1], *lens);
-            let c = trace(&scene.surfaces, origin, dir);
-            let lum = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
-            accumulate(&mut sum, c, 1.0);
-            (lum_sum, lum_sq, brightest) = (lum_sum + lum as f64, lum_sq + (lum * lum) as f64, brightest.max(lum));
+            accumulate(&mut round_sum, trace(&scene.surfaces, origin, dir), 1.0);
         }
-        count += samples.pixel.len();
-        let mean = lum_sum / count as f64;
-        let std_error = ((lum_sq / count as f64 - mean * mean).max(0.0) / count as f64).sqrt();
-        if brightest <= 1.0 || std_error <= HIGHLIGHT_TOLERANCE as f64 * mean {
+        let n = samples.pixel.len() as f64;
+        for c in 0..3 {
+            let mean = round_sum[c] as f64 / n;
+            (sum[c], sum_sq[c]) = (sum[c] + mean, sum_sq[c] + mean * mean);
+        }
+        alpha += round_sum[3] as f64 / n;
+        taken += 1;
+        if taken >= first.len() && (0..3).all(|c| display_error(sum[c], sum_sq[c], taken) <= options.tolerance as f64) {
             break;
         }
     }
-    sum.map(|c| c / count as f32)
+    let k = taken as f64;
+    [(sum[0] / k) as f32, (sum[1] / k) as f32, (sum[2] / k) as f32, (alpha / k) as f32]
+}
+
+/// Standard error, in sRGB-encoded display units clipped to [0, 1], of the mean of `rounds`
+/// independent round means with sum `sum` and sum of squares `sum_sq`: the linear error times
+/// the encoding's slope at the mean. A value certainly above display white (three standard
+/// errors) is exact after clipping. One round gives no estimate and counts as converged.
+fn display_error(sum: f64, sum_sq: f64, rounds: usize) -> f64 {
+    if rounds < 2 {
+        return 0.0;
+    }
+    let k = rounds as f64;
+    let mean = sum / k;
+    let variance = ((sum_sq - k * mean * mean) / (k - 1.0)).max(0.0);
+    let error = (variance / k).sqrt();
+    if mean - 3.0 * error >= 1.0 {
+        return 0.0;
+    }
+    let x = mean.clamp(0.0, 1.0);
+    let slope = if x <= 0.003_130_8 { 12.92 } else { 1.055 / 2.4 * x.powf(1.0 / 2.4 - 1.0) };
+    slope * error
 }
 
 /// One pinhole sample: every surface is evaluated (each layer needs its own colour), and the
@@ -172,4 +203,31 @@ fn assemble(scene: &Scene, coc: CocModel, width: usize, height: usize, rows: Vec
         layers: LayerStack::new(width, height, layers)?,
         defocused: Image { width, height, pixels: gt_rows.0 },
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::display_error;
+
+    /// Sum and sum of squares of round means.
+    fn moments(means: &[f64]) -> (f64, f64) {
+        (means.iter().sum(), means.iter().map(|m| m * m).sum())
+    }
+
+    #[test]
+    fn display_error_follows_the_encoding_slope_and_clipping() {
+        let (s, q) = moments(&[0.49, 0.51, 0.49, 0.51]);
+        // Sample variance of the round means 0.0004 / 3, standard error sqrt(0.0004 / 3 / 4),
+        // times the sRGB slope at 0.5 (1.055/2.4 * 0.5^(-7/12) = 0.6596).
+        let expected = (0.0004f64 / 3.0 / 4.0).sqrt() * 0.6596;
+        assert!((display_error(s, q, 4) - expected).abs() < 1e-4, "{}", display_error(s, q, 4));
+        let (s, q) = moments(&[0.009, 0.011, 0.009, 0.011]);
+        // A tenth of the spread at 0.01, where the slope is 6.45 (ten times 0.5's): about the
+        // same display error, as the metrics would see it.
+        let dark = (0.000004f64 / 3.0 / 4.0).sqrt() * 6.45;
+        assert!((display_error(s, q, 4) - dark).abs() < 1e-5, "{}", display_error(s, q, 4));
+        let (s, q) = moments(&[20.0, 30.0, 25.0, 26.0]);
+        assert_eq!(display_error(s, q, 4), 0.0, "certainly above white: exact after clipping");
+        assert_eq!(display_error(0.3, 0.09, 1), 0.0, "one round gives no estimate");
+    }
 }

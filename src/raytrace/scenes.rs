@@ -96,7 +96,7 @@ fn person(centre_u: f32, top_v: f32, size: f32, seed: u32) -> TextureRef {
     let hair = Strokes::new(strokes::hair(head_c, head_r, 140, 0.07 * size, 0.004, seed));
     let skin = arc(Mottled { a: [0.55, 0.32, 0.22], b: [0.75, 0.48, 0.35], frequency: 30.0, seed });
     let cloth = arc(Mottled { a: [0.05, 0.12, 0.3], b: [0.3, 0.1, 0.12], frequency: 12.0, seed: seed + 1 });
-    let body = Shape::Union(vec![
+    let body = Shape::union(vec![
         Shape::Ellipse { center: [centre_u, top_v + 0.62 * size], radii: [0.28 * size, 0.36 * size] },
         Shape::Rect { min: [centre_u - 0.28 * size, top_v + 0.62 * size], max: [centre_u + 0.28 * size, 10.0] },
     ]);
@@ -119,7 +119,7 @@ fn foliage(seed: u32, leaf: Rgb) -> TextureRef {
         .collect();
     let bark = arc(Mottled { a: [0.08, 0.05, 0.03], b: [0.25, 0.17, 0.1], frequency: 40.0, seed });
     arc(Over(vec![
-        arc(Cutout { shape: Shape::Union(leaves), fill: arc(Mottled { a: leaf, b: leaf.map(|c| c * 0.4), frequency: 60.0, seed }) }),
+        arc(Cutout { shape: Shape::union(leaves), fill: arc(Mottled { a: leaf, b: leaf.map(|c| c * 0.4), frequency: 60.0, seed }) }),
         arc(Cutout { shape: Shape::Strokes(Strokes::new(segments)), fill: bark }),
     ]))
 }
@@ -135,7 +135,7 @@ fn portrait_night() -> Scene {
 
 fn branches() -> Scene {
     let cam = camera(85.0, 1.4, 6.0);
-    let bench = Shape::Union(vec![
+    let bench = Shape::union(vec![
         Shape::Rect { min: [-0.9, 0.2], max: [-0.1, 0.26] },
         Shape::Rect { min: [-0.85, 0.26], max: [-0.8, 0.5] },
         Shape::Rect { min: [-0.2, 0.26], max: [-0.15, 0.5] },
@@ -196,7 +196,7 @@ fn fairy_lights() -> Scene {
 
 fn tilted_wall() -> Scene {
     let cam = camera(200.0, 2.8, 8.0);
-    let post = Shape::Union(vec![Shape::Rect { min: [-0.62, -2.0], max: [-0.55, 2.0] }, Shape::Ellipse { center: [-0.585, -0.5], radii: [0.06, 0.04] }]);
+    let post = Shape::union(vec![Shape::Rect { min: [-0.62, -2.0], max: [-0.55, 2.0] }, Shape::Ellipse { center: [-0.585, -0.5], radii: [0.06, 0.04] }]);
     let post = Over(vec![arc(Cutout { shape: Shape::Ellipse { center: [-0.585, -0.5], radii: [0.03, 0.02] }, fill: arc(Solid([30.0, 25.0, 15.0, 1.0])) }), arc(Cutout { shape: post, fill: arc(Solid([0.05, 0.06, 0.05, 1.0])) })]);
     let bricks = Over(vec![
         arc(Cutout { shape: Shape::Strokes(Strokes::new(strokes::text("HOTEL", [-0.5, -0.4], 0.12, 0.015))), fill: arc(Solid([0.9, 0.9, 0.85, 1.0])) }),
@@ -213,7 +213,7 @@ fn tilted_wall() -> Scene {
 fn five_layers() -> Scene {
     let cam = camera(105.0, 2.0, 2.0);
     let curtain = Opacity { texture: arc(Cutout { shape: Shape::Rect { min: [0.3, -2.0], max: [3.0, 2.0] }, fill: arc(Stripes { period: 0.06, angle: 0.0, duty: 0.5, a: [0.9, 0.85, 0.7], b: [0.7, 0.6, 0.5] }) }), alpha: 0.45 };
-    let sculpture = Cutout { shape: Shape::Union(vec![Shape::Ellipse { center: [-0.55, 0.1], radii: [0.18, 0.3] }, Shape::Rect { min: [-0.7, 0.35], max: [-0.4, 2.0] }]), fill: arc(Checker { period: 0.05, a: [0.8, 0.8, 0.8], b: [0.2, 0.25, 0.3] }) };
+    let sculpture = Cutout { shape: Shape::union(vec![Shape::Ellipse { center: [-0.55, 0.1], radii: [0.18, 0.3] }, Shape::Rect { min: [-0.7, 0.35], max: [-0.4, 2.0] }]), fill: arc(Checker { period: 0.05, a: [0.8, 0.8, 0.8], b: [0.2, 0.25, 0.3] }) };
     let background = Over(vec![arc(lights(41, 25, [-1.5, 1.5, -0.6, 0.2], [0.015, 0.03])), day_photo(42)]);
     scene("five-layers", "Dr.Bokeh-style stack: leaves, a translucent curtain, subject, sculpture, background", cam, vec![
         Surface::billboard("leaves", 0.7, &cam, foliage(43, [0.25, 0.4, 0.05])),
@@ -245,7 +245,7 @@ fn macro_scene() -> Scene {
     let stem = strokes::Segment { a: [0.1, 0.0], b: [0.0, 2.0], half_width: 0.012 };
     let flower = Over(vec![
         arc(Cutout { shape: Shape::Ellipse { center: [0.1, -0.05], radii: [0.09, 0.09] }, fill: arc(Mottled { a: [0.6, 0.4, 0.0], b: [0.3, 0.12, 0.0], frequency: 80.0, seed: 61 }) }),
-        arc(Cutout { shape: Shape::Union(petals), fill: arc(Mottled { a: [0.8, 0.1, 0.3], b: [0.95, 0.5, 0.6], frequency: 30.0, seed: 62 }) }),
+        arc(Cutout { shape: Shape::union(petals), fill: arc(Mottled { a: [0.8, 0.1, 0.3], b: [0.95, 0.5, 0.6], frequency: 30.0, seed: 62 }) }),
         arc(Cutout { shape: Shape::Strokes(Strokes::new(vec![stem])), fill: arc(Solid([0.1, 0.3, 0.05, 1.0])) }),
     ]);
     let background = Over(vec![arc(lights(63, 30, [-1.5, 1.5, -1.0, 1.0], [0.04, 0.08])), day_photo(64)]);

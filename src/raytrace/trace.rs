@@ -19,24 +19,30 @@ use crate::{Error, Result};
 /// How to sample the ground truth.
 #[derive(Clone, Debug)]
 pub struct TraceOptions {
-    /// `n`: each pixel gets `n x n` stratified pixel-area samples, each paired with one of
-    /// `n x n` lens strata (default 16 = 256 rays per pixel).
+    /// `n`: a round gives each pixel `n x n` stratified pixel-area samples, each paired with
+    /// one of `n x n` lens strata.
     pub samples_per_axis: usize,
     /// Multiplies the scene's native resolution (CoC in pixels scales with it).
     pub scale: f32,
     /// Seed of the per-pixel sample streams; equal seeds give bit-identical renders.
     pub seed: u64,
-    /// Most rounds of `n x n` lens samples a pixel may take: extra rounds (fresh strata) are
-    /// spent only where HDR highlights leave a noisy estimate (see `render::defocus_pixel`).
-    /// 1 disables them (quick previews).
+    /// Rounds every pixel takes (at least 2 to estimate the error); the pinhole pass and the
+    /// true layers use their pixel positions. Capped by `max_rounds`.
+    pub min_rounds: usize,
+    /// Most rounds a pixel may take: rounds beyond `min_rounds` (fresh strata) are spent only
+    /// where the estimate is still noisy (see `render::defocus_pixel`). 1 = one round.
     pub max_rounds: usize,
+    /// Target standard error of a defocused pixel in display units (sRGB-encoded, clipped
+    /// to [0, 1], the scale the metrics use); 0.002 is half an 8-bit step.
+    pub tolerance: f32,
     /// Advanced by one per finished image row.
     pub progress: Option<ProgressBar>,
 }
 
 impl Default for TraceOptions {
+    /// 4 rounds of 8 x 8 = 256 rays per pixel, up to 64 rounds (4096 rays) where noisy.
     fn default() -> Self {
-        Self { samples_per_axis: 16, scale: 1.0, seed: 0, max_rounds: 8, progress: None }
+        Self { samples_per_axis: 8, scale: 1.0, seed: 0, min_rounds: 4, max_rounds: 64, tolerance: 0.002, progress: None }
     }
 }
 
@@ -45,13 +51,21 @@ impl TraceOptions {
         if !(1..=64).contains(&self.samples_per_axis) {
             return Err(Error::param(format!("samples per axis must be 1 to 64, got {}", self.samples_per_axis)));
         }
-        if !(1..=64).contains(&self.max_rounds) {
-            return Err(Error::param(format!("max rounds must be 1 to 64, got {}", self.max_rounds)));
+        if !(1..=1024).contains(&self.max_rounds) || !(1..=1024).contains(&self.min_rounds) {
+            return Err(Error::param(format!("rounds must be 1 to 1024, got {} to {}", self.min_rounds, self.max_rounds)));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+            return Err(Error::param(format!("tolerance must be a non-negative number, got {}", self.tolerance)));
         }
         if !(self.scale.is_finite() && self.scale > 0.0 && self.scale <= 16.0) {
             return Err(Error::param(format!("scale must be in (0, 16], got {}", self.scale)));
         }
         Ok(())
+    }
+
+    /// Rounds every pixel takes: `min_rounds`, capped by `max_rounds`.
+    pub fn first_rounds(&self) -> usize {
+        self.min_rounds.min(self.max_rounds)
     }
 }
 

@@ -8,6 +8,11 @@
 //! Written as a gather over sources (one output pixel per iteration, explicit tap loop over the
 //! largest CoC), the form a compute shader uses to avoid atomics. Sources are mirrored for
 //! polygon apertures as a lens does; kernel images act as disks.
+//! GPU path: `glsl/scatter.comp` ([`Scatter`]).
+mod gpu;
+
+pub use gpu::Scatter;
+
 use rayon::prelude::*;
 
 use crate::camera::Aperture;

@@ -6,6 +6,11 @@
 //!
 //! CPU reference written shader-shaped: one output pixel per iteration, an explicit tap loop.
 //! Polygon apertures enter through the aperture gauge; kernel images act as disks.
+//! GPU path: `glsl/gather.comp` ([`Gather`]).
+pub(crate) mod gpu;
+
+pub use gpu::Gather;
+
 use rayon::prelude::*;
 
 use crate::camera::Aperture;

@@ -1,0 +1,69 @@
+// Single-image gather baseline (Blender Defocus-like): each output pixel averages the
+// neighbours inside min(own CoC, neighbour's CoC), with a 1 px anti-aliased rim.
+// CPU reference: src/render/gather/mod.rs `gather_pixel` (same taps, same order).
+//
+// Bindings (set 0):
+//   0: source    vec4[width * height]   premultiplied linear RGBA
+//   1: disparity float[width * height]
+//   2: result    vec4[width * height]
+// Push constants: GatherPush (src/render/gather/gpu.rs).
+// Dispatch: (ceil(width / 8), ceil(height / 8), 1).
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "image.glsl"
+#include "aperture.glsl"
+
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+layout(std430, set = 0, binding = 0) readonly buffer Source { vec4 source[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
+layout(std430, set = 0, binding = 2) writeonly buffer Result { vec4 result[]; };
+
+layout(push_constant) uniform Push {
+    int width;
+    int height;
+    float k;
+    float focus;
+    float edge_width;
+    float pad0;
+    float pad1;
+    float pad2;
+    vec4 aperture;
+} pc;
+
+// Kernel images act as disks in this baseline: the gauge never samples them.
+float aperture_kernel_texel(int index) {
+    return 1.0;
+}
+
+float coc_radius(float d) {
+    return abs(pc.k * (d - pc.focus));
+}
+
+void main() {
+    ivec2 x = ivec2(gl_GlobalInvocationID.xy);
+    if (!inside(x, ivec2(pc.width, pc.height))) {
+        return;
+    }
+    int centre = x.y * pc.width + x.x;
+    float r_x = coc_radius(disparity[centre]);
+    float rel_x = disparity[centre] - pc.focus;
+    int reach = int(ceil(r_x + 0.5 * pc.edge_width));
+    vec4 sum = vec4(0.0);
+    float weight = 0.0;
+    for (int sy = max(x.y - reach, 0); sy <= min(x.y + reach, pc.height - 1); ++sy) {
+        for (int sx = max(x.x - reach, 0); sx <= min(x.x + reach, pc.width - 1); ++sx) {
+            int s = sy * pc.width + sx;
+            vec2 offset = aperture_coords(vec2(float(x.x - sx), float(x.y - sy)), rel_x);
+            float distance = aperture_gauge(offset, pc.aperture);
+            float reach_both = min(r_x, coc_radius(disparity[s]));
+            float k = clamp((reach_both - distance) / pc.edge_width + 0.5, 0.0, 1.0);
+            if (k > 0.0) {
+                sum += k * source[s];
+                weight += k;
+            }
+        }
+    }
+    // The centre tap always has k >= 0.5, so the weight is positive.
+    result[centre] = sum / weight;
+}

@@ -1,0 +1,67 @@
+// Single-image scatter baseline (BokehMe's classical renderer), written as a gather so no
+// atomics are needed: each output pixel sums, over every source within the largest CoC, the
+// weight that source's soft disk gives it, (0.5 + 0.5 tanh(4 (r_y - |x - y|))) / (r_y^2 + 0.2),
+// and normalises by the summed weight.
+// CPU reference: src/render/scatter/mod.rs `scatter_pixel` (same taps, same order).
+//
+// Bindings (set 0):
+//   0: source    vec4[width * height]   premultiplied linear RGBA
+//   1: disparity float[width * height]
+//   2: result    vec4[width * height]
+// Push constants: ScatterPush (src/render/scatter/gpu.rs).
+// Dispatch: (ceil(width / 8), ceil(height / 8), 1).
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "image.glsl"
+#include "aperture.glsl"
+
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+layout(std430, set = 0, binding = 0) readonly buffer Source { vec4 source[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
+layout(std430, set = 0, binding = 2) writeonly buffer Result { vec4 result[]; };
+
+layout(push_constant) uniform Push {
+    int width;
+    int height;
+    int reach;
+    int pad0;
+    float k;
+    float focus;
+    float edge_sharpness;
+    float area_epsilon;
+    vec4 aperture;
+} pc;
+
+// Kernel images act as disks in this baseline: the gauge never samples them.
+float aperture_kernel_texel(int index) {
+    return 1.0;
+}
+
+// tanh's argument is clamped to +-9, where f32 tanh is already exactly +-1: some GLSL
+// implementations evaluate tanh through exp and return NaN (inf / inf) for large arguments.
+float scatter_weight(float r_y, float distance) {
+    float t = clamp(pc.edge_sharpness * (r_y - distance), -9.0, 9.0);
+    return (0.5 + 0.5 * tanh(t)) / (r_y * r_y + pc.area_epsilon);
+}
+
+void main() {
+    ivec2 x = ivec2(gl_GlobalInvocationID.xy);
+    if (!inside(x, ivec2(pc.width, pc.height))) {
+        return;
+    }
+    vec4 sum = vec4(0.0);
+    float weight = 0.0;
+    for (int sy = max(x.y - pc.reach, 0); sy <= min(x.y + pc.reach, pc.height - 1); ++sy) {
+        for (int sx = max(x.x - pc.reach, 0); sx <= min(x.x + pc.reach, pc.width - 1); ++sx) {
+            int s = sy * pc.width + sx;
+            float rel_y = disparity[s] - pc.focus;
+            vec2 offset = aperture_coords(vec2(float(x.x - sx), float(x.y - sy)), rel_y);
+            float k = scatter_weight(abs(pc.k * rel_y), aperture_gauge(offset, pc.aperture));
+            sum += k * source[s];
+            weight += k;
+        }
+    }
+    // The pixel's own tap weighs at least 0.5 / (r^2 + 0.2) > 0.
+    result[x.y * pc.width + x.x] = sum / weight;
+}
