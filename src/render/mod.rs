@@ -5,6 +5,7 @@ use crate::camera::{Aperture, CocModel};
 pub mod disk;
 pub mod drbokeh;
 pub mod gather;
+pub mod gausspsf;
 pub mod grad;
 pub mod lens_samples;
 pub mod multiview;
