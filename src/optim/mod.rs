@@ -6,6 +6,10 @@
 //! - [`fit`]: [`fit_depth`], the optimisation loop over a [`Differentiable`] renderer;
 //! - [`experiment`]: the benchmark of the paper's Tables 2-3 on our ray-traced scenes.
 pub mod adam;
+pub mod depth_error;
+pub mod fit;
 pub mod loss;
 
 pub use adam::Adam;
+pub use depth_error::{depth_error, DepthError};
+pub use fit::{fit_depth, FitOptions, FitResult};

@@ -6,7 +6,7 @@
 mod smoothness;
 mod ssim;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 pub use smoothness::edge_aware_smoothness;
 pub use ssim::{hierarchical_ssim, ssim_box};
