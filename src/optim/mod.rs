@@ -7,9 +7,11 @@
 //! - [`experiment`]: the benchmark of the paper's Tables 2-3 on our ray-traced scenes.
 pub mod adam;
 pub mod depth_error;
+pub mod experiment;
 pub mod fit;
 pub mod loss;
 
 pub use adam::Adam;
 pub use depth_error::{depth_error, DepthError};
+pub use experiment::{experiment_truths, fit_scene, format_results, run_experiment, ExperimentOptions, SceneResult};
 pub use fit::{fit_depth, FitOptions, FitResult};

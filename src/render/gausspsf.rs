@@ -9,7 +9,11 @@
 //!   disk's second moment; the floor `s0` keeps `s` smooth (and positive) through focus.
 //! - `Z(s)` sums the Gaussian over the *discrete, truncated* window, so each splat carries
 //!   exactly `c_y` (light leaving the image border is lost, as it is for a crop);
-//! - `R = min(ceil(truncation * max s), max_window)`, set per call from the stack.
+//! - `R = min(ceil(truncation * max s), max_window)`, set per call and per layer from the
+//!   widest splat that carries anything (transparent, colourless pixels add nothing).
+//!
+//! Each splat's Gaussian is separable, so it is stored as one axis table `exp(-i^2/2s^2)/z1`
+//! (`Z = z1^2`) and a tap costs two lookups instead of an `exp`.
 //!
 //! Layers are blurred independently and composited front to back with `over` (each blurred
 //! layer's alpha hides what is behind it). We chose `over` rather than an alpha-normalised sum
@@ -57,10 +61,6 @@ impl Default for GaussPsf {
 struct Splat {
     colour: Px,
     sigma: f64,
-    /// `1 / 2 s^2`.
-    inv_two_var: f64,
-    /// `1 / Z(s)`.
-    inv_z: f64,
     /// `Z'(s) / Z(s)`.
     dlog_z: f64,
     /// `ds / dr`.
@@ -91,17 +91,23 @@ impl GaussPsf {
         (0.25 * r * r + self.sigma_floor * self.sigma_floor).sqrt()
     }
 
-    /// Window half-width for the widest splat of the stack.
-    fn window(&self, stack: &LayerStack, coc: &CocModel) -> usize {
-        let (lo, hi) = stack.disparity_range();
-        let r = coc.max_radius(lo, hi) as f64;
-        let reach = (self.truncation * self.sigma(r)).ceil();
+    /// Window half-width for the widest splat of the layer that carries anything.
+    fn window(&self, layer: &Layer, coc: &CocModel) -> usize {
+        let r = layer
+            .rgba
+            .pixels
+            .iter()
+            .zip(&layer.disparity)
+            .filter(|(p, _)| **p != [0.0; 4])
+            .fold(0.0f32, |m, (_, &d)| m.max(coc.radius(d)));
+        let reach = (self.truncation * self.sigma(r as f64)).ceil();
         (reach.max(1.0) as usize).min(self.max_window.max(1))
     }
 
-    fn splats(&self, layer: &Layer, coc: &CocModel, window: usize) -> Vec<Splat> {
+    fn splats(&self, layer: &Layer, coc: &CocModel) -> LayerSplats {
+        let window = self.window(layer, coc);
         let (k, focus) = (coc.k_px as f64, coc.focus_disparity as f64);
-        layer
+        let (splats, tables): (Vec<Splat>, Vec<Vec<f64>>) = layer
             .rgba
             .pixels
             .par_iter()
@@ -110,16 +116,32 @@ impl GaussPsf {
                 let r = k * (d as f64 - focus);
                 let sigma = self.sigma(r);
                 let (z1, dz1) = axis_sums(sigma, window);
-                Splat {
+                let inv_two_var = 0.5 / (sigma * sigma);
+                let table = (0..=window).map(|i| (-((i * i) as f64) * inv_two_var).exp() / z1).collect();
+                let splat = Splat {
                     colour: c.map(|v| v as f64),
                     sigma,
-                    inv_two_var: 0.5 / (sigma * sigma),
-                    inv_z: 1.0 / (z1 * z1),
                     dlog_z: 2.0 * dz1 / z1,
                     dsigma_dr: r / (4.0 * sigma),
-                }
+                };
+                (splat, table)
             })
-            .collect()
+            .unzip();
+        LayerSplats { window, splats, tables: tables.concat() }
+    }
+}
+
+/// One layer's splats and their axis tables (`window + 1` entries per source pixel).
+struct LayerSplats {
+    window: usize,
+    splats: Vec<Splat>,
+    tables: Vec<f64>,
+}
+
+impl LayerSplats {
+    #[inline]
+    fn table(&self, i: usize) -> &[f64] {
+        &self.tables[i * (self.window + 1)..(i + 1) * (self.window + 1)]
     }
 }
 
@@ -138,21 +160,22 @@ fn axis_sums(sigma: f64, window: usize) -> (f64, f64) {
 }
 
 /// Forward gather of one layer: every output pixel sums the splats reaching it.
-fn blur_layer(splats: &[Splat], width: usize, height: usize, window: usize) -> Vec<Px> {
+fn blur_layer(layer: &LayerSplats, width: usize, height: usize) -> Vec<Px> {
     let mut out = vec![[0.0; 4]; width * height];
-    let r = window as i64;
+    let r = layer.window as i64;
     out.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
         let y = y as i64;
         for (x, pixel) in row.iter_mut().enumerate() {
             let x = x as i64;
             for sy in (y - r).max(0)..=(y + r).min(height as i64 - 1) {
                 for sx in (x - r).max(0)..=(x + r).min(width as i64 - 1) {
-                    let s = &splats[sy as usize * width + sx as usize];
+                    let i = sy as usize * width + sx as usize;
+                    let s = &layer.splats[i];
                     if s.colour == [0.0; 4] {
                         continue;
                     }
-                    let o2 = ((x - sx) * (x - sx) + (y - sy) * (y - sy)) as f64;
-                    let k = (-o2 * s.inv_two_var).exp() * s.inv_z;
+                    let table = layer.table(i);
+                    let k = table[(x - sx).unsigned_abs() as usize] * table[(y - sy).unsigned_abs() as usize];
                     for (p, c) in pixel.iter_mut().zip(s.colour) {
                         *p += k * c;
                     }
@@ -202,21 +225,13 @@ fn over_adjoint(blurred: &[Vec<Px>], grad: &Image) -> Vec<Vec<Px>> {
 }
 
 /// Gradients of one source pixel: dL/d(colour) and dL/d(sigma).
-fn splat_backward(
-    s: &Splat,
-    grad: &[Px],
-    width: usize,
-    height: usize,
-    window: usize,
-    (x, y): (i64, i64),
-    table: &mut Vec<f64>,
-) -> (Px, f64) {
-    table.clear();
-    table.extend((0..=window).map(|i| (-((i * i) as f64) * s.inv_two_var).exp()));
-    let (r, sigma3) = (window as i64, s.sigma * s.sigma * s.sigma);
+fn splat_backward(layer: &LayerSplats, grad: &[Px], (width, height): (usize, usize), (x, y): (i64, i64)) -> (Px, f64) {
+    let i = y as usize * width + x as usize;
+    let (s, table) = (&layer.splats[i], layer.table(i));
+    let (r, sigma3) = (layer.window as i64, s.sigma * s.sigma * s.sigma);
     let (mut d_colour, mut d_sigma) = ([0.0; 4], 0.0);
     for ty in (y - r).max(0)..=(y + r).min(height as i64 - 1) {
-        let ey = table[(ty - y).unsigned_abs() as usize] * s.inv_z;
+        let ey = table[(ty - y).unsigned_abs() as usize];
         for tx in (x - r).max(0)..=(x + r).min(width as i64 - 1) {
             let k = ey * table[(tx - x).unsigned_abs() as usize];
             let g = grad[ty as usize * width + tx as usize];
@@ -232,13 +247,7 @@ fn splat_backward(
 }
 
 /// Backward gather of one layer: its gradients and its share of dL/dK, dL/d(focus).
-fn layer_backward(
-    splats: &[Splat],
-    layer: &Layer,
-    grad: &[Px],
-    coc: &CocModel,
-    window: usize,
-) -> (LayerGradients, f64, f64) {
+fn layer_backward(splats: &LayerSplats, layer: &Layer, grad: &[Px], coc: &CocModel) -> (LayerGradients, f64, f64) {
     let (width, height) = (layer.rgba.width, layer.rgba.height);
     let (k, focus) = (coc.k_px as f64, coc.focus_disparity as f64);
     // Per row: its gradients and its partial sums of dL/dK and dL/d(focus).
@@ -246,7 +255,6 @@ fn layer_backward(
     let rows: Vec<Row> = (0..height)
         .into_par_iter()
         .map(|y| {
-            let mut table = Vec::with_capacity(window + 1);
             let (mut rgba, mut disparity, mut dk, mut dfocus) = (
                 Vec::with_capacity(width),
                 Vec::with_capacity(width),
@@ -255,17 +263,8 @@ fn layer_backward(
             );
             for x in 0..width {
                 let i = y * width + x;
-                let s = &splats[i];
-                let (d_colour, d_sigma) = splat_backward(
-                    s,
-                    grad,
-                    width,
-                    height,
-                    window,
-                    (x as i64, y as i64),
-                    &mut table,
-                );
-                let d_r = d_sigma * s.dsigma_dr;
+                let (d_colour, d_sigma) = splat_backward(splats, grad, (width, height), (x as i64, y as i64));
+                let d_r = d_sigma * splats.splats[i].dsigma_dr;
                 rgba.push(d_colour.map(|v| v as f32));
                 disparity.push((d_r * k) as f32);
                 dk += d_r * (layer.disparity[i] as f64 - focus);
@@ -287,9 +286,8 @@ fn layer_backward(
 
 /// The state both passes start from.
 struct Blurred {
-    window: usize,
-    /// Per layer, per source pixel.
-    splats: Vec<Vec<Splat>>,
+    /// Per layer.
+    splats: Vec<LayerSplats>,
     /// Per layer, per output pixel.
     layers: Vec<Vec<Px>>,
 }
@@ -298,21 +296,9 @@ impl GaussPsf {
     /// Splats and blurred layers at (`stack`, `lens`), shared by both passes.
     fn blur_all(&self, stack: &LayerStack, lens: &Lens) -> Result<Blurred> {
         self.validate(stack)?;
-        let window = self.window(stack, &lens.coc);
-        let splats: Vec<Vec<Splat>> = stack
-            .layers
-            .iter()
-            .map(|l| self.splats(l, &lens.coc, window))
-            .collect();
-        let layers = splats
-            .iter()
-            .map(|s| blur_layer(s, stack.width, stack.height, window))
-            .collect();
-        Ok(Blurred {
-            window,
-            splats,
-            layers,
-        })
+        let splats: Vec<LayerSplats> = stack.layers.iter().map(|l| self.splats(l, &lens.coc)).collect();
+        let layers = splats.iter().map(|s| blur_layer(s, stack.width, stack.height)).collect();
+        Ok(Blurred { splats, layers })
     }
 }
 
@@ -357,7 +343,7 @@ impl Differentiable for GaussPsf {
         let layer_grads = over_adjoint(&blurred.layers, grad_output);
         let mut out = StackGradients::default();
         for ((layer, splats), grad) in stack.layers.iter().zip(&blurred.splats).zip(&layer_grads) {
-            let (g, dk, dfocus) = layer_backward(splats, layer, grad, &lens.coc, blurred.window);
+            let (g, dk, dfocus) = layer_backward(splats, layer, grad, &lens.coc);
             out.layers.push(g);
             out.k_px += dk;
             out.focus_disparity += dfocus;
@@ -509,7 +495,7 @@ mod tests {
         stack.layers[0].disparity.iter_mut().for_each(|d| *d = 0.9);
         let lens = lens(4.0, 0.5);
         let renderer = GaussPsf::default();
-        let window = renderer.window(&stack, &lens.coc);
+        let window = renderer.window(&stack.layers[0], &lens.coc);
         let out = renderer.forward_f64(&stack, &lens).unwrap();
         for y in window..20 - window {
             for x in window..24 - window {

@@ -54,7 +54,8 @@ pub fn l1(rendered: &Image, target: &Image) -> Result<(f64, Gradient)> {
 #[derive(Clone, Debug, PartialEq)]
 pub struct LossWeights {
     pub l1: f64,
-    /// Weight of the edge-aware smoothness, summed over the layers.
+    /// Weight of the edge-aware smoothness (of disparity in units of `disparity_unit`, see
+    /// [`depth_loss`]), summed over the layers.
     pub smoothness: f64,
     pub hssim: f64,
     /// HSSIM window sizes (odd); those larger than the image are left out.
@@ -87,8 +88,13 @@ pub struct DepthLoss {
     pub grad_disparity: Vec<Vec<f64>>,
 }
 
-/// Eq. 13 for `rendered` (the render of `stack`) against `target`.
-pub fn depth_loss(rendered: &Image, target: &Image, stack: &LayerStack, weights: &LossWeights) -> Result<DepthLoss> {
+/// Eq. 13 for `rendered` (the render of `stack`) against `target`. The smoothness term sees
+/// disparity divided by `disparity_unit` (the fit passes the scene's mean disparity, as
+/// Monodepth's mean-normalised smoothness does), so its weight means the same in any units.
+pub fn depth_loss(rendered: &Image, target: &Image, stack: &LayerStack, weights: &LossWeights, disparity_unit: f64) -> Result<DepthLoss> {
+    if !(disparity_unit.is_finite() && disparity_unit > 0.0) {
+        return Err(Error::param(format!("disparity unit must be positive, got {disparity_unit}")));
+    }
     let (l1_value, l1_grad) = l1(rendered, target)?;
     let windows: Vec<usize> = weights.ssim_windows.iter().copied().filter(|&w| w <= rendered.width.min(rendered.height)).collect();
     let (hssim_value, hssim_grad) = if weights.hssim == 0.0 { (0.0, vec![[0.0; 4]; rendered.pixels.len()]) } else { hierarchical_ssim(rendered, target, &windows)? };
@@ -96,8 +102,8 @@ pub fn depth_loss(rendered: &Image, target: &Image, stack: &LayerStack, weights:
     let (mut smooth_value, mut grad_disparity) = (0.0, Vec::with_capacity(stack.layers.len()));
     for layer in &stack.layers {
         let (v, g) = edge_aware_smoothness(&layer.disparity, &layer.rgba, weights.pyramid_levels, weights.edge_sharpness)?;
-        smooth_value += v;
-        grad_disparity.push(g.into_iter().map(|g| weights.smoothness * g).collect());
+        smooth_value += v / disparity_unit;
+        grad_disparity.push(g.into_iter().map(|g| weights.smoothness * g / disparity_unit).collect());
     }
     let terms = [l1_value, smooth_value, hssim_value];
     let value = weights.l1 * terms[0] + weights.smoothness * terms[1] + weights.hssim * terms[2];

@@ -117,9 +117,9 @@ fn depth_loss_image_gradient_matches_finite_differences() {
     let layer = Layer { name: "l".into(), rgba: random_image(12, 12, 13), disparity: vec![0.5; 144] };
     let stack = LayerStack::new(12, 12, vec![layer]).unwrap();
     let weights = LossWeights { ssim_windows: vec![3, 7, 31], ..LossWeights::default() };
-    let loss = depth_loss(&a, &b, &stack, &weights).unwrap();
+    let loss = depth_loss(&a, &b, &stack, &weights, 0.5).unwrap();
     let expected = weights.l1 * loss.terms[0] + weights.smoothness * loss.terms[1] + weights.hssim * loss.terms[2];
     assert!((loss.value - expected).abs() < 1e-12);
     // The 31 window does not fit a 12x12 image and is left out rather than failing.
-    check_image_gradient(&a, &loss.grad_image, 1e-4, |x| depth_loss(x, &b, &stack, &weights).unwrap().value);
+    check_image_gradient(&a, &loss.grad_image, 1e-4, |x| depth_loss(x, &b, &stack, &weights, 0.5).unwrap().value);
 }
