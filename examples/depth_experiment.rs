@@ -1,5 +1,6 @@
 //! Runs the depth-from-defocus experiment with the GaussPSF renderer until the CLI has
-//! `lensblur fit-depth`: `cargo run --example depth_experiment -- [scale] [iterations] [scene...]`.
+//! `lensblur fit-depth`: `cargo run --release --example depth_experiment -- [scale] [iterations] [scene...]`;
+//! env `LR`, `SMOOTH`, `HSSIM` override the learning rate and two loss weights.
 use lensblur::optim::{experiment_truths, format_results, run_experiment, ExperimentOptions, FitOptions};
 use lensblur::render::gausspsf::GaussPsf;
 
