@@ -1,6 +1,7 @@
 //! Runs the depth-from-defocus experiment with the GaussPSF renderer until the CLI has
 //! `lensblur fit-depth`: `cargo run --release --example depth_experiment -- [scale] [iterations] [scene...]`;
-//! env `LR`, `SMOOTH`, `HSSIM` override the learning rate and two loss weights.
+//! env `LR`, `SMOOTH`, `HSSIM`, `SIGMA_PER_RADIUS` override the learning rate, two loss
+//! weights and GaussPSF's sigma/CoC ratio.
 use lensblur::optim::{experiment_truths, format_results, run_experiment, ExperimentOptions, FitOptions};
 use lensblur::render::gausspsf::GaussPsf;
 
@@ -19,7 +20,11 @@ fn main() -> anyhow::Result<()> {
     }
     let options = ExperimentOptions { scale, fit, ..ExperimentOptions::default() };
     let truths = experiment_truths(&names, &options)?;
-    let results = run_experiment(&GaussPsf::default(), &truths, &options.fit, |scene, i, loss| {
+    let mut renderer = GaussPsf::default();
+    if let Ok(c) = std::env::var("SIGMA_PER_RADIUS") {
+        renderer.sigma_per_radius = c.parse()?;
+    }
+    let results = run_experiment(&renderer, &truths, &options.fit, |scene, i, loss| {
         if i % 25 == 0 {
             eprintln!("{scene} {i:4} loss {loss:.5}");
         }

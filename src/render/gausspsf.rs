@@ -4,9 +4,10 @@
 //! Model, per layer and without any occlusion inside a layer: every source pixel `y`
 //! (premultiplied RGBA `c_y`) is spread by a normalised Gaussian
 //! `k_y(o) = exp(-|o|^2 / 2 s_y^2) / Z(s_y)` over a square window of half-width `R`, where
-//! - `s_y = sqrt(r_y^2 / 4 + s0^2)` with `r_y = K (d_y - d_f)` the CoC radius: `r / 2` is the
-//!   per-axis standard deviation of a uniform disk of radius `r`, so the Gaussian has the
-//!   disk's second moment; the floor `s0` keeps `s` smooth (and positive) through focus.
+//! - `s_y = sqrt((c r_y)^2 + s0^2)` with `r_y = K (d_y - d_f)` the CoC radius: with the
+//!   default `c = 1/2`, `r / 2` is the per-axis standard deviation of a uniform disk of radius
+//!   `r`, so the Gaussian has the disk's second moment; the floor `s0` keeps `s` smooth (and
+//!   positive) through focus.
 //! - `Z(s)` sums the Gaussian over the *discrete, truncated* window, so each splat carries
 //!   exactly `c_y` (light leaving the image border is lost, as it is for a crop);
 //! - `R = min(ceil(truncation * max s), max_window)`, set per call and per layer from the
@@ -37,6 +38,8 @@ type Px = [f64; 4];
 /// The GaussPSF renderer and its few knobs. The aperture shape is ignored (a Gaussian has none).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GaussPsf {
+    /// `c` in `s = sqrt((c r)^2 + s0^2)`; 0.5 matches the disk's second moment.
+    pub sigma_per_radius: f64,
     /// `s0`: smallest standard deviation in pixels (an in-focus pixel is spread this much).
     pub sigma_floor: f64,
     /// The window reaches this many standard deviations of the widest splat.
@@ -46,9 +49,11 @@ pub struct GaussPsf {
 }
 
 impl Default for GaussPsf {
-    /// `s0 = 0.3` keeps 98% of an in-focus pixel in place; 3 sigma holds 99.7% of each axis.
+    /// `c = 0.5` (moment match); `s0 = 0.3` keeps 98% of an in-focus pixel in place; 3 sigma
+    /// holds 99.7% of each axis.
     fn default() -> Self {
         Self {
+            sigma_per_radius: 0.5,
             sigma_floor: 0.3,
             truncation: 3.0,
             max_window: 48,
@@ -69,6 +74,9 @@ struct Splat {
 
 impl GaussPsf {
     fn validate(&self, stack: &LayerStack) -> Result<()> {
+        if !(self.sigma_per_radius.is_finite() && self.sigma_per_radius > 0.0) {
+            return Err(Error::param(format!("GaussPSF sigma per radius must be positive, got {}", self.sigma_per_radius)));
+        }
         if !(self.sigma_floor.is_finite() && self.sigma_floor > 0.0) {
             return Err(Error::param(format!(
                 "GaussPSF sigma floor must be positive, got {}",
@@ -88,7 +96,8 @@ impl GaussPsf {
     }
 
     fn sigma(&self, r: f64) -> f64 {
-        (0.25 * r * r + self.sigma_floor * self.sigma_floor).sqrt()
+        let c = self.sigma_per_radius;
+        (c * c * r * r + self.sigma_floor * self.sigma_floor).sqrt()
     }
 
     /// Window half-width for the widest splat of the layer that carries anything.
@@ -122,7 +131,7 @@ impl GaussPsf {
                     colour: c.map(|v| v as f64),
                     sigma,
                     dlog_z: 2.0 * dz1 / z1,
-                    dsigma_dr: r / (4.0 * sigma),
+                    dsigma_dr: self.sigma_per_radius * self.sigma_per_radius * r / sigma,
                 };
                 (splat, table)
             })
