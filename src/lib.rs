@@ -15,6 +15,7 @@ pub mod error;
 pub mod image;
 pub mod bench;
 pub mod metrics;
+pub mod optim;
 pub mod raytrace;
 pub mod render;
 pub mod shaders;

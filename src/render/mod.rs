@@ -7,6 +7,7 @@ pub use method::{InputKind, Method};
 pub mod disk;
 pub mod drbokeh;
 pub mod gather;
+pub mod gausspsf;
 pub mod grad;
 pub mod lens_samples;
 pub mod method;
