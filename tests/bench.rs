@@ -123,6 +123,7 @@ fn every_renderer_is_registered_with_the_input_it_may_read() {
         ("multiview", layers),
         ("drbokeh", layers),
         ("drbokeh-compat", layers),
+        ("drbokeh-auto", single),
         ("gather-cpu", single),
         ("scatter-cpu", single),
     ];

@@ -8,6 +8,7 @@ use crate::render::oracle::render_oracle;
 use crate::render::scatter::{render_scatter_cpu, Scatter};
 use crate::render::vdslr::{Vdslr, VdslrParams};
 use crate::render::Lens;
+use crate::stack::{split_into_layers, AutoLayerOptions};
 use crate::{Error, Result};
 
 pub use crate::render::InputKind;
@@ -82,29 +83,15 @@ pub fn select_methods(methods: Vec<Method>, names: &[String]) -> Result<Vec<Meth
     Ok(methods.into_iter().filter(|m| names.is_empty() || names.iter().any(|n| n == m.name)).collect())
 }
 
-/// Virtual DSLR as the benchmark runs it. Measured on `bench --quick` (mean PSNR): 64 -> 256
-/// lens samples +1.2 dB (HDR bokeh balls stop being grainy; 1024 adds 0.2 dB more), 3 -> 10
-/// search iterations +0.9 dB (the tilted wall's continuous depth needs them).
-pub fn bench_vdslr_params() -> VdslrParams {
-    VdslrParams { samples: 256, iterations: 10, ..VdslrParams::default() }
-}
-
-/// Multiview synthesis as the benchmark runs it. Measured on `bench --quick` (mean PSNR):
-/// 64 samples 36.2 dB, 256 37.5, 512 37.7, 1024 37.8; cone tracing is worth +0.8 dB at 64
-/// samples and nothing at 512, where it is kept (it never hurt).
-pub fn bench_multiview_params() -> MultiviewParams {
-    MultiviewParams { samples: 512, cone_scale: 1.0, ..MultiviewParams::default() }
-}
-
 /// The Vulkan renderers, on one device: the single-image baselines, Virtual DSLR (single
 /// image), multiview synthesis and Dr.Bokeh (true layers; default model and released formulas).
 pub fn gpu_methods(ctx: &crate::vk::Context) -> Result<Vec<Method>> {
     use crate::render::drbokeh::{DrBokehGpu, Model};
     let (gather, scatter) = (Gather::new(ctx)?, Scatter::new(ctx)?);
-    let (vdslr, vdslr_params) = (Vdslr::new(ctx)?, bench_vdslr_params());
-    let (multiview, multiview_params) = (Multiview::new(ctx)?, bench_multiview_params());
+    let (vdslr, vdslr_params) = (Vdslr::new(ctx)?, VdslrParams::tuned());
+    let (multiview, multiview_params) = (Multiview::new(ctx)?, MultiviewParams::tuned());
     let drbokeh = std::sync::Arc::new(DrBokehGpu::new(ctx)?);
-    let compat = drbokeh.clone();
+    let (compat, auto) = (drbokeh.clone(), drbokeh.clone());
     Ok(vec![
         Method::new("gather", InputKind::SingleImage, move |case| {
             let (image, disparity) = case.single_image()?;
@@ -121,6 +108,13 @@ pub fn gpu_methods(ctx: &crate::vk::Context) -> Result<Vec<Method>> {
         Method::new("multiview", InputKind::Layers, move |case| multiview.run(&case.truth.layers, case.lens, &multiview_params)),
         Method::new("drbokeh", InputKind::Layers, move |case| drbokeh.render(&case.truth.layers, case.lens, Model::DrBokeh)),
         Method::new("drbokeh-compat", InputKind::Layers, move |case| compat.render(&case.truth.layers, case.lens, Model::Compat)),
+        // What `lensblur render` does with one image + depth: split it into layers (soft cuts,
+        // push-pull fill of the hidden background), then Dr.Bokeh.
+        Method::new("drbokeh-auto", InputKind::SingleImage, move |case| {
+            let (image, disparity) = case.single_image()?;
+            let stack = split_into_layers(image, disparity, &case.lens.coc, &AutoLayerOptions::default());
+            auto.render(&stack, case.lens, Model::DrBokeh)
+        }),
     ])
 }
 

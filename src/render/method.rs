@@ -32,9 +32,9 @@ pub enum Method {
     Vdslr,
     /// Per-layer disk blur composited with "over" (CPU; the classical layered approach).
     Oracle,
-    /// Blender-Defocus-like single-image gather (CPU baseline).
+    /// Blender-Defocus-like single-image gather (baseline; Vulkan).
     Gather,
-    /// BokehMe's classical single-image scatter (CPU baseline).
+    /// BokehMe's classical single-image scatter (baseline; Vulkan).
     Scatter,
 }
 
@@ -95,20 +95,20 @@ impl Method {
             Method::DrBokeh => Ok(DrBokehGpu::new(gpu()?)?.render_with(stack, lens, Model::DrBokeh, options)?.0),
             Method::DrBokehCompat => Ok(DrBokehGpu::new(gpu()?)?.render_with(stack, lens, Model::Compat, options)?.0),
             Method::Multiview => {
-                Multiview::new(gpu()?)?.run(stack, lens, &MultiviewParams::default())
+                Multiview::new(gpu()?)?.run(stack, lens, &MultiviewParams::tuned())
             }
             Method::Vdslr => {
                 let (image, disparity) = single();
-                Vdslr::new(gpu()?)?.run(&image, &disparity, lens, &VdslrParams::default())
+                Vdslr::new(gpu()?)?.run(&image, &disparity, lens, &VdslrParams::tuned())
             }
             Method::Oracle => Ok(super::oracle::render_oracle(stack, &lens.coc)),
             Method::Gather => {
                 let (image, disparity) = single();
-                Ok(super::gather::render_gather_cpu(&image, &disparity, lens))
+                super::gather::Gather::new(gpu()?)?.run(&image, &disparity, lens)
             }
             Method::Scatter => {
                 let (image, disparity) = single();
-                Ok(super::scatter::render_scatter_cpu(&image, &disparity, lens))
+                super::scatter::Scatter::new(gpu()?)?.run(&image, &disparity, lens)
             }
         }
     }
