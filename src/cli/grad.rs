@@ -3,7 +3,6 @@
 //! directly (premultiplied, as stored), depth through the file's depth convention; channels
 //! that do not reach the render (unselected layers, passes) are zero. The camera gradients are
 //! printed (and in `--json`).
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -16,6 +15,7 @@ use lensblur::stack::{read_rgba, write_named_channels, DepthKind, StackInfo};
 use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
+use super::file_channels::FileChannels;
 use super::input_args::{check_output_is_not_input, InputArgs, LoadedInput};
 
 const EXAMPLES: &str = "\
@@ -119,33 +119,19 @@ fn read_grad_output(path: &Path, loaded: &LoadedInput) -> anyhow::Result<Image> 
 
 /// Every channel of the file, zero unless a rendered layer's gradient lands on it.
 fn gradient_channels(info: &StackInfo, loaded: &LoadedInput, grads: &StackGradients) -> Vec<(String, Vec<f32>)> {
-    let n = loaded.stack.width * loaded.stack.height;
-    let multi_part = info.parts.len() > 1;
-    let output_name = |part: usize, channel: &str| match (multi_part, info.parts[part].name.as_deref()) {
-        (true, Some(part_name)) => format!("{part_name}.{channel}"),
-        (true, None) => format!("part{part}.{channel}"),
-        (false, _) => channel.to_string(),
-    };
-    let mut channels: BTreeMap<String, Vec<f32>> = BTreeMap::new();
-    for (p, part) in info.parts.iter().enumerate() {
-        for channel in &part.channels {
-            channels.insert(output_name(p, &channel.name), vec![0.0; n]);
-        }
-    }
+    let mut channels = FileChannels::zeroed(info);
     for (layer, grad) in loaded.stack.layers.iter().zip(&grads.layers) {
-        let Some(layer_info) = info.layers.iter().find(|l| l.name == layer.name) else { continue };
-        let ch = &layer_info.channels;
-        for (c, name) in [&ch.red, &ch.green, &ch.blue, &ch.alpha].into_iter().enumerate() {
+        let Some(names) = channels.layer(&layer.name) else { continue };
+        for (c, name) in names.colour.iter().enumerate() {
             if let Some(name) = name {
-                channels.insert(output_name(layer_info.part, name), grad.rgba.iter().map(|g| g[c]).collect());
+                channels.set(name, grad.rgba.iter().map(|g| g[c]).collect());
             }
         }
-        if let Some(name) = &ch.depth {
-            let chain = depth_chain(loaded.depth_kind, &layer.disparity, &grad.disparity);
-            channels.insert(output_name(layer_info.part, name), chain);
+        if let Some(name) = &names.depth {
+            channels.set(name, depth_chain(loaded.depth_kind, &layer.disparity, &grad.disparity));
         }
     }
-    channels.into_iter().collect()
+    channels.into_list()
 }
 
 /// dL/d(stored depth) = dL/d(disparity) * d(disparity)/d(stored).

@@ -7,6 +7,8 @@ mod bench_large;
 mod camera_args;
 mod devices;
 mod example;
+mod file_channels;
+mod fit_depth;
 mod grad;
 mod info;
 mod input_args;
@@ -38,6 +40,8 @@ enum Command {
     Render(render::Args),
     /// Gradients of a loss w.r.t. every channel of a stack and the camera (backward pass).
     Grad(grad::Args),
+    /// Depth from defocus: fit a stack's depth so its render matches a defocused image.
+    FitDepth(fit_depth::Args),
     /// Ray-trace a built-in scene, render its layers, compare with the ground truth.
     Example(example::Args),
     /// List the Vulkan devices and the one lensblur would use.
@@ -64,6 +68,7 @@ pub fn main() -> std::process::ExitCode {
         Command::Render(args) => render::run(args),
         Command::Example(args) => example::run(args),
         Command::Grad(args) => grad::run(args),
+        Command::FitDepth(args) => fit_depth::run(args),
         Command::Devices(args) => devices::run(args),
         Command::Info(args) => info::run(args),
         Command::Raytrace(args) => raytrace::run(args),
