@@ -54,7 +54,9 @@ impl Aperture {
         Ok(Aperture::Polygon { blades, rotation: rotation_deg.to_radians(), roundness })
     }
 
-    /// Parses the CLI form: `disk`, `polygon:BLADES[:rotation=DEG][:roundness=R]`, `image:FILE`.
+    /// Parses the CLI form: `disk`, `polygon:BLADES[:rotation=DEG][:roundness=R]`,
+    /// `anamorphic:SQUEEZE[:rotation=DEG]` (an ellipse SQUEEZE times wider than tall),
+    /// `ring:INNER` (catadioptric: central obstruction of INNER x the radius), `image:FILE`.
     pub fn parse(spec: &str) -> Result<Self> {
         let mut parts = spec.split(':');
         match parts.next().unwrap_or("") {
@@ -65,13 +67,7 @@ impl Aperture {
                     .and_then(|b| b.parse::<u32>().ok())
                     .ok_or_else(|| Error::param(format!("aperture '{spec}': expected polygon:BLADES, e.g. polygon:6")))?;
                 let (mut rotation, mut roundness) = (0.0f32, 0.0f32);
-                for option in parts {
-                    let (key, value) = option.split_once('=').ok_or_else(|| {
-                        Error::param(format!("aperture '{spec}': option '{option}' is not key=value"))
-                    })?;
-                    let value: f32 = value
-                        .parse()
-                        .map_err(|_| Error::param(format!("aperture '{spec}': '{value}' is not a number")))?;
+                for (key, value) in options(spec, parts)? {
                     match key {
                         "rotation" => rotation = value,
                         "roundness" => roundness = value,
@@ -79,6 +75,24 @@ impl Aperture {
                     }
                 }
                 Aperture::polygon(blades, rotation, roundness)
+            }
+            "anamorphic" => {
+                let squeeze = leading_number(spec, parts.next(), "anamorphic:SQUEEZE, e.g. anamorphic:2")?;
+                let mut rotation = 0.0f32;
+                for (key, value) in options(spec, parts)? {
+                    match key {
+                        "rotation" => rotation = value,
+                        _ => return Err(Error::param(format!("aperture '{spec}': unknown option '{key}' (rotation)"))),
+                    }
+                }
+                Ok(Aperture::Kernel(crate::character::kernels::anamorphic(squeeze, rotation)?))
+            }
+            "ring" => {
+                let inner = leading_number(spec, parts.next(), "ring:INNER, e.g. ring:0.5")?;
+                if parts.next().is_some() {
+                    return Err(Error::param(format!("aperture '{spec}': ring takes only the inner radius")));
+                }
+                Ok(Aperture::Kernel(crate::character::kernels::ring(inner)?))
             }
             "image" => {
                 let path: String = parts.collect::<Vec<_>>().join(":");
@@ -88,7 +102,8 @@ impl Aperture {
                 Ok(Aperture::Kernel(KernelImage::load(Path::new(&path))?))
             }
             _ => Err(Error::param(format!(
-                "unknown aperture '{spec}': use disk, polygon:BLADES[:rotation=DEG][:roundness=R] or image:FILE"
+                "unknown aperture '{spec}': use disk, polygon:BLADES[:rotation=DEG][:roundness=R], \
+                 anamorphic:SQUEEZE[:rotation=DEG], ring:INNER or image:FILE"
             ))),
         }
     }
@@ -152,6 +167,27 @@ impl Aperture {
             Aperture::Kernel(_) => [0.0, 0.0, 1.0, 1.0],
         }
     }
+}
+
+/// The `key=value` options after an aperture's leading parameter.
+fn options<'a>(spec: &str, parts: impl Iterator<Item = &'a str>) -> Result<Vec<(&'a str, f32)>> {
+    parts
+        .map(|option| {
+            let (key, value) = option.split_once('=').ok_or_else(|| {
+                Error::param(format!("aperture '{spec}': option '{option}' is not key=value"))
+            })?;
+            let value: f32 = value
+                .parse()
+                .map_err(|_| Error::param(format!("aperture '{spec}': '{value}' is not a number")))?;
+            Ok((key, value))
+        })
+        .collect()
+}
+
+/// The number right after an aperture's name (`anamorphic:2`, `ring:0.5`).
+fn leading_number(spec: &str, part: Option<&str>, expected: &str) -> Result<f32> {
+    part.and_then(|p| p.parse::<f32>().ok())
+        .ok_or_else(|| Error::param(format!("aperture '{spec}': expected {expected}")))
 }
 
 /// Gauge of a regular `n`-gon inscribed in the unit circle, blended toward the disk by

@@ -24,7 +24,7 @@ pub struct CameraArgs {
     /// Normalised model: disparity of the plane in focus.
     #[arg(long, value_name = "DF", help_heading = "Camera", requires = "blur")]
     pub focus_disparity: Option<f32>,
-    /// Aperture shape: disk, polygon:BLADES[:rotation=DEG][:roundness=R], or image:FILE.
+    /// Aperture shape: disk, polygon:BLADES[:rotation=DEG][:roundness=R], anamorphic:SQUEEZE[:rotation=DEG], ring:INNER, or image:FILE.
     #[arg(
         long,
         value_name = "SHAPE",

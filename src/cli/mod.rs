@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 mod bench;
 mod bench_large;
 mod camera_args;
+mod character_args;
 mod devices;
 mod example;
 mod file_channels;

@@ -13,6 +13,7 @@ use lensblur::stack::{
 use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
+use super::character_args::CharacterArgs;
 use super::input_args::{check_output_is_not_input, InputArgs, LoadedInput};
 
 const EXAMPLES: &str = "\
@@ -40,6 +41,8 @@ pub struct Args {
     pub input_args: InputArgs,
     #[command(flatten)]
     pub camera: CameraArgs,
+    #[command(flatten)]
+    pub character: CharacterArgs,
     /// Rendering method: drbokeh, drbokeh-compat, multiview, vdslr, oracle, gather, scatter.
     #[arg(long, default_value = "drbokeh", help_heading = "Output")]
     pub method: Method,
@@ -126,8 +129,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let options = RenderOptions { tile: args.tile, progress: Some(&progress) };
     let image = args
-        .method
-        .render_with(ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options)
+        .character
+        .render(args.method, ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options)
         .with_context(|| format!("rendering {} with {}", args.input.display(), args.method))?;
     let render_time = start.elapsed();
     spinner.set_message(format!("writing {}", args.output.display()));

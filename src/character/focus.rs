@@ -1,0 +1,29 @@
+//! Focus by picking a pixel: the disparity the user clicked on.
+use crate::stack::LayerStack;
+use crate::{Error, Result};
+
+/// Coverage from which a layer counts as what the user sees at a pixel (as `flatten` uses).
+const COVERING_ALPHA: f32 = 0.5;
+
+/// Disparity of the front-most layer covering pixel `(x, y)` with alpha >= 0.5, else the
+/// flattened stack's disparity there (a pixel only partly covered by every layer).
+pub fn focus_disparity_at(stack: &LayerStack, x: usize, y: usize) -> Result<f32> {
+    if x >= stack.width || y >= stack.height {
+        return Err(Error::param(format!(
+            "focus pixel ({x}, {y}) is outside the {}x{} image",
+            stack.width, stack.height
+        )));
+    }
+    let i = y * stack.width + x;
+    let covering = stack.layers.iter().find(|l| l.rgba.pixels[i][3] >= COVERING_ALPHA);
+    match covering {
+        Some(layer) => Ok(layer.disparity[i]),
+        None => Ok(stack.flatten().1[i]),
+    }
+}
+
+/// Parses the CLI form `X,Y` (pixels, origin top-left).
+pub fn parse_pixel(spec: &str) -> Result<[usize; 2]> {
+    let parsed = spec.split_once(',').and_then(|(x, y)| Some([x.trim().parse().ok()?, y.trim().parse().ok()?]));
+    parsed.ok_or_else(|| Error::param(format!("focus pixel '{spec}': expected X,Y in pixels, e.g. 640,360")))
+}

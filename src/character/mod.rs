@@ -1,0 +1,96 @@
+//! Lens character and artist controls (issue 12), on top of any rendering method and without
+//! touching its shaders: every control is either a remap of the input (blur multipliers and
+//! clamp, focus pick, highlight bloom), a procedural aperture kernel (anamorphic, ring,
+//! cat's-eye), or a combination of several renders (chromatic aberration: one per channel;
+//! cat's-eye: one per grid node). Each piece is a CPU function testable on its own.
+pub mod bloom;
+pub mod chromatic;
+pub mod debug;
+pub mod focus;
+pub mod kernels;
+pub mod remap;
+pub mod vignette;
+
+use std::borrow::Cow;
+
+pub use bloom::Bloom;
+pub use chromatic::render_chromatic;
+pub use debug::write_debug_views;
+pub use focus::focus_disparity_at;
+pub use remap::BlurRemap;
+pub use vignette::{render_cats_eye, CatsEye};
+
+use crate::image::Image;
+use crate::render::drbokeh::RenderOptions;
+use crate::render::{Lens, Method};
+use crate::stack::LayerStack;
+use crate::vk::Context;
+use crate::Result;
+
+/// Every control; `Character::default()` changes nothing.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Character {
+    pub remap: BlurRemap,
+    /// Focus on the surface seen at this pixel `[x, y]` (overrides the lens's focus).
+    pub focus_at: Option<[usize; 2]>,
+    pub bloom: Option<Bloom>,
+    /// Per-channel focus offsets in CoC pixels (R, G, B).
+    pub chromatic: Option<[f32; 3]>,
+    pub cats_eye: Option<CatsEye>,
+}
+
+impl Character {
+    /// The stack and lens a renderer sees: focus picked, then disparities remapped (around the
+    /// final focus), then highlights boosted. Borrowed unchanged when nothing applies.
+    pub fn prepare<'a>(&self, stack: &'a LayerStack, lens: &Lens) -> Result<(Cow<'a, LayerStack>, Lens)> {
+        self.remap.validate()?;
+        let mut lens = lens.clone();
+        if let Some([x, y]) = self.focus_at {
+            lens.coc.focus_disparity = focus_disparity_at(stack, x, y)?;
+        }
+        if self.remap.is_identity() && self.bloom.is_none() {
+            return Ok((Cow::Borrowed(stack), lens));
+        }
+        let mut owned = stack.clone();
+        self.remap.apply(&mut owned, &lens.coc);
+        if let Some(bloom) = &self.bloom {
+            bloom.validate()?;
+            bloom.apply(&mut owned);
+        }
+        Ok((Cow::Owned(owned), lens))
+    }
+
+    /// Renders a prepared stack with `render` (one call per needed render: x3 for chromatic
+    /// aberration, x grid nodes for cat's-eye).
+    pub fn render_prepared(
+        &self,
+        render: &dyn Fn(&LayerStack, &Lens) -> Result<Image>,
+        stack: &LayerStack,
+        lens: &Lens,
+    ) -> Result<Image> {
+        let vignetted = |s: &LayerStack, l: &Lens| match &self.cats_eye {
+            Some(eye) => render_cats_eye(render, s, l, eye),
+            None => render(s, l),
+        };
+        match self.chromatic {
+            Some(offsets) => render_chromatic(&vignetted, stack, lens, offsets),
+            None => vignetted(stack, lens),
+        }
+    }
+
+    /// Prepares and renders with `method`; returns the image and the stack and lens rendered
+    /// (what the debug views describe).
+    pub fn render<'a>(
+        &self,
+        method: Method,
+        ctx: Option<&Context>,
+        stack: &'a LayerStack,
+        lens: &Lens,
+        options: &RenderOptions,
+    ) -> Result<(Image, Cow<'a, LayerStack>, Lens)> {
+        let (prepared, lens) = self.prepare(stack, lens)?;
+        let render = |s: &LayerStack, l: &Lens| method.render_with(ctx, s, l, options);
+        let image = self.render_prepared(&render, &prepared, &lens)?;
+        Ok((image, prepared, lens))
+    }
+}
