@@ -52,11 +52,13 @@ impl CharacterArgs {
     }
 
     /// Renders with every control applied and writes the debug views if asked.
-    pub fn render(&self, method: Method, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens, options: &RenderOptions) -> anyhow::Result<Image> {
+    /// Renders with every control applied; returns the image and the lens actually used
+    /// (after `--focus-at`), which is what the report states.
+    pub fn render(&self, method: Method, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens, options: &RenderOptions) -> anyhow::Result<(Image, Lens)> {
         let (image, prepared, lens) = self.resolve()?.render(method, ctx, stack, lens, options)?;
         if let Some(dir) = &self.debug_out {
             lensblur::character::write_debug_views(dir, &prepared, &lens, &image).context("--debug-out")?;
         }
-        Ok(image)
+        Ok((image, lens))
     }
 }

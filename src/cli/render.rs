@@ -128,7 +128,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     };
     let options = RenderOptions { tile: args.tile, progress: Some(&progress) };
-    let image = args
+    let (image, lens) = args
         .character
         .render(args.method, ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options)
         .with_context(|| format!("rendering {} with {}", args.input.display(), args.method))?;
@@ -149,7 +149,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         write: ms(write_time),
         total: ms(total.elapsed()),
     };
-    let report = report(&args, &loaded, device, timings);
+    let report = report(&args, &loaded, &lens, device, timings);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -209,10 +209,11 @@ fn write_output(args: &Args, loaded: &LoadedInput, image: &Image) -> anyhow::Res
 fn report<'a>(
     args: &'a Args,
     loaded: &LoadedInput,
+    lens: &Lens,
     device: Option<String>,
     timings_ms: Timings,
 ) -> Report<'a> {
-    let layers = layer_reports(&loaded.stack, &loaded.camera.lens);
+    let layers = layer_reports(&loaded.stack, lens);
     let coc_range_px = layers.iter().fold([f32::INFINITY, 0.0f32], |[lo, hi], l| {
         [lo.min(l.coc_range_px[0]), hi.max(l.coc_range_px[1])]
     });
@@ -223,8 +224,8 @@ fn report<'a>(
         device,
         width: loaded.stack.width,
         height: loaded.stack.height,
-        k_px: loaded.camera.lens.coc.k_px,
-        focus_disparity: loaded.camera.lens.coc.focus_disparity,
+        k_px: lens.coc.k_px,
+        focus_disparity: lens.coc.focus_disparity,
         camera: loaded.camera.physical,
         depth_kind: loaded.depth_kind,
         auto_layered: loaded.auto_layered.is_some(),
