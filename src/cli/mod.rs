@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 
 mod bench;
+mod bench_depth;
 mod bench_large;
 mod camera_args;
 mod character_args;
@@ -55,6 +56,8 @@ enum Command {
     Bench(bench::Args),
     /// Benchmark the tiled renderer on a 4K-8K two-layer frame (time, memory, taps/s).
     BenchLarge(bench_large::Args),
+    /// Depth from defocus on the benchmark scenes: Dr.Bokeh vs GaussPSF (depth error, PSNR).
+    BenchDepth(bench_depth::Args),
 }
 
 pub fn main() -> std::process::ExitCode {
@@ -75,6 +78,7 @@ pub fn main() -> std::process::ExitCode {
         Command::Raytrace(args) => raytrace::run(args),
         Command::Bench(args) => bench::run(args),
         Command::BenchLarge(args) => bench_large::run(args),
+        Command::BenchDepth(args) => bench_depth::run(args),
     };
     // Validation messages raised while contexts were torn down fail the command too.
     let result = result.and_then(|()| Ok(lensblur::vk::validation::check_unreported()?));
