@@ -5,7 +5,7 @@
 //! Methods live in a registry ([`Method`]); [`cpu_methods`] holds the CPU references, [`gpu_methods`] the
 //! Vulkan renderers, [`all_methods`] both. [`run`] produces a [`BenchReport`] (JSON via serde, a
 //! text table via `Display`), [`contact_sheet`] a labelled PNG of all renders and errors.
-mod font;
+pub(crate) mod font;
 pub mod gt_cache;
 pub mod large;
 mod methods;

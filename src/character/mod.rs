@@ -9,6 +9,7 @@ pub mod debug;
 pub mod focus;
 pub mod kernels;
 pub mod remap;
+pub mod sheet;
 pub mod vignette;
 
 use std::borrow::Cow;

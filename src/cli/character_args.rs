@@ -51,9 +51,8 @@ impl CharacterArgs {
         })
     }
 
-    /// Renders with every control applied and writes the debug views if asked.
-    /// Renders with every control applied; returns the image and the lens actually used
-    /// (after `--focus-at`), which is what the report states.
+    /// Renders with every control applied and writes the debug views if asked; returns the
+    /// image and the lens actually used (after `--focus-at`), which is what the report states.
     pub fn render(&self, method: Method, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens, options: &RenderOptions) -> anyhow::Result<(Image, Lens)> {
         let (image, prepared, lens) = self.resolve()?.render(method, ctx, stack, lens, options)?;
         if let Some(dir) = &self.debug_out {

@@ -37,9 +37,16 @@ pub struct Args {
     /// Ground-truth rays per pixel axis (N x N per round).
     #[arg(long, default_value_t = 8)]
     samples: usize,
+    /// Instead: write the lens-character contact sheet (each aperture and artist control on a
+    /// procedural bokeh scene) as DIR/lens-character.png.
+    #[arg(long)]
+    lens_character: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if args.lens_character {
+        return lens_character(&args.output);
+    }
     let scene = builtin_scene(&args.scene)?;
     let bar = ProgressBar::new(0).with_message(format!("ray-tracing {}", scene.name));
     bar.set_style(
@@ -115,4 +122,15 @@ fn report_lens(lens: &Lens) {
         "lens: K = {:.1} px per unit disparity, focus disparity {:.3}",
         lens.coc.k_px, lens.coc.focus_disparity
     );
+}
+
+fn lens_character(dir: &std::path::Path) -> anyhow::Result<()> {
+    let ctx = Context::from_env().context("opening the Vulkan device")?;
+    let sheet = lensblur::character::sheet::character_sheet(&ctx)?;
+    ctx.finish()?;
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let path = dir.join("lens-character.png");
+    lensblur::bench::write_png(&sheet, &path)?;
+    println!("wrote {}", path.display());
+    Ok(())
 }
