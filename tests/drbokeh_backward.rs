@@ -338,3 +338,28 @@ fn backward_rejects_an_output_gradient_of_another_size() {
     let err = renderer.backward(&stack(), &lens(6.0, 0.5), &wrong).unwrap_err();
     assert!(err.to_string().contains("13x10"), "{err}");
 }
+
+/// A textured layer 0.01 disparity in front of the focus (CoC 0.06 px with K = 6): its windows
+/// hold only its own pixels, so the exact gradient w.r.t. its depth is (nearly) zero. The
+/// leaky backward grows the windows by a margin, and the leaked slope of the pairs just beyond
+/// the supports must give a clear gradient, or a fit started near focus would never move.
+#[test]
+fn leaky_gradient_reaches_nearly_in_focus_layers() {
+    let (w, h) = (12, 10);
+    let texture = Image::from_fn(w, h, |x, y| {
+        let v = 0.2 + 0.6 * hash(x * 31 + y * 7) as f32;
+        [v, 1.0 - v, 0.5, 1.0]
+    });
+    let layer = Layer { name: "near-focus".into(), rgba: texture, disparity: vec![0.51; w * h] };
+    let stack = LayerStack::new(w, h, vec![layer]).unwrap();
+    let lens = lens(6.0, 0.5);
+    let g = grad_output();
+    let norm = |options| {
+        let grads = DrBokehCpu { model: Model::DrBokeh, options }.backward(&stack, &lens, &g).unwrap();
+        grads.layers[0].disparity.iter().map(|v| v.abs() as f64).sum::<f64>()
+    };
+    let (exact, leaky) = (norm(BackwardOptions::exact()), norm(BackwardOptions::leaky()));
+    // Exact: only the self pair, whose weight cancels in C/W (measured ~1e-9).
+    assert!(exact < 1e-6, "exact gradient {exact}");
+    assert!(leaky > 1e-2, "leaky gradient {leaky} must reach the nearly in-focus layer");
+}

@@ -53,6 +53,29 @@ impl BackwardOptions {
     pub fn leaky() -> Self {
         Self { leaky_slope: Self::DEFAULT_LEAKY_SLOPE }
     }
+
+    /// Pixels the search windows grow by: with a leak, pairs just beyond a source's support
+    /// (zero forward weight) still carry the leaked slope, so a nearly in-focus layer, whose
+    /// windows hold only its own pixel, gets a gradient that grows its CoC. Without this a
+    /// fit from a near-focus start never moves.
+    pub fn window_margin(&self) -> i32 {
+        if self.leaky_slope > 0.0 {
+            Self::LEAKY_WINDOW_MARGIN_PX
+        } else {
+            0
+        }
+    }
+
+    /// Reach of the leak beyond the supports, in pixels.
+    pub const LEAKY_WINDOW_MARGIN_PX: i32 = 2;
+
+    /// The forward windows this backward differentiates.
+    pub fn window(&self) -> super::Window {
+        match self.window_margin() {
+            0 => super::Window::Tiled,
+            margin => super::Window::TiledGrown(margin),
+        }
+    }
 }
 
 /// The f64 CPU reference as a [`Differentiable`] renderer.

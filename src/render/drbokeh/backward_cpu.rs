@@ -6,7 +6,7 @@
 use rayon::prelude::*;
 
 use super::backward::{pair_grad, vis_weight, BackwardOptions, Px};
-use super::cpu::{render_cpu_terms, LayerTerms, Window};
+use super::cpu::{render_cpu_terms, LayerTerms};
 use super::{math, Model, Params, TILE};
 use crate::image::Image;
 use crate::render::grad::{LayerGradients, StackGradients};
@@ -63,7 +63,7 @@ pub fn backward_cpu(stack: &LayerStack, lens: &Lens, model: Model, options: Back
             grad_output.width, grad_output.height, stack.width, stack.height
         )));
     }
-    let terms = render_cpu_terms(stack, lens, model, Window::Tiled)?;
+    let terms = render_cpu_terms(stack, lens, model, options.window())?;
     let params = &terms.params;
     let adjoints = composite_backward_cpu(params, &terms.layers, grad_output);
     let layers: Vec<CpuLayerGradients> = stack

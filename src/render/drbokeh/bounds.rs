@@ -84,3 +84,12 @@ pub fn tile_window_cpu(params: &Params, bounds: &[[f64; 2]]) -> Vec<i32> {
 pub fn search_windows(params: &Params, stack: &LayerStack) -> Vec<i32> {
     stack.layers.iter().flat_map(|layer| tile_window_cpu(params, &tile_bounds_cpu(params, layer))).collect()
 }
+
+/// Windows grown by `margin` pixels, empty tiles left empty (their layer contributes exactly
+/// nothing there, whatever the pairs).
+pub fn grow_windows(mut windows: Vec<i32>, margin: i32) -> Vec<i32> {
+    for w in windows.iter_mut().filter(|w| **w != EMPTY_WINDOW) {
+        *w += margin;
+    }
+    windows
+}

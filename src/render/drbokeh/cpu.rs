@@ -3,7 +3,7 @@
 //! the same loops in the same order, so each pair can be diffed by eye.
 use rayon::prelude::*;
 
-use super::bounds::{tile_bounds_cpu, tile_window_cpu};
+use super::bounds::{grow_windows, tile_bounds_cpu, tile_window_cpu};
 use super::{math, Model, Params, TILE};
 use crate::image::Image;
 use crate::render::Lens;
@@ -17,6 +17,9 @@ pub enum Window {
     Tiled,
     /// Every pixel of the image (the unwindowed sum, for tests).
     Full,
+    /// The per-tile windows grown by this many pixels (non-empty tiles only): the leaky
+    /// backward evaluates pairs just outside the supports, which add exact zeros forward.
+    TiledGrown(i32),
 }
 
 /// Intermediates of one layer, per pixel: `cw = [C_l.rgb, W_l]` (the `layer_cw` buffer) and
@@ -56,6 +59,7 @@ pub fn render_cpu_params(stack: &LayerStack, params: Params, window: Window) -> 
         .map(|layer| {
             let windows = match window {
                 Window::Tiled => tile_window_cpu(&params, &tile_bounds_cpu(&params, layer)),
+                Window::TiledGrown(margin) => grow_windows(tile_window_cpu(&params, &tile_bounds_cpu(&params, layer)), margin),
                 Window::Full => vec![params.width.max(params.height) as i32; params.tiles_x * params.tiles_y],
             };
             layer_cpu(&params, layer, windows)

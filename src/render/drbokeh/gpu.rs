@@ -207,10 +207,12 @@ impl ForwardBuffers {
         })
     }
 
-    /// The whole frame as one tile, with its search windows.
-    pub fn whole_frame(ctx: &Context, stack: &LayerStack, params: &Params) -> Result<Self> {
+    /// The whole frame as one tile, with its search windows grown by `margin` pixels (the
+    /// leaky backward's; 0 = the forward's own).
+    pub fn whole_frame(ctx: &Context, stack: &LayerStack, params: &Params, margin: i32) -> Result<Self> {
         let whole = Rect { x0: 0, y0: 0, x1: params.width, y1: params.height };
-        Self::new(ctx, stack, params, &search_windows(params, stack), whole, whole)
+        let windows = super::bounds::grow_windows(search_windows(params, stack), margin);
+        Self::new(ctx, stack, params, &windows, whole, whole)
     }
 }
 

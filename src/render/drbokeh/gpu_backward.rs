@@ -65,7 +65,7 @@ impl DrBokehGpuGrad {
         }
         let ctx = self.context();
         let params = Params::new(stack, lens, self.model)?;
-        let fwd = ForwardBuffers::whole_frame(ctx, stack, &params)?;
+        let fwd = ForwardBuffers::whole_frame(ctx, stack, &params, self.options.window_margin())?;
         let bwd = self.buffers(&params, grad_output)?;
         let mut batch = CommandBatch::new(ctx)?;
         self.forward.record(&mut batch, &params, &fwd)?;
