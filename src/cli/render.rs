@@ -13,7 +13,7 @@ use lensblur::stack::{
 use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
-use super::input_args::{check_output_is_not_input, InputArgs, LoadedInput};
+use super::input_args::{check_output_path, InputArgs, LoadedInput};
 
 const EXAMPLES: &str = "\
 Examples:
@@ -101,7 +101,10 @@ struct Timings {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let total = Instant::now();
-    check_output_is_not_input(&args.output, &[&args.input])?;
+    check_output_path(&args.output, &[&args.input])?;
+    if let Some(preview) = &args.preview {
+        check_output_path(preview, &[&args.input, &args.output])?;
+    }
     let spinner = spinner(&args);
     spinner.set_message(format!("reading {}", args.input.display()));
     let loaded = args
