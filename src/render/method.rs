@@ -2,9 +2,9 @@
 use std::str::FromStr;
 
 use crate::image::Image;
-use crate::render::drbokeh::{DrBokehGpu, Model, RenderOptions};
-use crate::render::multiview::{Multiview, MultiviewParams};
-use crate::render::vdslr::{Vdslr, VdslrParams};
+use crate::render::drbokeh::{render_cpu, DrBokehGpu, Model, RenderOptions};
+use crate::render::multiview::{render_multiview_cpu, Multiview, MultiviewParams};
+use crate::render::vdslr::{render_vdslr_cpu, Vdslr, VdslrParams};
 use crate::render::Lens;
 use crate::stack::LayerStack;
 use crate::vk::Context;
@@ -78,38 +78,49 @@ impl Method {
         )
     }
 
-    /// Renders `stack` (front to back) through `lens`. `ctx` is required by Vulkan methods.
+    /// Renders `stack` (front to back) through `lens`. Vulkan methods run on `ctx`; without
+    /// one they run their CPU reference (same formulas, f64 for Dr.Bokeh; slow, for machines
+    /// without a usable Vulkan device).
     pub fn render(self, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens) -> Result<Image> {
         self.render_with(ctx, stack, lens, &RenderOptions::default())
     }
 
     /// [`Self::render`] with frame tiling and progress (honoured by the tiled methods: drbokeh).
     pub fn render_with(self, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens, options: &RenderOptions) -> Result<Image> {
-        let gpu = || {
-            ctx.ok_or_else(|| {
-                Error::param(format!("method '{}' needs a Vulkan device", self.name()))
-            })
-        };
         let single = || stack.flatten();
-        match self {
-            Method::DrBokeh => Ok(DrBokehGpu::new(gpu()?)?.render_with(stack, lens, Model::DrBokeh, options)?.0),
-            Method::DrBokehCompat => Ok(DrBokehGpu::new(gpu()?)?.render_with(stack, lens, Model::Compat, options)?.0),
-            Method::Multiview => {
-                Multiview::new(gpu()?)?.run(stack, lens, &MultiviewParams::default())
+        match (self, ctx) {
+            (Method::DrBokeh | Method::DrBokehCompat, Some(ctx)) => {
+                Ok(DrBokehGpu::new(ctx)?.render_with(stack, lens, self.drbokeh_model(), options)?.0)
             }
-            Method::Vdslr => {
+            (Method::DrBokeh | Method::DrBokehCompat, None) => render_cpu(stack, lens, self.drbokeh_model()),
+            (Method::Multiview, Some(ctx)) => Multiview::new(ctx)?.run(stack, lens, &MultiviewParams::default()),
+            (Method::Multiview, None) => render_multiview_cpu(stack, lens, &MultiviewParams::default()),
+            (Method::Vdslr, ctx) => {
                 let (image, disparity) = single();
-                Vdslr::new(gpu()?)?.run(&image, &disparity, lens, &VdslrParams::default())
+                match ctx {
+                    Some(ctx) => Vdslr::new(ctx)?.run(&image, &disparity, lens, &VdslrParams::default()),
+                    None => render_vdslr_cpu(&image, &disparity, lens, &VdslrParams::default()),
+                }
             }
-            Method::Oracle => Ok(super::oracle::render_oracle(stack, &lens.coc)),
-            Method::Gather => {
+            (Method::Oracle, _) => Ok(super::oracle::render_oracle(stack, &lens.coc)),
+            (Method::Gather, _) => {
                 let (image, disparity) = single();
                 Ok(super::gather::render_gather_cpu(&image, &disparity, lens))
             }
-            Method::Scatter => {
+            (Method::Scatter, _) => {
                 let (image, disparity) = single();
                 Ok(super::scatter::render_scatter_cpu(&image, &disparity, lens))
             }
+        }
+    }
+}
+
+impl Method {
+    fn drbokeh_model(self) -> Model {
+        if self == Method::DrBokehCompat {
+            Model::Compat
+        } else {
+            Model::DrBokeh
         }
     }
 }
