@@ -291,3 +291,24 @@ fn a_missing_output_directory_is_refused_before_rendering() {
     assert!(!out.exists() && !dir.join("no-such-dir").exists());
     assert_eq!(listing(&dir), BTreeSet::from(["shot.exr".to_string()]));
 }
+
+#[test]
+fn an_interrupted_render_exits_130_and_leaves_nothing() {
+    let dir = temp_dir("interrupt");
+    let (w, h) = (128, 128);
+    let layers = vec![Layer { name: "wall".into(), rgba: Image::from_fn(w, h, |x, _| [x as f32 / 128.0, 0.5, 0.2, 1.0]), disparity: vec![0.9; w * h] }];
+    let input = dir.join("big.exr");
+    write_stack(&input, &LayerStack::new(w, h, layers).unwrap(), &StackWriteOptions::default()).unwrap();
+    let out = dir.join("out.exr");
+    // The f64 CPU reference at a 54 px CoC needs ~3 s of CPU time (measured): the interrupt lands mid-render.
+    let args = ["render", input.to_str().unwrap(), "-o", out.to_str().unwrap(), "--device", "cpu", "--blur", "60", "--focus-disparity", "0"];
+    let child = Command::new(env!("CARGO_BIN_EXE_lensblur")).args(args).stderr(std::process::Stdio::piped()).spawn().unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let killed = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(killed.success());
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "finished before the interrupt? {stderr}");
+    assert!(stderr.contains("interrupted; no output written"), "{stderr}");
+    assert_eq!(listing(&dir), BTreeSet::from(["big.exr".to_string()]));
+}
