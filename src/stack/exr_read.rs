@@ -440,7 +440,7 @@ fn depth_to_disparity(
         }
         // Planar Z is a distance in front of the camera: zero or negative is no valid depth
         // (a negated camera-space z from a -z-forward convention lands here, as it should).
-        if z.is_nan() || !d.is_finite() || z <= 0.0 && kind == DepthKind::Z || d < 0.0 {
+        if z.is_nan() || !d.is_finite() || (kind == DepthKind::Z && z <= 0.0) || d < 0.0 {
             invalid += 1;
             continue;
         }
