@@ -4,7 +4,7 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// A Vulkan call failed; `call` names the entry point so the message says what broke.
-    #[error("Vulkan call {call} failed: {result:?}")]
+    #[error("Vulkan call {call} failed: {result:?}{}", vulkan_hint(*result))]
     Vulkan { call: &'static str, result: ash::vk::Result },
     #[error("Vulkan is not available: {0}")]
     NoVulkan(String),
@@ -22,12 +22,28 @@ pub enum Error {
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+/// What a Vulkan failure means for the user, where the bare result code does not say it.
+fn vulkan_hint(result: ash::vk::Result) -> &'static str {
+    match result {
+        ash::vk::Result::ERROR_DEVICE_LOST => {
+            " (the GPU device was lost: a driver reset, crash or timeout; nothing was written; \
+             retry, try a smaller --tile, update the driver, or render with --device cpu)"
+        }
+        _ => "",
+    }
+}
+
 impl Error {
     pub fn param(message: impl Into<String>) -> Self {
         Error::Parameter(message.into())
     }
     pub fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
         Error::Input { path: path.into(), message: message.into() }
+    }
+
+    /// The device was lost mid-work (`VK_ERROR_DEVICE_LOST`): the context is unusable.
+    pub fn is_device_lost(&self) -> bool {
+        matches!(self, Error::Vulkan { result: ash::vk::Result::ERROR_DEVICE_LOST, .. })
     }
 
     /// The device (or the driver's host side) ran out of memory: worth retrying smaller.
@@ -40,5 +56,23 @@ impl Error {
             }
             _ => false,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn device_loss_says_what_happened_and_what_to_do() {
+        let lost = Error::Vulkan { call: "vkQueueSubmit", result: ash::vk::Result::ERROR_DEVICE_LOST };
+        let message = lost.to_string();
+        assert!(lost.is_device_lost());
+        for needle in ["vkQueueSubmit", "ERROR_DEVICE_LOST", "device was lost", "nothing was written", "--device cpu"] {
+            assert!(message.contains(needle), "'{needle}' missing: {message}");
+        }
+        let other = Error::Vulkan { call: "vkCreateBuffer", result: ash::vk::Result::ERROR_OUT_OF_DEVICE_MEMORY };
+        assert!(!other.is_device_lost());
+        assert!(!other.to_string().contains("device was lost"));
     }
 }

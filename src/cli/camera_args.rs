@@ -69,7 +69,7 @@ impl CameraArgs {
             };
             return Ok(ResolvedCamera {
                 lens: Lens {
-                    coc: CocModel::new(k, df)?,
+                    coc: CocModel::new(k, df).context("--blur K / --focus-disparity DF")?,
                     aperture,
                 },
                 physical: None,
@@ -102,6 +102,17 @@ impl CameraArgs {
             fstop: pick(self.fstop, header.fstop, "fstop")?,
             focus_distance: pick(self.focus_distance, header.focus_distance, "focus-distance")?,
         };
+        let flags = [
+            ("focal-length", camera.focal_length_mm),
+            ("sensor-width", camera.sensor_width_mm),
+            ("fstop", camera.fstop),
+            ("focus-distance", camera.focus_distance),
+        ];
+        for (flag, value) in flags {
+            if !(value.is_finite() && value > 0.0) {
+                bail!("--{flag} must be a positive number, got {value} (from the flag or the file's header)");
+            }
+        }
         camera.validate()?;
         Ok(camera)
     }

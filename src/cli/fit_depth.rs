@@ -17,7 +17,7 @@ use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
 use super::file_channels::FileChannels;
-use super::input_args::{check_output_is_not_input, InputArgs};
+use super::input_args::{check_output_path, InputArgs};
 
 const EXAMPLES: &str = "\
 Examples:
@@ -63,7 +63,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
-    check_output_is_not_input(&args.output, &[&args.input, &args.target])?;
+    check_output_path(&args.output, &[&args.input, &args.target])?;
     let loaded = args.input_args.load(&args.input, &args.camera, InputKind::SingleImage)?;
     let Some(info) = &loaded.info else { bail!("{}: fit-depth needs an EXR stack", args.input.display()) };
     let target = read_rgba(&args.target, None, 1 << 28).with_context(|| format!("reading the target {}", args.target.display()))?;

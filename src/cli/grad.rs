@@ -16,7 +16,7 @@ use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
 use super::file_channels::FileChannels;
-use super::input_args::{check_output_is_not_input, InputArgs, LoadedInput};
+use super::input_args::{check_output_path, InputArgs, LoadedInput};
 
 const EXAMPLES: &str = "\
 Examples:
@@ -69,7 +69,7 @@ struct CameraGradients {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
-    check_output_is_not_input(&args.output, &[&args.input, &args.grad_output])?;
+    check_output_path(&args.output, &[&args.input, &args.grad_output])?;
     let model = match args.method {
         Method::DrBokeh => Model::DrBokeh,
         Method::DrBokehCompat => Model::Compat,

@@ -9,7 +9,7 @@ use lensblur::camera::CameraHints;
 use lensblur::render::InputKind;
 use lensblur::stack::{
     is_ldr_path, read_ldr, read_stack, split_into_layers, AutoLayerOptions, DepthKind, Layer,
-    LayerStack, ReadOptions, StackInfo,
+    LayerStack, ReadOptions, StackInfo, DEFAULT_MAX_PIXELS,
 };
 
 use super::camera_args::{CameraArgs, ResolvedCamera};
@@ -38,6 +38,12 @@ pub struct InputArgs {
     /// Auto-layering of a single image: most layers to cut it into.
     #[arg(long, value_name = "N", help_heading = "Input")]
     pub max_layers: Option<usize>,
+    /// Refuse EXR files whose header declares more pixels than this, before reading pixels.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_PIXELS, help_heading = "Input")]
+    pub max_pixels: u64,
+    /// Set NaN/Inf colour and alpha samples to 0 (with a warning) instead of refusing the file.
+    #[arg(long, help_heading = "Input")]
+    pub replace_nonfinite: bool,
 }
 
 /// A loaded input, ready for a renderer.
@@ -129,10 +135,14 @@ impl InputArgs {
         let options = ReadOptions {
             layers: self.layers.clone(),
             depth_kind: kind,
-            ..ReadOptions::default()
+            max_pixels: self.max_pixels,
+            replace_nonfinite: self.replace_nonfinite,
         };
         let file =
             read_stack(path, &options).with_context(|| format!("reading {}", path.display()))?;
+        for warning in &file.info.warnings {
+            eprintln!("lensblur: warning: {warning}");
+        }
         Ok((file.stack, Some(file.info), kind))
     }
 
@@ -146,10 +156,18 @@ impl InputArgs {
     }
 }
 
-/// Refuses to overwrite an input: compositors call us with generated paths, and a typo that
+/// Refuses an output whose directory does not exist (before a long render, not after it) and
+/// an output that is an input: compositors call us with generated paths, and a typo that
 /// points the output at the source would destroy it.
-pub fn check_output_is_not_input(output: &Path, inputs: &[&Path]) -> anyhow::Result<()> {
+pub fn check_output_path(output: &Path, inputs: &[&Path]) -> anyhow::Result<()> {
     let canonical = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    let dir = output.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if !dir.is_dir() {
+        bail!(
+            "output directory {} does not exist; create it first (nothing was rendered)",
+            dir.display()
+        );
+    }
     for input in inputs {
         if output.exists() && canonical(output) == canonical(input) {
             bail!(

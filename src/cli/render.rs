@@ -14,7 +14,7 @@ use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
 use super::character_args::CharacterArgs;
-use super::input_args::{check_output_is_not_input, InputArgs, LoadedInput};
+use super::input_args::{check_output_path, InputArgs, LoadedInput};
 
 const EXAMPLES: &str = "\
 Examples:
@@ -61,6 +61,10 @@ pub struct Args {
     /// Frame tile side in pixels (default: the largest the device's limits and memory allow).
     #[arg(long, value_name = "N", help_heading = "Output")]
     pub tile: Option<usize>,
+    /// Where Vulkan methods run: auto (the Vulkan device; the CPU, with a warning, if none can
+    /// be opened), gpu (fail without one), cpu (the CPU references: slow, for checking).
+    #[arg(long, value_enum, default_value = "auto", help_heading = "Output")]
+    pub device: DeviceChoice,
     /// Print a JSON report (layers and their order, CoC range, timings) on stdout.
     #[arg(long, help_heading = "Output")]
     pub json: bool,
@@ -104,17 +108,16 @@ struct Timings {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let total = Instant::now();
-    check_output_is_not_input(&args.output, &[&args.input])?;
+    check_output_path(&args.output, &[&args.input])?;
+    if let Some(preview) = &args.preview {
+        check_output_path(preview, &[&args.input, &args.output])?;
+    }
     let spinner = spinner(&args);
     spinner.set_message(format!("reading {}", args.input.display()));
     let loaded = args
         .input_args
         .load(&args.input, &args.camera, args.method.input())?;
-    let ctx = if args.method.uses_gpu() {
-        Some(Context::from_env().context("opening the Vulkan device")?)
-    } else {
-        None
-    };
+    let ctx = open_device(args.device, args.method)?;
     spinner.set_message(format!(
         "rendering {} layer(s) with {}",
         loaded.stack.layers.len(),
@@ -156,6 +159,44 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         print_summary(&report);
     }
     Ok(())
+}
+
+/// `--device`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum DeviceChoice {
+    Auto,
+    Gpu,
+    Cpu,
+}
+
+/// The Vulkan context `method` runs on, or None for the CPU path. Falls back to the CPU only
+/// in `auto` mode and only when no device was named: a named device that fails is an error.
+fn open_device(choice: DeviceChoice, method: Method) -> anyhow::Result<Option<Context>> {
+    if !method.uses_gpu() {
+        return Ok(None);
+    }
+    if choice == DeviceChoice::Cpu {
+        eprintln!("lensblur: warning: rendering {method} on the CPU (reference path, slow)");
+        return Ok(None);
+    }
+    let named = std::env::var("LENSBLUR_DEVICE").is_ok_and(|v| !v.is_empty());
+    match Context::from_env() {
+        Ok(ctx) => Ok(Some(ctx)),
+        Err(error @ (lensblur::Error::NoVulkan(_) | lensblur::Error::Vulkan { .. }))
+            if choice == DeviceChoice::Auto && !named =>
+        {
+            eprintln!(
+                "lensblur: warning: no usable Vulkan device ({error}); rendering {method} on the CPU \
+                 (slow); --device cpu says so explicitly, --device gpu makes this an error"
+            );
+            Ok(None)
+        }
+        Err(error) => Err(anyhow::Error::new(error).context(if named {
+            "opening the Vulkan device named by LENSBLUR_DEVICE (see `lensblur devices`; unset it, or --device cpu)"
+        } else {
+            "opening the Vulkan device (see `lensblur devices`; --device cpu renders without one)"
+        })),
+    }
 }
 
 fn spinner(args: &Args) -> ProgressBar {

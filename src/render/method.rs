@@ -2,9 +2,11 @@
 use std::str::FromStr;
 
 use crate::image::Image;
-use crate::render::drbokeh::{DrBokehGpu, Model, RenderOptions};
-use crate::render::multiview::{Multiview, MultiviewParams};
-use crate::render::vdslr::{Vdslr, VdslrParams};
+use crate::render::drbokeh::{render_cpu, DrBokehGpu, Model, RenderOptions};
+use crate::render::gather::{render_gather_cpu, Gather};
+use crate::render::scatter::{render_scatter_cpu, Scatter};
+use crate::render::multiview::{render_multiview_cpu, Multiview, MultiviewParams};
+use crate::render::vdslr::{render_vdslr_cpu, Vdslr, VdslrParams};
 use crate::render::Lens;
 use crate::stack::LayerStack;
 use crate::vk::Context;
@@ -74,42 +76,64 @@ impl Method {
     pub fn uses_gpu(self) -> bool {
         matches!(
             self,
-            Method::DrBokeh | Method::DrBokehCompat | Method::Multiview | Method::Vdslr
+            Method::DrBokeh
+                | Method::DrBokehCompat
+                | Method::Multiview
+                | Method::Vdslr
+                | Method::Gather
+                | Method::Scatter
         )
     }
 
-    /// Renders `stack` (front to back) through `lens`. `ctx` is required by Vulkan methods.
+    /// Renders `stack` (front to back) through `lens`. Vulkan methods run on `ctx`; without
+    /// one they run their CPU reference (same formulas, f64 for Dr.Bokeh; slow, for machines
+    /// without a usable Vulkan device).
     pub fn render(self, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens) -> Result<Image> {
         self.render_with(ctx, stack, lens, &RenderOptions::default())
     }
 
     /// [`Self::render`] with frame tiling and progress (honoured by the tiled methods: drbokeh).
     pub fn render_with(self, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens, options: &RenderOptions) -> Result<Image> {
-        let gpu = || {
-            ctx.ok_or_else(|| {
-                Error::param(format!("method '{}' needs a Vulkan device", self.name()))
-            })
-        };
         let single = || stack.flatten();
-        match self {
-            Method::DrBokeh => Ok(DrBokehGpu::new(gpu()?)?.render_with(stack, lens, Model::DrBokeh, options)?.0),
-            Method::DrBokehCompat => Ok(DrBokehGpu::new(gpu()?)?.render_with(stack, lens, Model::Compat, options)?.0),
-            Method::Multiview => {
-                Multiview::new(gpu()?)?.run(stack, lens, &MultiviewParams::tuned())
+        match (self, ctx) {
+            (Method::DrBokeh | Method::DrBokehCompat, Some(ctx)) => {
+                Ok(DrBokehGpu::new(ctx)?.render_with(stack, lens, self.drbokeh_model(), options)?.0)
             }
-            Method::Vdslr => {
+            (Method::DrBokeh | Method::DrBokehCompat, None) => render_cpu(stack, lens, self.drbokeh_model()),
+            (Method::Multiview, Some(ctx)) => Multiview::new(ctx)?.run(stack, lens, &MultiviewParams::tuned()),
+            (Method::Multiview, None) => render_multiview_cpu(stack, lens, &MultiviewParams::tuned()),
+            (Method::Vdslr, ctx) => {
                 let (image, disparity) = single();
-                Vdslr::new(gpu()?)?.run(&image, &disparity, lens, &VdslrParams::tuned())
+                match ctx {
+                    Some(ctx) => Vdslr::new(ctx)?.run(&image, &disparity, lens, &VdslrParams::tuned()),
+                    None => render_vdslr_cpu(&image, &disparity, lens, &VdslrParams::tuned()),
+                }
             }
-            Method::Oracle => Ok(super::oracle::render_oracle(stack, &lens.coc)),
-            Method::Gather => {
+            (Method::Oracle, _) => Ok(super::oracle::render_oracle(stack, &lens.coc)),
+            (Method::Gather, ctx) => {
                 let (image, disparity) = single();
-                super::gather::Gather::new(gpu()?)?.run(&image, &disparity, lens)
+                match ctx {
+                    Some(ctx) => Gather::new(ctx)?.run(&image, &disparity, lens),
+                    None => Ok(render_gather_cpu(&image, &disparity, lens)),
+                }
             }
-            Method::Scatter => {
+            (Method::Scatter, ctx) => {
                 let (image, disparity) = single();
-                super::scatter::Scatter::new(gpu()?)?.run(&image, &disparity, lens)
+                match ctx {
+                    Some(ctx) => Scatter::new(ctx)?.run(&image, &disparity, lens),
+                    None => Ok(render_scatter_cpu(&image, &disparity, lens)),
+                }
             }
+        }
+    }
+}
+
+impl Method {
+    fn drbokeh_model(self) -> Model {
+        if self == Method::DrBokehCompat {
+            Model::Compat
+        } else {
+            Model::DrBokeh
         }
     }
 }

@@ -20,6 +20,9 @@ type ExrImage = exr::image::Image<exr::image::Layers<AnyChannels<FlatSamples>>>;
 type DepthResult = (Vec<f32>, Option<(f32, f32)>);
 type ExrPart = exr::image::Layer<AnyChannels<FlatSamples>>;
 
+/// The default pixel budget per window: 2^28 pixels (16384 x 16384), 4 GiB as RGBA f32.
+pub const DEFAULT_MAX_PIXELS: u64 = 1 << 28;
+
 /// What to read and how to interpret depth.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ReadOptions {
@@ -28,11 +31,14 @@ pub struct ReadOptions {
     pub depth_kind: DepthKind,
     /// Refuse files whose headers declare more pixels than this (per window), before allocating.
     pub max_pixels: u64,
+    /// Replace NaN/Inf colour and alpha samples by 0 (and say so in [`StackInfo::warnings`])
+    /// instead of refusing the file.
+    pub replace_nonfinite: bool,
 }
 
 impl Default for ReadOptions {
     fn default() -> Self {
-        Self { layers: None, depth_kind: DepthKind::Z, max_pixels: 1 << 28 }
+        Self { layers: None, depth_kind: DepthKind::Z, max_pixels: DEFAULT_MAX_PIXELS, replace_nonfinite: false }
     }
 }
 
@@ -52,9 +58,10 @@ pub fn read_stack(path: &Path, options: &ReadOptions) -> Result<StackFile> {
     let selected = select(path, &candidates, options.layers.as_deref())?;
     let mut layers = Vec::new();
     let mut infos = Vec::new();
+    let mut warnings = Vec::new();
     for candidate in &selected {
         let (layer, info) =
-            build_layer(path, &image.layer_data[candidate.part], candidate, display, options.depth_kind)?;
+            build_layer(path, &image.layer_data[candidate.part], candidate, display, options, &mut warnings)?;
         layers.push(layer);
         infos.push(info);
     }
@@ -73,6 +80,7 @@ pub fn read_stack(path: &Path, options: &ReadOptions) -> Result<StackFile> {
         layers: infos,
         camera: camera_attributes(&meta),
         extra_channels: extra_channels(&image, display, &used),
+        warnings,
     };
     Ok(StackFile { stack, info })
 }
@@ -145,29 +153,54 @@ fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
     let mut file = std::fs::File::open(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     let is_exr = std::io::Read::read_exact(&mut file, &mut magic).is_ok() && magic == [0x76, 0x2f, 0x31, 0x01];
     if !is_exr {
-        return Err(Error::input(path, "not an OpenEXR file (missing EXR magic number)"));
+        return Err(Error::input(
+            path,
+            "not an OpenEXR file (missing EXR magic number; empty or another format?); give a layered \
+             EXR, or a PNG/JPEG with --depth",
+        ));
     }
     let meta =
-        MetaData::read_from_file(path, false).map_err(|e| Error::input(path, format!("invalid EXR header: {e}")))?;
+        MetaData::read_from_file(path, false).map_err(|e| {
+            Error::input(path, format!("invalid EXR header ({e}); the file is damaged or truncated: write it again"))
+        })?;
     let first = meta.headers.first().ok_or_else(|| Error::input(path, "EXR file has no parts"))?;
     let display = first.shared_attributes.display_window;
     for header in meta.headers.iter() {
-        if header.shared_attributes.display_window != display {
-            return Err(Error::input(path, "parts have mismatched display windows (sizes); cannot stack them"));
-        }
-        if header.deep {
-            return Err(Error::input(path, "deep EXR data is not supported"));
-        }
-        let areas = [display.size.area() as u64, header.layer_size.area() as u64];
-        if areas.iter().any(|&a| a > max_pixels) {
+        let other = header.shared_attributes.display_window;
+        if other != display {
             return Err(Error::input(
                 path,
                 format!(
-                    "image of {}x{} pixels exceeds the limit of {max_pixels} pixels",
+                    "parts have mismatched display windows ({}x{} and {}x{}); every layer of a stack must \
+                     have the same size: re-export the parts at one resolution",
                     display.size.x(),
-                    display.size.y()
+                    display.size.y(),
+                    other.size.x(),
+                    other.size.y()
                 ),
             ));
+        }
+        if header.deep {
+            return Err(Error::input(
+                path,
+                "deep EXR data is not supported; flatten it to layers first (Nuke: DeepToImage per \
+                 layer; oiiotool --flatten)",
+            ));
+        }
+        for size in [display.size, header.layer_size] {
+            // u64 product: a forged header can claim sizes whose area overflows usize math.
+            let area = size.x() as u64 * size.y() as u64;
+            if area > max_pixels {
+                return Err(Error::input(
+                    path,
+                    format!(
+                        "the header declares {}x{} pixels, which exceeds the limit of {max_pixels}; if the file is \
+                         genuine, raise the limit with --max-pixels",
+                        size.x(),
+                        size.y()
+                    ),
+                ));
+            }
         }
     }
     Ok(meta)
@@ -257,7 +290,11 @@ fn select<'c>(path: &Path, candidates: &'c [Candidate], patterns: Option<&[Strin
             let all: Vec<&Candidate> = candidates.iter().collect();
             return Err(Error::input(
                 path,
-                format!("no layer has both colour and depth channels; found {}", describe(&all)),
+                format!(
+                    "no layer has both colour and depth channels; found {}. Render a depth pass into \
+                     the file (a Z channel; Blender: View Layer > Passes > Z) or select layers with --layers",
+                    describe(&all)
+                ),
             ));
         }
         // A flattened `All` beside real layers is the composite, not a layer of the stack.
@@ -332,13 +369,24 @@ fn place(samples: &FlatSamples, data: Window, display: Window, outside: f32) -> 
     out
 }
 
-/// Refuses NaN/Inf samples in colour or alpha: they would poison every blurred neighbour.
-fn check_finite(path: &Path, layer: &str, channel: &str, samples: &FlatSamples) -> Result<()> {
-    let bad = samples.values_as_f32().filter(|v| !v.is_finite()).count();
-    if bad > 0 {
-        return Err(Error::input(path, format!("layer '{layer}' channel '{channel}' has {bad} NaN/Inf sample(s)")));
+/// Refuses NaN/Inf samples in colour or alpha (they would poison every blurred neighbour),
+/// or with `replace` sets them to 0 and returns a warning saying how many.
+fn check_finite(path: &Path, layer: &str, channel: &str, values: &mut [f32], replace: bool) -> Result<Option<String>> {
+    let bad = values.iter().filter(|v| !v.is_finite()).count();
+    if bad == 0 {
+        return Ok(None);
     }
-    Ok(())
+    if !replace {
+        return Err(Error::input(
+            path,
+            format!(
+                "layer '{layer}' channel '{channel}' has {bad} NaN/Inf sample(s); fix the render \
+                 (often a shader or denoiser fault) or pass --replace-nonfinite to set them to 0"
+            ),
+        ));
+    }
+    values.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
+    Ok(Some(format!("{}: layer '{layer}' channel '{channel}': replaced {bad} NaN/Inf sample(s) by 0", path.display())))
 }
 
 fn build_layer(
@@ -346,7 +394,8 @@ fn build_layer(
     part: &ExrPart,
     candidate: &Candidate,
     display: Window,
-    kind: DepthKind,
+    options: &ReadOptions,
+    warnings: &mut Vec<String>,
 ) -> Result<(Layer, LayerInfo)> {
     let data = part_window(part);
     if part.channel_data.list.iter().any(|c| c.sampling != exr::prelude::Vec2(1, 1)) {
@@ -356,14 +405,17 @@ fn build_layer(
         ));
     }
     let ch = &candidate.group.channels;
+    let replaced = std::cell::RefCell::new(Vec::new());
     let fetch = |name: &Option<String>, outside: f32, finite: bool| -> Result<Option<Vec<f32>>> {
         let Some(name) = name else { return Ok(None) };
         let channel =
             find_channel(part, name).ok_or_else(|| Error::input(path, format!("channel '{name}' vanished")))?;
+        let mut values = place(&channel.sample_data, data, display, outside);
         if finite {
-            check_finite(path, &candidate.name, name, &channel.sample_data)?;
+            let warning = check_finite(path, &candidate.name, name, &mut values, options.replace_nonfinite)?;
+            replaced.borrow_mut().extend(warning);
         }
-        Ok(Some(place(&channel.sample_data, data, display, outside)))
+        Ok(Some(values))
     };
     let missing = || Error::input(path, missing_message(candidate).unwrap_or_default());
     let red = fetch(&ch.red, 0.0, true)?.ok_or_else(missing)?;
@@ -377,8 +429,16 @@ fn build_layer(
     };
     let pixels: Vec<[f32; 4]> = (0..red.len()).map(|i| [red[i], green[i], blue[i], alpha[i]]).collect();
     let rgba = Image { width: display.width, height: display.height, pixels };
-    let (disparity, stored_depth_range) =
-        depth_to_disparity(path, &candidate.name, (display.width, display.height), &depth, &alpha, kind)?;
+    warnings.extend(replaced.into_inner());
+    let depth_channel = ch.depth.as_deref().unwrap_or("Z");
+    let (disparity, stored_depth_range) = depth_to_disparity(
+        path,
+        (&candidate.name, depth_channel),
+        (display.width, display.height),
+        &depth,
+        &alpha,
+        options.depth_kind,
+    )?;
     let layer = Layer { name: candidate.name.clone(), rgba, disparity };
     let disparity_range =
         layer.disparity.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &d| (lo.min(d), hi.max(d)));
@@ -398,7 +458,7 @@ fn build_layer(
 /// (undefined) depth of transparent pixels from nearby covered ones, weighted by alpha.
 fn depth_to_disparity(
     path: &Path,
-    layer: &str,
+    (layer, channel): (&str, &str),
     size: (usize, usize),
     depth: &[f32],
     alpha: &[f32],
@@ -419,7 +479,9 @@ fn depth_to_disparity(
         if d == 0.0 && alpha[i] < 1.0 {
             continue;
         }
-        if z.is_nan() || !d.is_finite() || (kind == DepthKind::Z && z <= 0.0) {
+        // Planar Z is a distance in front of the camera: zero or negative is no valid depth
+        // (a negated camera-space z from a -z-forward convention lands here, as it should).
+        if z.is_nan() || !d.is_finite() || (kind == DepthKind::Z && z <= 0.0) || d < 0.0 {
             invalid += 1;
             continue;
         }
@@ -430,7 +492,12 @@ fn depth_to_disparity(
     if invalid > 0 {
         return Err(Error::input(
             path,
-            format!("layer '{layer}' has {invalid} covered pixel(s) with invalid depth (NaN, or not positive for depth kind {kind:?})"),
+            format!(
+                "layer '{layer}' channel '{channel}' has {invalid} covered pixel(s) with invalid depth \
+                 (NaN, negative, or zero for --depth-kind {}); far is 1e10 or inf for z, 0 for \
+                 disparity/inverse-z; check --depth-kind or fix the depth pass",
+                kind.name()
+            ),
         ));
     }
     // An empty layer has no depth anywhere: it stays at disparity 0 (far) and is invisible.

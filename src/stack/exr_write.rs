@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use exr::meta::attribute::{AttributeValue, Text};
 use exr::prelude::{
-    f16, AnyChannel, AnyChannels, Compression, Encoding, FlatSamples, LayerAttributes, LineOrder,
-    WritableImage,
+    f16, AnyChannel, AnyChannels, Compression, Encoding, FlatSamples, ImageAttributes, IntegerBounds,
+    LayerAttributes, LineOrder, WritableImage,
 };
 
 use super::info::{ExtraChannel, SampleType};
@@ -186,22 +186,22 @@ pub fn write_named_channels(path: &Path, width: usize, height: usize, channels: 
     write_channels(path, width, height, channels, None)
 }
 
-/// Header attributes holding a camera, named as [`crate::camera::CameraHints`] reads them.
-fn camera_attributes(camera: Option<&PhysicalCamera>) -> LayerAttributes {
-    let mut attributes = LayerAttributes::default();
+/// Header attributes holding a camera, named as [`crate::camera::CameraHints`] reads them:
+/// the part's own attributes and the file's shared ones.
+///
+/// The exr crate keeps custom attributes in a `HashMap`, whose iteration order (and so the
+/// header's byte order) changes from process to process. Each map gets at most one entry,
+/// so the same image always gives the same bytes.
+fn camera_attributes(camera: Option<&PhysicalCamera>) -> (LayerAttributes, ImageAttributes) {
+    let mut own = LayerAttributes::default();
+    let mut shared = ImageAttributes::new(IntegerBounds::from_dimensions((0, 0)));
     if let Some(camera) = camera {
-        attributes.focus = Some(camera.focus_distance);
-        attributes.aperture = Some(camera.fstop);
-        for (name, value) in [
-            (FOCAL_LENGTH_ATTRIBUTE, camera.focal_length_mm),
-            (SENSOR_WIDTH_ATTRIBUTE, camera.sensor_width_mm),
-        ] {
-            attributes
-                .other
-                .insert(Text::from(name), AttributeValue::F32(value));
-        }
+        own.focus = Some(camera.focus_distance);
+        own.aperture = Some(camera.fstop);
+        own.other.insert(Text::from(FOCAL_LENGTH_ATTRIBUTE), AttributeValue::F32(camera.focal_length_mm));
+        shared.other.insert(Text::from(SENSOR_WIDTH_ATTRIBUTE), AttributeValue::F32(camera.sensor_width_mm));
     }
-    attributes
+    (own, shared)
 }
 
 fn write_channels(
@@ -229,13 +229,10 @@ fn write_channels(
         blocks: exr::prelude::Blocks::ScanLines,
         line_order: LineOrder::Increasing,
     };
-    let layer = exr::prelude::Layer::new(
-        (width, height),
-        camera_attributes(camera),
-        encoding,
-        AnyChannels::sort(channels.into()),
-    );
-    let image = exr::prelude::Image::from_layer(layer);
+    let (own, mut shared) = camera_attributes(camera);
+    let layer = exr::prelude::Layer::new((width, height), own, encoding, AnyChannels::sort(channels.into()));
+    shared.display_window = IntegerBounds::from_dimensions((width, height));
+    let image = exr::prelude::Image::new(shared, layer);
     write_atomically(path, |tmp| {
         image
             .write()

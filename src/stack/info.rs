@@ -77,6 +77,8 @@ pub struct StackInfo {
     /// Camera-related header attributes (standard ones and stamped metadata), as text.
     pub camera: BTreeMap<String, String>,
     pub extra_channels: Vec<ExtraChannel>,
+    /// Things the reader repaired (e.g. NaN/Inf replaced under `replace_nonfinite`).
+    pub warnings: Vec<String>,
 }
 
 /// A stack as read from a file, with everything needed to write results back.

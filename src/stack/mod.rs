@@ -13,7 +13,7 @@ pub mod ldr;
 pub mod naming;
 
 pub use autolayer::{split_into_layers, AutoLayerOptions};
-pub use exr_read::{read_parts, read_rgba, read_stack, ReadOptions};
+pub use exr_read::{read_parts, read_rgba, read_stack, ReadOptions, DEFAULT_MAX_PIXELS};
 pub use exr_write::{remove_partial_outputs, write_image, write_named_channels, write_stack, StackNaming, StackWriteOptions, WriteOptions};
 pub use info::{ExtraChannel, LayerInfo, SampleType, StackFile, StackInfo, Window};
 pub use ldr::{is_ldr_path, read_ldr, write_ldr, write_png_preview, LdrInput};
@@ -36,6 +36,15 @@ pub enum DepthKind {
 }
 
 impl DepthKind {
+    /// The name `--depth-kind` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            DepthKind::Z => "z",
+            DepthKind::Disparity => "disparity",
+            DepthKind::InverseZ => "inverse-z",
+        }
+    }
+
     /// Converts one stored depth value to the renderer's disparity.
     #[inline]
     pub fn to_disparity(self, stored: f32) -> f32 {

@@ -1,0 +1,314 @@
+//! `lensblur render` on bad input, through the real binary: every case must exit non-zero
+//! with a message naming the file (and layer/channel where there is one) and what to do,
+//! without panicking, and must leave no output and no temporary file behind.
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, LayerAttributes, WritableImage};
+use lensblur::camera::PhysicalCamera;
+use lensblur::image::Image;
+use lensblur::stack::{write_image, write_stack, Layer, LayerStack, StackWriteOptions, WriteOptions};
+
+const CAMERA: PhysicalCamera =
+    PhysicalCamera { focal_length_mm: 50.0, sensor_width_mm: 3.0, fstop: 1.0, focus_distance: 4.0 };
+const W: usize = 16;
+const H: usize = 12;
+
+fn temp_dir(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lensblur-bad-input-{test}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn listing(dir: &Path) -> BTreeSet<String> {
+    std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect()
+}
+
+fn lensblur(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lensblur")).args(args).env("LENSBLUR_VALIDATION", "1").output().unwrap()
+}
+
+/// Renders `input` into `dir/out.exr` with `extra` flags and checks the refusal: non-zero
+/// exit, no panic, every `needle` in the message, and the directory exactly as before.
+fn refused(dir: &Path, input: &Path, extra: &[&str], needles: &[&str]) -> String {
+    let before = listing(dir);
+    let out = dir.join("out.exr");
+    let mut args = vec!["render", input.to_str().unwrap(), "-o", out.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let output = lensblur(&args);
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(!output.status.success(), "{args:?} succeeded; stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?} panicked: {stderr}");
+    for needle in needles {
+        assert!(stderr.contains(needle), "{args:?}: message lacks '{needle}': {stderr}");
+    }
+    assert!(!out.exists(), "{args:?} left an output");
+    assert_eq!(listing(dir), before, "{args:?} left a file behind (temporary?)");
+    stderr
+}
+
+fn rendered(dir: &Path, input: &Path, extra: &[&str]) -> String {
+    let out = dir.join("ok.exr");
+    let mut args = vec!["render", input.to_str().unwrap(), "-o", out.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let output = lensblur(&args);
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(output.status.success(), "{args:?} failed: {stderr}");
+    assert!(out.exists());
+    std::fs::remove_file(&out).unwrap();
+    stderr
+}
+
+fn layer(name: &str, disparity: f32, colour: [f32; 4]) -> Layer {
+    Layer { name: name.into(), rgba: Image::from_fn(W, H, |_, _| colour), disparity: vec![disparity; W * H] }
+}
+
+/// A valid two-layer stack with the camera in its header (renders without flags).
+fn valid_stack(dir: &Path) -> PathBuf {
+    let path = dir.join("shot.exr");
+    let stack = LayerStack::new(W, H, vec![layer("fg", 0.5, [0.9, 0.2, 0.1, 1.0]), layer("bg", 0.25, [0.1, 0.5, 0.8, 1.0])])
+        .unwrap();
+    write_stack(&path, &stack, &StackWriteOptions { camera: Some(CAMERA), ..StackWriteOptions::default() }).unwrap();
+    path
+}
+
+fn exr_layer(name: Option<&str>, size: (usize, usize), channels: Vec<(&str, Vec<f32>)>) -> exr::prelude::Layer<AnyChannels<FlatSamples>> {
+    let list: Vec<AnyChannel<FlatSamples>> =
+        channels.into_iter().map(|(n, v)| AnyChannel::new(n, FlatSamples::F32(v))).collect();
+    let attributes = name.map(LayerAttributes::named).unwrap_or_default();
+    exr::prelude::Layer::new(size, attributes, Encoding::SMALL_LOSSLESS, AnyChannels::sort(list.into()))
+}
+
+/// Writes a single-part EXR with exactly these float channels (W x H).
+fn write_channels(path: &Path, channels: Vec<(&str, Vec<f32>)>) {
+    exr::prelude::Image::from_layer(exr_layer(None, (W, H), channels)).write().to_file(path).unwrap();
+}
+
+/// A plain R,G,B,A,Z image, opaque grey, with `edit` applied to the named channel's samples.
+fn plain_with(path: &Path, channel: &str, edit: impl Fn(&mut Vec<f32>)) {
+    let mut channels: Vec<(&str, Vec<f32>)> =
+        ["R", "G", "B", "A"].into_iter().map(|n| (n, vec![if n == "A" { 1.0 } else { 0.5 }; W * H])).collect();
+    channels.push(("Z", vec![3.0; W * H]));
+    for (name, values) in &mut channels {
+        if *name == channel {
+            edit(values);
+        }
+    }
+    write_channels(path, channels);
+}
+
+const BLUR: [&str; 4] = ["--blur", "8", "--focus-disparity", "0.3"];
+
+#[test]
+fn missing_empty_truncated_and_garbage_files_are_refused() {
+    let dir = temp_dir("files");
+    refused(&dir, &dir.join("nope.exr"), &[], &["nope.exr", "No such file"]);
+    let empty = dir.join("empty.exr");
+    std::fs::write(&empty, b"").unwrap();
+    refused(&dir, &empty, &[], &["empty.exr", "not an OpenEXR file"]);
+    let garbage = dir.join("garbage.exr");
+    std::fs::write(&garbage, (0..4096u32).map(|i| (i.wrapping_mul(2654435761) >> 13) as u8).collect::<Vec<_>>()).unwrap();
+    refused(&dir, &garbage, &[], &["garbage.exr", "not an OpenEXR file"]);
+    let valid = std::fs::read(valid_stack(&dir)).unwrap();
+    // Magic number, then noise: the header parser must reject it, not panic.
+    let mut noisy = valid[..4].to_vec();
+    noisy.extend((0..2048u32).map(|i| (i.wrapping_mul(40503) >> 7) as u8));
+    let noise = dir.join("noise.exr");
+    std::fs::write(&noise, noisy).unwrap();
+    refused(&dir, &noise, &[], &["noise.exr", "EXR"]);
+    for (name, len) in [("cut-header.exr", 40), ("cut-offsets.exr", valid.len() / 3), ("cut-pixels.exr", valid.len() - 7)] {
+        let cut = dir.join(name);
+        std::fs::write(&cut, &valid[..len]).unwrap();
+        refused(&dir, &cut, &[], &[name, "EXR"]);
+    }
+}
+
+#[test]
+fn a_huge_header_is_refused_before_allocating_and_the_budget_is_a_flag() {
+    let dir = temp_dir("huge");
+    let valid = valid_stack(&dir);
+    // 100000 x 100000 pixels (40 GB of RGBA): reading it would abort on allocation.
+    let huge = dir.join("huge.exr");
+    std::fs::write(&huge, patch_box(&std::fs::read(&valid).unwrap(), b"displayWindow\0box2i\0", 99_999, 99_999, 0)).unwrap();
+    refused(&dir, &huge, &[], &["huge.exr", "100000x100000", "--max-pixels"]);
+    refused(&dir, &valid, &["--max-pixels", "100"], &["shot.exr", "16x12", "--max-pixels"]);
+    rendered(&dir, &valid, &["--max-pixels", "192", "--method", "oracle"]);
+}
+
+/// Sets xMax, yMax of the `nth` box2i attribute called `name` (a byte-level header edit).
+fn patch_box(bytes: &[u8], name: &[u8], x_max: i32, y_max: i32, nth: usize) -> Vec<u8> {
+    let at = bytes.windows(name.len()).enumerate().filter(|(_, w)| *w == name).nth(nth).unwrap().0;
+    let values = at + name.len() + 4; // the attribute size (16), then xMin, yMin, xMax, yMax
+    let mut out = bytes.to_vec();
+    out[values + 8..values + 12].copy_from_slice(&x_max.to_le_bytes());
+    out[values + 12..values + 16].copy_from_slice(&y_max.to_le_bytes());
+    out
+}
+
+#[test]
+fn deep_exr_is_refused_with_a_way_out() {
+    let dir = temp_dir("deep");
+    let deep = dir.join("deep.exr");
+    std::fs::write(&deep, deep_scanline_file()).unwrap();
+    refused(&dir, &deep, &[], &["deep.exr", "deep", "flatten"]);
+}
+
+/// A hand-made single-part deep scanline file (the exr crate cannot write deep data): its
+/// header, an offset table, no chunks. Refusal must come from the header alone.
+fn deep_scanline_file() -> Vec<u8> {
+    fn attribute(out: &mut Vec<u8>, name: &str, kind: &str, value: &[u8]) {
+        for text in [name, kind] {
+            out.extend_from_slice(text.as_bytes());
+            out.push(0);
+        }
+        out.extend_from_slice(&(value.len() as i32).to_le_bytes());
+        out.extend_from_slice(value);
+    }
+    let ints = |v: &[i32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let floats = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let mut out = vec![0x76, 0x2f, 0x31, 0x01, 2, 0x08, 0, 0]; // version 2, "non-image" (deep) bit
+    let mut channels = Vec::new();
+    for name in ["A", "B", "G", "R", "Z"] {
+        channels.extend_from_slice(name.as_bytes());
+        channels.extend_from_slice(&[0]);
+        channels.extend_from_slice(&ints(&[2, 0, 1, 1])); // float, pLinear + reserved, sampling 1x1
+    }
+    channels.push(0);
+    attribute(&mut out, "channels", "chlist", &channels);
+    attribute(&mut out, "compression", "compression", &[0]);
+    attribute(&mut out, "dataWindow", "box2i", &ints(&[0, 0, 3, 3]));
+    attribute(&mut out, "displayWindow", "box2i", &ints(&[0, 0, 3, 3]));
+    attribute(&mut out, "lineOrder", "lineOrder", &[0]);
+    attribute(&mut out, "pixelAspectRatio", "float", &floats(&[1.0]));
+    attribute(&mut out, "screenWindowCenter", "v2f", &floats(&[0.0, 0.0]));
+    attribute(&mut out, "screenWindowWidth", "float", &floats(&[1.0]));
+    attribute(&mut out, "type", "string", b"deepscanline");
+    attribute(&mut out, "version", "int", &ints(&[1]));
+    attribute(&mut out, "maxSamplesPerPixel", "int", &ints(&[4]));
+    out.push(0);
+    out.extend(std::iter::repeat(0u8).take(8 * 4));
+    out
+}
+
+#[test]
+fn missing_channels_and_unknown_layers_name_what_exists() {
+    let dir = temp_dir("channels");
+    let no_depth = dir.join("no-depth.exr");
+    write_image(&no_depth, &Image::from_fn(W, H, |_, _| [0.5, 0.5, 0.5, 1.0]), &WriteOptions::default()).unwrap();
+    refused(&dir, &no_depth, &BLUR, &["no-depth.exr", "depth", "R, G, B, A", "Z channel"]);
+    let no_colour = dir.join("no-colour.exr");
+    let opaque = vec![1.0; W * H];
+    write_channels(
+        &no_colour,
+        vec![("fg.Z", vec![2.0; W * H]), ("bg.R", opaque.clone()), ("bg.G", opaque.clone()), ("bg.B", opaque.clone()), ("bg.Z", vec![5.0; W * H])],
+    );
+    let mut flags = BLUR.to_vec();
+    flags.extend(["--layers", "fg,bg"]);
+    refused(&dir, &no_colour, &flags, &["no-colour.exr", "layer 'fg'", "colour (R, G, B)", "fg.Z"]);
+    let valid = valid_stack(&dir);
+    refused(&dir, &valid, &["--layers", "fg,nope"], &["shot.exr", "'nope'", "available layers: bg, fg"]);
+}
+
+#[test]
+fn non_finite_colour_or_alpha_is_named_and_can_be_replaced() {
+    let dir = temp_dir("nonfinite");
+    let nan = dir.join("nan.exr");
+    plain_with(&nan, "G", |v| v[..3].fill(f32::NAN));
+    refused(&dir, &nan, &BLUR, &["nan.exr", "channel 'G'", "3 NaN/Inf", "--replace-nonfinite"]);
+    let inf = dir.join("inf-alpha.exr");
+    plain_with(&inf, "A", |v| v[5] = f32::INFINITY);
+    refused(&dir, &inf, &BLUR, &["inf-alpha.exr", "channel 'A'", "1 NaN/Inf"]);
+    let mut flags = BLUR.to_vec();
+    flags.extend(["--replace-nonfinite", "--method", "oracle"]);
+    let warning = rendered(&dir, &nan, &flags);
+    assert!(warning.contains("warning") && warning.contains("'G'") && warning.contains("3"), "{warning}");
+}
+
+#[test]
+fn bad_depth_is_refused_but_far_sentinels_render() {
+    let dir = temp_dir("depth");
+    for (name, value) in [("negative.exr", -2.0f32), ("zero.exr", 0.0), ("nan-depth.exr", f32::NAN), ("minus-inf.exr", f32::NEG_INFINITY)] {
+        let path = dir.join(name);
+        plain_with(&path, "Z", |v| v[7] = value);
+        refused(&dir, &path, &BLUR, &[name, "channel 'Z'", "1 covered pixel", "--depth-kind"]);
+    }
+    let disparity = dir.join("negative-disparity.exr");
+    plain_with(&disparity, "Z", |v| v[0] = -0.5);
+    let mut flags = BLUR.to_vec();
+    flags.extend(["--depth-kind", "disparity"]);
+    refused(&dir, &disparity, &flags, &["negative-disparity.exr", "channel 'Z'"]);
+    let far = dir.join("far.exr");
+    plain_with(&far, "Z", |v| {
+        v[..W].fill(1e10);
+        v[W..2 * W].fill(f32::INFINITY);
+    });
+    let mut flags = BLUR.to_vec();
+    flags.extend(["--method", "oracle"]);
+    rendered(&dir, &far, &flags);
+}
+
+#[test]
+fn non_positive_camera_parameters_name_the_flag() {
+    let dir = temp_dir("camera");
+    let valid = valid_stack(&dir);
+    for (flag, value) in [("--fstop", "0"), ("--fstop", "-2"), ("--focal-length", "0"), ("--focus-distance", "-1"), ("--focus-distance", "0")] {
+        let arg = format!("{flag}={value}");
+        refused(&dir, &valid, &[arg.as_str()], &[flag, "must be a positive number"]);
+    }
+    refused(&dir, &valid, &["--blur=-3", "--focus-disparity", "0.3"], &["--blur"]);
+}
+
+#[test]
+fn mismatched_part_sizes_are_refused() {
+    let dir = temp_dir("parts");
+    let path = dir.join("parts.exr");
+    let part = |name: &'static str, z: f32| {
+        exr_layer(
+            Some(name),
+            (W, H),
+            vec![("R", vec![0.5; W * H]), ("G", vec![0.5; W * H]), ("B", vec![0.5; W * H]), ("A", vec![1.0; W * H]), ("Z", vec![z; W * H])],
+        )
+    };
+    let image = exr::prelude::Image::from_layers(exr::prelude::ImageAttributes::new(exr::prelude::IntegerBounds::from_dimensions((W, H))), vec![part("fg", 2.0), part("bg", 5.0)]);
+    image.write().to_file(&path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let mismatched = dir.join("mismatched.exr");
+    std::fs::write(&mismatched, patch_box(&bytes, b"displayWindow\0box2i\0", 31, 23, 1)).unwrap();
+    refused(&dir, &mismatched, &BLUR, &["mismatched.exr", "16x12", "32x24"]);
+}
+
+#[test]
+fn a_missing_output_directory_is_refused_before_rendering() {
+    let dir = temp_dir("outdir");
+    let valid = valid_stack(&dir);
+    let out = dir.join("no-such-dir").join("out.exr");
+    let output = lensblur(&["render", valid.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success() && !stderr.contains("panicked"), "{stderr}");
+    assert!(stderr.contains("no-such-dir") && stderr.contains("does not exist"), "{stderr}");
+    assert!(!out.exists() && !dir.join("no-such-dir").exists());
+    assert_eq!(listing(&dir), BTreeSet::from(["shot.exr".to_string()]));
+}
+
+#[test]
+fn an_interrupted_render_exits_130_and_leaves_nothing() {
+    let dir = temp_dir("interrupt");
+    let (w, h) = (128, 128);
+    let layers = vec![Layer { name: "wall".into(), rgba: Image::from_fn(w, h, |x, _| [x as f32 / 128.0, 0.5, 0.2, 1.0]), disparity: vec![0.9; w * h] }];
+    let input = dir.join("big.exr");
+    write_stack(&input, &LayerStack::new(w, h, layers).unwrap(), &StackWriteOptions::default()).unwrap();
+    let out = dir.join("out.exr");
+    // The f64 CPU reference at a 54 px CoC needs ~3 s of CPU time (measured): the interrupt lands mid-render.
+    let args = ["render", input.to_str().unwrap(), "-o", out.to_str().unwrap(), "--device", "cpu", "--blur", "60", "--focus-disparity", "0"];
+    let child = Command::new(env!("CARGO_BIN_EXE_lensblur")).args(args).stderr(std::process::Stdio::piped()).spawn().unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let killed = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(killed.success());
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "finished before the interrupt? {stderr}");
+    assert!(stderr.contains("interrupted; no output written"), "{stderr}");
+    assert_eq!(listing(&dir), BTreeSet::from(["big.exr".to_string()]));
+}
