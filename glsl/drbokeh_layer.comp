@@ -1,7 +1,18 @@
-// Dr.Bokeh pass 2 of 3 (per layer): C_l, W_l and V_l of every pixel, gathered over its tile's
+// Dr.Bokeh pass 2b of 3 (per layer): C_l, W_l and V_l of every pixel, gathered over its tile's
 // window. C_l = sum_y P(y) S K O / A (P premultiplied RGB), W_l = sum_y a(y) S K O / A,
 // V_l = soft-disk mean alpha over x's CoC (default) or the released square box (compat).
-// CPU reference: src/render/drbokeh/cpu.rs `layer_pixel` (same loops, same order).
+// CPU reference: src/render/drbokeh/cpu.rs `layer_pixel` (same taps, same order).
+//
+// Why it is faster than the first kernel (kept as glsl/drbokeh_layer_naive.comp, the
+// benchmark baseline):
+// - Taps outside the Euclidean disk of radius h + 1 are skipped: h = ceil(reach) - 1 and every
+//   gauge is at least the Euclidean length, so their S, K and V terms are exactly 0 (pi/4 of
+//   the square). Rows and columns are clipped to the image instead of tested per tap.
+// - Default model, disk aperture (the common case): P / A(r_y), s_y and alpha_y come from the
+//   per-source prepass (drbokeh_layer_sources.comp), one gauge serves the scatter and the
+//   visibility, and the in-layer occlusion is evaluated only for centres that can occlude
+//   (alpha_x * in_focus(r_x) > 0; elsewhere O = 1 exactly).
+// - Every other model or aperture runs the first kernel's per-tap terms over the clipped disk.
 //
 // Bindings (set 0, std430), "read" = the uploaded rect pc.read, "core" = the frame tile pc.core:
 //   0: rgba         readonly  vec4[layer_count * read pixels]      premultiplied, layer-major
@@ -11,6 +22,8 @@
 //   4: kernel       readonly  float[max(1, kernel_size^2)]         Params::kernel_f32
 //   5: layer_cw     writeonly vec4[layer_count * core pixels]      (C_l.rgb, W_l)
 //   6: layer_vis    writeonly float[layer_count * core pixels]     V_l
+//   7: source_pa    readonly  vec4[layer_count * read pixels]      P / A(r), prepass
+//   8: source_sa    readonly  vec2[layer_count * read pixels]      (s, alpha), prepass
 // Push constants: DrBokehPush (all fields but max_support). The read rect holds every source
 // within the window of every pixel of the core; borders are the image's, not the tile's.
 // Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer.
@@ -27,6 +40,8 @@ layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[];
 layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
 layout(std430, set = 0, binding = 5) writeonly buffer LayerCw { vec4 layer_cw[]; };
 layout(std430, set = 0, binding = 6) writeonly buffer LayerVis { float layer_vis[]; };
+layout(std430, set = 0, binding = 7) readonly buffer SourcePa { vec4 source_pa[]; };
+layout(std430, set = 0, binding = 8) readonly buffer SourceSa { vec2 source_sa[]; };
 
 float drbokeh_area_lut(int index) {
     return area_lut[index];
@@ -36,34 +51,65 @@ float aperture_kernel_texel(int index) {
     return kernel_weights[index];
 }
 
-void main() {
-    ivec2 x = drbokeh_core_pixel(gl_GlobalInvocationID);
-    if (x.x < 0) {
-        return;
+// Largest |ox| with ox^2 + oy^2 < (h + 1)^2: the row of the window disk at height oy.
+int row_half_width(int h, int oy) {
+    int room = (h + 1) * (h + 1) - oy * oy;
+    int half_width = int(sqrt(float(room)));
+    // sqrt is correctly rounded and room < 2^24, so this corrects a perfect square only.
+    if (half_width * half_width >= room) {
+        half_width -= 1;
     }
-    int ix = drbokeh_read_index(pc.layer, x);
-    int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x.y / DRBOKEH_TILE) * pc.tiles_x + x.x / DRBOKEH_TILE];
-    float rel_x = disparity[ix] - pc.focus_disparity;
-    float s_x = pc.k_px * rel_x;
-    float r_x = abs(s_x);
-    float alpha_x = rgba[ix].w;
-    int box_half = drbokeh_visibility_box_compat(r_x);
-    bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
+    return half_width;
+}
 
-    vec4 cw = vec4(0.0);
+// Default model, disk aperture: the terms of drbokeh_lens / drbokeh_scatter / drbokeh_occlusion
+// with K = 1 and one Euclidean gauge per tap.
+void gather_disk(ivec2 x, int h, float s_x, float r_x, float alpha_x, out vec4 cw, out float vis) {
+    // O = 1 - occluder * behind; occluder = 0 at most centres, where O is exactly 1.
+    float occluder = alpha_x * (1.0 - smoothstep(0.5, 1.5, r_x));
+    float support_x = r_x + 0.5;
+    cw = vec4(0.0);
     float vis_sum = 0.0;
     float vis_weight = 0.0;
-    for (int oy = -h; oy <= h; ++oy) {
-        int sy = x.y + oy;
-        if (sy < 0 || sy >= pc.height) {
-            continue;
-        }
-        for (int ox = -h; ox <= h; ++ox) {
-            int sx = x.x + ox;
-            if (sx < 0 || sx >= pc.width) {
-                continue;
+    int oy0 = max(-h, -x.y);
+    int oy1 = min(h, pc.height - 1 - x.y);
+    for (int oy = oy0; oy <= oy1; ++oy) {
+        int half_width = row_half_width(h, oy);
+        int ox0 = max(-half_width, -x.x);
+        int ox1 = min(half_width, pc.width - 1 - x.x);
+        int row = drbokeh_read_index(pc.layer, ivec2(x.x, x.y + oy));
+        for (int ox = ox0; ox <= ox1; ++ox) {
+            vec2 sa = source_sa[row + ox];
+            float g = sqrt(float(ox * ox + oy * oy));
+            float s = smoothstep(0.0, 1.0, abs(sa.x) + 0.5 - g);
+            if (occluder > 0.0 && (ox != 0 || oy != 0)) {
+                s *= 1.0 - occluder * (1.0 - smoothstep(-0.5, 0.0, sa.x - s_x));
             }
-            int iy = drbokeh_read_index(pc.layer, ivec2(sx, sy));
+            cw += source_pa[row + ox] * s;
+            float d = smoothstep(0.0, 1.0, support_x - g);
+            vis_sum += sa.y * d;
+            vis_weight += d;
+        }
+    }
+    vis = vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
+}
+
+// Any model and aperture: the first kernel's per-tap terms over the clipped window disk.
+void gather_general(ivec2 x, int h, float rel_x, float s_x, float r_x, float alpha_x, out vec4 cw, out float vis) {
+    int box_half = drbokeh_visibility_box_compat(r_x);
+    bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
+    cw = vec4(0.0);
+    float vis_sum = 0.0;
+    float vis_weight = 0.0;
+    int oy0 = max(-h, -x.y);
+    int oy1 = min(h, pc.height - 1 - x.y);
+    for (int oy = oy0; oy <= oy1; ++oy) {
+        int half_width = row_half_width(h, oy);
+        int ox0 = max(-half_width, -x.x);
+        int ox1 = min(half_width, pc.width - 1 - x.x);
+        int row = drbokeh_read_index(pc.layer, ivec2(x.x, x.y + oy));
+        for (int ox = ox0; ox <= ox1; ++ox) {
+            int iy = row + ox;
             vec4 p = rgba[iy];
             float rel_y = disparity[iy] - pc.focus_disparity;
             float s_y = pc.k_px * rel_y;
@@ -71,7 +117,6 @@ void main() {
             // Offset x - y: the lens term is evaluated where the source lands.
             vec2 offset = vec2(float(-ox), float(-oy));
             bool is_self = ox == 0 && oy == 0;
-
             if (p.w > 0.0) {
                 vec2 lens = drbokeh_lens(offset, r_y, rel_y);
                 float s = compat ? drbokeh_scatter_compat(r_y, lens.x) : drbokeh_scatter(r_y, lens.x);
@@ -81,7 +126,6 @@ void main() {
                 cw.xyz += p.xyz * weight;
                 cw.w += p.w * weight;
             }
-
             if (compat) {
                 if (abs(ox) <= box_half && abs(oy) <= box_half) {
                     vis_sum += p.w;
@@ -95,7 +139,29 @@ void main() {
             }
         }
     }
+    vis = vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
+}
+
+void main() {
+    ivec2 x = drbokeh_core_pixel(gl_GlobalInvocationID);
+    if (x.x < 0) {
+        return;
+    }
+    int ix = drbokeh_read_index(pc.layer, x);
+    int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x.y / DRBOKEH_TILE) * pc.tiles_x + x.x / DRBOKEH_TILE];
+    float rel_x = disparity[ix] - pc.focus_disparity;
+    float s_x = pc.k_px * rel_x;
+    float r_x = abs(s_x);
+    float alpha_x = rgba[ix].w;
+    bool disk = pc.model == DRBOKEH_MODEL_DRBOKEH && pc.aperture.x < 3.0 && (pc.aperture.w < 0.5 || pc.kernel_size == 0);
+    vec4 cw;
+    float vis;
+    if (disk) {
+        gather_disk(x, h, s_x, r_x, alpha_x, cw, vis);
+    } else {
+        gather_general(x, h, rel_x, s_x, r_x, alpha_x, cw, vis);
+    }
     int out_index = drbokeh_core_index(pc.layer, x);
     layer_cw[out_index] = cw;
-    layer_vis[out_index] = vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
+    layer_vis[out_index] = vis;
 }

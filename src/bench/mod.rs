@@ -8,6 +8,7 @@
 mod font;
 pub mod large;
 mod methods;
+pub mod perf;
 mod runner;
 mod sheet;
 mod table;

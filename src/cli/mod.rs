@@ -4,6 +4,7 @@ use clap::{Parser, Subcommand};
 
 mod bench;
 mod bench_large;
+mod bench_perf;
 mod camera_args;
 mod devices;
 mod example;
@@ -47,6 +48,8 @@ enum Command {
     Bench(bench::Args),
     /// Benchmark the tiled renderer on a 4K-8K two-layer frame (time, memory, taps/s).
     BenchLarge(bench_large::Args),
+    /// Time the Dr.Bokeh forward kernels on fixed cases against the first straightforward one.
+    BenchPerf(bench_perf::Args),
 }
 
 pub fn main() -> std::process::ExitCode {
@@ -65,6 +68,7 @@ pub fn main() -> std::process::ExitCode {
         Command::Raytrace(args) => raytrace::run(args),
         Command::Bench(args) => bench::run(args),
         Command::BenchLarge(args) => bench_large::run(args),
+        Command::BenchPerf(args) => bench_perf::run(args),
     };
     // Validation messages raised while contexts were torn down fail the command too.
     let result = result.and_then(|()| Ok(lensblur::vk::validation::check_unreported()?));

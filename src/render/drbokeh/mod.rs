@@ -38,7 +38,7 @@ mod tests;
 pub use backward::{BackwardOptions, DrBokehCpu};
 pub use backward_cpu::{backward_cpu, CpuGradients, CpuLayerGradients};
 pub use cpu::{render_cpu, render_cpu_params, render_cpu_terms, LayerTerms, Terms, Window};
-pub use gpu::{DrBokehGpu, RenderOptions, RenderStats};
+pub use gpu::{DrBokehGpu, LayerKernel, RenderOptions, RenderStats};
 pub use gpu_backward::DrBokehGpuGrad;
 pub use params::Params;
 
