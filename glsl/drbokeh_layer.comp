@@ -10,8 +10,9 @@
 //   the square). Rows and columns are clipped to the image instead of tested per tap.
 // - Default model, disk aperture (the common case): P / A(r_y), s_y and alpha_y come from the
 //   per-source prepass (drbokeh_layer_sources.comp), one gauge serves the scatter and the
-//   visibility, and the in-layer occlusion is evaluated only for centres that can occlude
-//   (alpha_x * in_focus(r_x) > 0; elsewhere O = 1 exactly).
+//   visibility, the in-layer occlusion is evaluated only for centres that can occlude
+//   (alpha_x * in_focus(r_x) > 0; elsewhere O = 1 exactly), and each invocation gathers two
+//   adjacent pixels from one load per source (loads are per-lane gathers on lavapipe).
 // - Every other model or aperture runs the first kernel's per-tap terms over the clipped disk.
 //
 // Bindings (set 0, std430), "read" = the uploaded rect pc.read, "core" = the frame tile pc.core:
@@ -26,12 +27,14 @@
 //   8: source_sa    readonly  vec2[layer_count * read pixels]      (s, alpha), prepass
 // Push constants: DrBokehPush (all fields but max_support). The read rect holds every source
 // within the window of every pixel of the core; borders are the image's, not the tile's.
-// Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer.
+// Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer (the host asks
+// groups_for(ceil(core width / 2), core height): two pixels per invocation).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "drbokeh.glsl"
 
-layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
+// 8 x 16 invocations of two pixels each: one 16x16 tile (one search window) per workgroup.
+layout(local_size_x = 8, local_size_y = 16, local_size_z = 1) in;
 
 layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
@@ -62,40 +65,75 @@ int row_half_width(int h, int oy) {
     return half_width;
 }
 
+// One output pixel's centre terms and running sums on the disk path.
+struct Centre {
+    float s;        // signed CoC radius
+    float support;  // r + 1/2: V gathers where the gauge is below it
+    float occluder; // alpha * in_focus(r): O = 1 - occluder * behind; 0 (O = 1) at most centres
+    vec4 cw;
+    float vis_sum;
+    float vis_weight;
+};
+
+Centre centre_at(int index) {
+    float s = source_sa[index].x;
+    float alpha = source_sa[index].y;
+    float r = abs(s);
+    return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0);
+}
+
+// One tap of the disk path: source (pa = P / A, sa = (s, alpha)) at Euclidean gauge g;
+// `inside` = the offset lies in the centre's window disk (taps outside add exact zeros).
+void disk_tap(inout Centre c, vec4 pa, vec2 sa, float g, bool inside, bool is_self) {
+    float s = smoothstep(0.0, 1.0, abs(sa.x) + 0.5 - g);
+    if (c.occluder > 0.0 && !is_self) {
+        s *= 1.0 - c.occluder * (1.0 - smoothstep(-0.5, 0.0, sa.x - c.s));
+    }
+    float d = smoothstep(0.0, 1.0, c.support - g);
+    s = inside ? s : 0.0;
+    d = inside ? d : 0.0;
+    c.cw += pa * s;
+    c.vis_sum += sa.y * d;
+    c.vis_weight += d;
+}
+
 // Default model, disk aperture: the terms of drbokeh_lens / drbokeh_scatter / drbokeh_occlusion
-// with K = 1 and one Euclidean gauge per tap.
-void gather_disk(ivec2 x, int h, float s_x, float r_x, float alpha_x, out vec4 cw, out float vis) {
-    // O = 1 - occluder * behind; occluder = 0 at most centres, where O is exactly 1.
-    float occluder = alpha_x * (1.0 - smoothstep(0.5, 1.5, r_x));
-    float support_x = r_x + 0.5;
-    cw = vec4(0.0);
-    float vis_sum = 0.0;
-    float vis_weight = 0.0;
-    int oy0 = max(-h, -x.y);
-    int oy1 = min(h, pc.height - 1 - x.y);
+// with K = 1 and a Euclidean gauge, for two horizontally adjacent centres a and b = a + (1, 0)
+// (same 16x16 tile, same window): each source is loaded once for both, and b's gauge is the
+// one a had a column earlier. Each centre still sums its own taps in the first kernel's order.
+void gather_disk_pair(ivec2 xa, int h, inout Centre a, inout Centre b) {
+    int oy0 = max(-h, -xa.y);
+    int oy1 = min(h, pc.height - 1 - xa.y);
     for (int oy = oy0; oy <= oy1; ++oy) {
         int half_width = row_half_width(h, oy);
-        int ox0 = max(-half_width, -x.x);
-        int ox1 = min(half_width, pc.width - 1 - x.x);
-        int row = drbokeh_read_index(pc.layer, ivec2(x.x, x.y + oy));
+        // Offsets from a: a's row is [-hw, hw], b's is [-hw + 1, hw + 1], both clipped.
+        int ox0 = max(-half_width, -xa.x);
+        int ox1 = min(half_width + 1, pc.width - 1 - xa.x);
+        int row = drbokeh_read_index(pc.layer, ivec2(xa.x, xa.y + oy));
+        float oy2 = float(oy * oy);
+        float g_b = sqrt(float((ox0 - 1) * (ox0 - 1)) + oy2);
         for (int ox = ox0; ox <= ox1; ++ox) {
+            vec4 pa = source_pa[row + ox];
             vec2 sa = source_sa[row + ox];
-            float g = sqrt(float(ox * ox + oy * oy));
-            float s = smoothstep(0.0, 1.0, abs(sa.x) + 0.5 - g);
-            if (occluder > 0.0 && (ox != 0 || oy != 0)) {
-                s *= 1.0 - occluder * (1.0 - smoothstep(-0.5, 0.0, sa.x - s_x));
-            }
-            cw += source_pa[row + ox] * s;
-            float d = smoothstep(0.0, 1.0, support_x - g);
-            vis_sum += sa.y * d;
-            vis_weight += d;
+            float g_a = sqrt(float(ox * ox) + oy2);
+            disk_tap(a, pa, sa, g_a, ox <= half_width, ox == 0 && oy == 0);
+            disk_tap(b, pa, sa, g_b, ox > -half_width, ox == 1 && oy == 0);
+            g_b = g_a;
         }
     }
-    vis = vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
+}
+
+float visibility(float vis_sum, float vis_weight) {
+    return vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
 }
 
 // Any model and aperture: the first kernel's per-tap terms over the clipped window disk.
-void gather_general(ivec2 x, int h, float rel_x, float s_x, float r_x, float alpha_x, out vec4 cw, out float vis) {
+void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
+    int ix = drbokeh_read_index(pc.layer, x);
+    float rel_x = disparity[ix] - pc.focus_disparity;
+    float s_x = pc.k_px * rel_x;
+    float r_x = abs(s_x);
+    float alpha_x = rgba[ix].w;
     int box_half = drbokeh_visibility_box_compat(r_x);
     bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
     cw = vec4(0.0);
@@ -139,29 +177,40 @@ void gather_general(ivec2 x, int h, float rel_x, float s_x, float r_x, float alp
             }
         }
     }
-    vis = vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
+    vis = visibility(vis_sum, vis_weight);
 }
 
+// Each invocation writes two horizontally adjacent pixels (a, b = a + (1, 0)) of the core.
 void main() {
-    ivec2 x = drbokeh_core_pixel(gl_GlobalInvocationID);
-    if (x.x < 0) {
+    ivec2 local = ivec2(2 * gl_GlobalInvocationID.x, gl_GlobalInvocationID.y);
+    if (local.x >= pc.core.z || local.y >= pc.core.w) {
         return;
     }
-    int ix = drbokeh_read_index(pc.layer, x);
-    int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x.y / DRBOKEH_TILE) * pc.tiles_x + x.x / DRBOKEH_TILE];
-    float rel_x = disparity[ix] - pc.focus_disparity;
-    float s_x = pc.k_px * rel_x;
-    float r_x = abs(s_x);
-    float alpha_x = rgba[ix].w;
+    bool has_b = local.x + 1 < pc.core.z;
+    ivec2 xa = pc.core.xy + local;
+    ivec2 xb = xa + ivec2(has_b ? 1 : 0, 0);
+    int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (xa.y / DRBOKEH_TILE) * pc.tiles_x + xa.x / DRBOKEH_TILE];
     bool disk = pc.model == DRBOKEH_MODEL_DRBOKEH && pc.aperture.x < 3.0 && (pc.aperture.w < 0.5 || pc.kernel_size == 0);
-    vec4 cw;
-    float vis;
+    vec4 cw_a;
+    vec4 cw_b;
+    float vis_a;
+    float vis_b;
     if (disk) {
-        gather_disk(x, h, s_x, r_x, alpha_x, cw, vis);
+        Centre a = centre_at(drbokeh_read_index(pc.layer, xa));
+        Centre b = centre_at(drbokeh_read_index(pc.layer, xb));
+        gather_disk_pair(xa, h, a, b);
+        cw_a = a.cw;
+        cw_b = b.cw;
+        vis_a = visibility(a.vis_sum, a.vis_weight);
+        vis_b = visibility(b.vis_sum, b.vis_weight);
     } else {
-        gather_general(x, h, rel_x, s_x, r_x, alpha_x, cw, vis);
+        gather_general(xa, h, cw_a, vis_a);
+        gather_general(xb, h, cw_b, vis_b);
     }
-    int out_index = drbokeh_core_index(pc.layer, x);
-    layer_cw[out_index] = cw;
-    layer_vis[out_index] = vis;
+    layer_cw[drbokeh_core_index(pc.layer, xa)] = cw_a;
+    layer_vis[drbokeh_core_index(pc.layer, xa)] = vis_a;
+    if (has_b) {
+        layer_cw[drbokeh_core_index(pc.layer, xb)] = cw_b;
+        layer_vis[drbokeh_core_index(pc.layer, xb)] = vis_b;
+    }
 }

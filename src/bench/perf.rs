@@ -55,6 +55,9 @@ pub fn perf_cases(quick: bool) -> Vec<PerfCase> {
 pub struct KernelTiming {
     pub wall_seconds: f64,
     pub device_seconds: Option<f64>,
+    /// CPU time of the whole process (user + system, all threads): on a CPU device such as
+    /// lavapipe this is the work, less sensitive than wall time to other load on the machine.
+    pub cpu_seconds: Option<f64>,
     /// [`PerfCase::effective_taps`] per wall second.
     pub effective_taps_per_second: f64,
     /// Taps the search windows bound (square windows, `RenderStats::taps`).
@@ -72,6 +75,8 @@ pub struct PerfResult {
     pub baseline: Option<KernelTiming>,
     /// Baseline wall time over optimised wall time.
     pub speedup: Option<f64>,
+    /// Baseline process CPU time over optimised process CPU time.
+    pub cpu_speedup: Option<f64>,
 }
 
 /// The optimised and (optionally) the baseline renderer, each compiled and warmed up once.
@@ -99,11 +104,13 @@ pub fn run_perf_case(renderers: &PerfRenderers, case: &PerfCase, repeats: usize)
     let time = |renderer: &DrBokehGpu| -> Result<KernelTiming> {
         let mut walls = Vec::new();
         let mut devices = Vec::new();
+        let mut cpus = Vec::new();
         let mut last = None;
         for _ in 0..repeats.max(1) {
-            let start = Instant::now();
+            let (start, cpu_start) = (Instant::now(), process_cpu_seconds());
             let (_, stats) = renderer.render_with(&stack, &lens, Model::DrBokeh, &RenderOptions::default())?;
             walls.push(start.elapsed().as_secs_f64());
+            cpus.extend(cpu_start.zip(process_cpu_seconds()).map(|(a, b)| b - a));
             devices.extend(stats.device_ns.map(|ns| ns * 1e-9));
             last = Some(stats);
         }
@@ -112,6 +119,7 @@ pub fn run_perf_case(renderers: &PerfRenderers, case: &PerfCase, repeats: usize)
         Ok(KernelTiming {
             wall_seconds,
             device_seconds: (devices.len() == walls.len()).then(|| median(&mut devices)),
+            cpu_seconds: (cpus.len() == walls.len()).then(|| median(&mut cpus)),
             effective_taps_per_second: case.effective_taps() / wall_seconds,
             window_taps: stats.taps,
             tiles: stats.tiles,
@@ -122,7 +130,8 @@ pub fn run_perf_case(renderers: &PerfRenderers, case: &PerfCase, repeats: usize)
     let optimised = time(&renderers.optimised)?;
     let baseline = renderers.baseline.as_ref().map(time).transpose()?;
     let speedup = baseline.as_ref().map(|b| b.wall_seconds / optimised.wall_seconds);
-    Ok(PerfResult { case: case.clone(), optimised, baseline, speedup })
+    let cpu_speedup = baseline.as_ref().and_then(|b| Some(b.cpu_seconds? / optimised.cpu_seconds?));
+    Ok(PerfResult { case: case.clone(), optimised, baseline, speedup, cpu_speedup })
 }
 
 fn median(values: &mut [f64]) -> f64 {
@@ -136,4 +145,16 @@ pub fn load_average() -> Option<[f64; 3]> {
     let text = std::fs::read_to_string("/proc/loadavg").ok()?;
     let mut fields = text.split_whitespace().map(|f| f.parse::<f64>().ok());
     Some([fields.next()??, fields.next()??, fields.next()??])
+}
+
+/// User + system CPU seconds of this process, all threads (/proc/self/stat fields 14 and 15,
+/// in USER_HZ = 100 ticks per second on Linux).
+pub fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // The command name (field 2) may hold spaces; fields after its closing parenthesis don't.
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let mut fields = rest.split_whitespace().skip(11);
+    let user: u64 = fields.next()?.parse().ok()?;
+    let system: u64 = fields.next()?.parse().ok()?;
+    Some((user + system) as f64 / 100.0)
 }

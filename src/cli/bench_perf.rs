@@ -38,7 +38,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let renderers = PerfRenderers::new(&ctx, !args.no_baseline).context("building the renderers")?;
     let load_before = load_average();
     println!("device: {}; load average before: {}", ctx.info().name, format_load(load_before));
-    println!("{:<28} {:>9} {:>9} {:>11} {:>9} {:>11} {:>8} {:>9} {:>9}", "case", "wall s", "device s", "eff taps/s", "base s", "base taps/s", "speedup", "dev MiB", "host MiB");
+    println!(
+        "{:<28} {:>8} {:>8} {:>8} {:>10} {:>8} {:>8} {:>10} {:>8} {:>8} {:>7} {:>7}",
+        "case", "wall s", "device s", "cpu s", "eff tap/s", "base s", "base cpu", "base tap/s", "speedup", "cpu x", "dev MiB", "hostMiB"
+    );
     let mut results = Vec::new();
     for case in &cases {
         let result = run_perf_case(&renderers, case, args.repeats).with_context(|| format!("case {}", case.name))?;
@@ -66,15 +69,20 @@ fn print_row(r: &PerfResult) {
     let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
     let o = &r.optimised;
     let opt = |v: Option<f64>, f: &dyn Fn(f64) -> String| v.map(f).unwrap_or_else(|| "-".into());
+    let seconds = |s: f64| format!("{s:.3}");
+    let base = r.baseline.as_ref();
     println!(
-        "{:<28} {:>9.3} {:>9} {:>11.3e} {:>9} {:>11} {:>8} {:>9.0} {:>9}",
+        "{:<28} {:>8.3} {:>8} {:>8} {:>10.3e} {:>8} {:>8} {:>10} {:>8} {:>8} {:>7.0} {:>7}",
         r.case.name,
         o.wall_seconds,
-        opt(o.device_seconds, &|s| format!("{s:.3}")),
+        opt(o.device_seconds, &seconds),
+        opt(o.cpu_seconds, &seconds),
         o.effective_taps_per_second,
-        opt(r.baseline.as_ref().map(|b| b.wall_seconds), &|s| format!("{s:.3}")),
-        opt(r.baseline.as_ref().map(|b| b.effective_taps_per_second), &|t| format!("{t:.3e}")),
+        opt(base.map(|b| b.wall_seconds), &seconds),
+        opt(base.and_then(|b| b.cpu_seconds), &seconds),
+        opt(base.map(|b| b.effective_taps_per_second), &|t| format!("{t:.3e}")),
         opt(r.speedup, &|s| format!("{s:.2}x")),
+        opt(r.cpu_speedup, &|s| format!("{s:.2}x")),
         mib(o.peak_device_bytes),
         opt(o.peak_host_bytes.map(|b| b as f64), &|b| format!("{:.0}", b / (1024.0 * 1024.0))),
     );

@@ -178,7 +178,10 @@ impl DrBokehGpu {
     /// Records the layer passes and the composite of one frame tile (the backward pass records
     /// the whole frame as one tile and reads every intermediate).
     pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
-        let groups = self.layer.groups_for([b.core.width() as u32, b.core.height() as u32, 1]);
+        let groups = self.composite.groups_for([b.core.width() as u32, b.core.height() as u32, 1]);
+        // The optimised layer kernel writes two adjacent pixels per invocation.
+        let per_invocation = if self.kernel == LayerKernel::Optimised { 2 } else { 1 };
+        let layer_groups = self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
         if self.kernel == LayerKernel::Optimised {
             let extent = [b.read.width() as u32, b.read.height() as u32, params.layer_count as u32];
             let bindings = [b.rgba.all(), b.disparity.all(), b.area_lut.all(), b.source_pa.all(), b.source_sa.all()];
@@ -200,7 +203,7 @@ impl DrBokehGpu {
                 LayerKernel::Optimised => &bindings[..],
                 LayerKernel::Baseline => &bindings[..7],
             };
-            batch.dispatch(&self.layer, bindings, &params.push_tile(layer, b.core, b.read), groups)?;
+            batch.dispatch(&self.layer, bindings, &params.push_tile(layer, b.core, b.read), layer_groups)?;
         }
         let push = params.push_tile(0, b.core, b.read);
         batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
