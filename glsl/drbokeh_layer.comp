@@ -11,8 +11,9 @@
 // - Default model, disk aperture (the common case): P / A(r_y), s_y and alpha_y come from the
 //   per-source prepass (drbokeh_layer_sources.comp), one gauge serves the scatter and the
 //   visibility, the in-layer occlusion is evaluated only for centres that can occlude
-//   (alpha_x * in_focus(r_x) > 0; elsewhere O = 1 exactly), and each invocation gathers two
+//   (alpha_x * in_focus(r_x) > 0; elsewhere O = 1 exactly), and each invocation gathers four
 //   adjacent pixels from one load per source (loads are per-lane gathers on lavapipe).
+//   Lanes whose centres cannot occlude run a loop without the occlusion terms.
 // - Every other model or aperture runs the first kernel's per-tap terms over the clipped disk.
 //
 // Bindings (set 0, std430), "read" = the uploaded rect pc.read, "core" = the frame tile pc.core:
@@ -28,13 +29,13 @@
 // Push constants: DrBokehPush (all fields but max_support). The read rect holds every source
 // within the window of every pixel of the core; borders are the image's, not the tile's.
 // Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer (the host asks
-// groups_for(ceil(core width / 2), core height): two pixels per invocation).
+// groups_for(ceil(core width / 4), core height): four pixels per invocation).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "drbokeh.glsl"
 
-// 8 x 16 invocations of two pixels each: one 16x16 tile (one search window) per workgroup.
-layout(local_size_x = 8, local_size_y = 16, local_size_z = 1) in;
+// 4 x 16 invocations of RUN = 4 pixels each: one 16x16 tile (one search window) per workgroup.
+layout(local_size_x = 4, local_size_y = 16, local_size_z = 1) in;
 
 layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
@@ -82,11 +83,15 @@ Centre centre_at(int index) {
     return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0);
 }
 
+// Pixels per invocation on the disk path, horizontally adjacent (a divisor of the 16 px tile).
+const int RUN = 4;
+
 // One tap of the disk path: source (pa = P / A, sa = (s, alpha)) at Euclidean gauge g;
 // `inside` = the offset lies in the centre's window disk (taps outside add exact zeros).
-void disk_tap(inout Centre c, vec4 pa, vec2 sa, float g, bool inside, bool is_self) {
+// `occlusion` is a constant at each call: the occlusion-free loop does not evaluate it.
+void disk_tap(inout Centre c, vec4 pa, vec2 sa, float g, bool inside, bool is_self, bool occlusion) {
     float s = smoothstep(0.0, 1.0, abs(sa.x) + 0.5 - g);
-    if (c.occluder > 0.0 && !is_self) {
+    if (occlusion && c.occluder > 0.0 && !is_self) {
         s *= 1.0 - c.occluder * (1.0 - smoothstep(-0.5, 0.0, sa.x - c.s));
     }
     float d = smoothstep(0.0, 1.0, c.support - g);
@@ -98,27 +103,35 @@ void disk_tap(inout Centre c, vec4 pa, vec2 sa, float g, bool inside, bool is_se
 }
 
 // Default model, disk aperture: the terms of drbokeh_lens / drbokeh_scatter / drbokeh_occlusion
-// with K = 1 and a Euclidean gauge, for two horizontally adjacent centres a and b = a + (1, 0)
-// (same 16x16 tile, same window): each source is loaded once for both, and b's gauge is the
-// one a had a column earlier. Each centre still sums its own taps in the first kernel's order.
-void gather_disk_pair(ivec2 xa, int h, inout Centre a, inout Centre b) {
-    int oy0 = max(-h, -xa.y);
-    int oy1 = min(h, pc.height - 1 - xa.y);
+// with K = 1 and a Euclidean gauge, for RUN horizontally adjacent centres x0 + (k, 0) (same
+// 16x16 tile, same window): each source is loaded once for all of them, and centre k's gauge
+// is the one centre k - 1 had a column earlier. Each centre still sums its own taps in the
+// first kernel's order.
+void gather_disk_run(ivec2 x0, int h, inout Centre c[RUN], bool occlusion) {
+    int oy0 = max(-h, -x0.y);
+    int oy1 = min(h, pc.height - 1 - x0.y);
     for (int oy = oy0; oy <= oy1; ++oy) {
         int half_width = row_half_width(h, oy);
-        // Offsets from a: a's row is [-hw, hw], b's is [-hw + 1, hw + 1], both clipped.
-        int ox0 = max(-half_width, -xa.x);
-        int ox1 = min(half_width + 1, pc.width - 1 - xa.x);
-        int row = drbokeh_read_index(pc.layer, ivec2(xa.x, xa.y + oy));
+        // Offsets from x0: centre k's row is [k - hw, k + hw], clipped to the image.
+        int ox0 = max(-half_width, -x0.x);
+        int ox1 = min(half_width + RUN - 1, pc.width - 1 - x0.x);
+        int row = drbokeh_read_index(pc.layer, ivec2(x0.x, x0.y + oy));
         float oy2 = float(oy * oy);
-        float g_b = sqrt(float((ox0 - 1) * (ox0 - 1)) + oy2);
+        float g[RUN]; // g[k] = gauge of the current column from centre k
+        for (int k = 1; k < RUN; ++k) {
+            g[k] = sqrt(float((ox0 - k) * (ox0 - k)) + oy2);
+        }
         for (int ox = ox0; ox <= ox1; ++ox) {
             vec4 pa = source_pa[row + ox];
             vec2 sa = source_sa[row + ox];
-            float g_a = sqrt(float(ox * ox) + oy2);
-            disk_tap(a, pa, sa, g_a, ox <= half_width, ox == 0 && oy == 0);
-            disk_tap(b, pa, sa, g_b, ox > -half_width, ox == 1 && oy == 0);
-            g_b = g_a;
+            g[0] = sqrt(float(ox * ox) + oy2);
+            for (int k = 0; k < RUN; ++k) {
+                int o = ox - k;
+                disk_tap(c[k], pa, sa, g[k], o >= -half_width && o <= half_width, o == 0 && oy == 0, occlusion);
+            }
+            for (int k = RUN - 1; k > 0; --k) {
+                g[k] = g[k - 1];
+            }
         }
     }
 }
@@ -180,37 +193,45 @@ void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
     vis = visibility(vis_sum, vis_weight);
 }
 
-// Each invocation writes two horizontally adjacent pixels (a, b = a + (1, 0)) of the core.
+// Each invocation writes RUN horizontally adjacent pixels x0 + (k, 0) of the core.
 void main() {
-    ivec2 local = ivec2(2 * gl_GlobalInvocationID.x, gl_GlobalInvocationID.y);
+    ivec2 local = ivec2(RUN * gl_GlobalInvocationID.x, gl_GlobalInvocationID.y);
     if (local.x >= pc.core.z || local.y >= pc.core.w) {
         return;
     }
-    bool has_b = local.x + 1 < pc.core.z;
-    ivec2 xa = pc.core.xy + local;
-    ivec2 xb = xa + ivec2(has_b ? 1 : 0, 0);
-    int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (xa.y / DRBOKEH_TILE) * pc.tiles_x + xa.x / DRBOKEH_TILE];
+    ivec2 x0 = pc.core.xy + local;
+    // Centres past the core (only at the image's right edge) repeat the last one, unwritten.
+    int last = min(RUN, pc.core.z - local.x) - 1;
+    int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x0.y / DRBOKEH_TILE) * pc.tiles_x + x0.x / DRBOKEH_TILE];
     bool disk = pc.model == DRBOKEH_MODEL_DRBOKEH && pc.aperture.x < 3.0 && (pc.aperture.w < 0.5 || pc.kernel_size == 0);
-    vec4 cw_a;
-    vec4 cw_b;
-    float vis_a;
-    float vis_b;
+    vec4 cw[RUN];
+    float vis[RUN];
     if (disk) {
-        Centre a = centre_at(drbokeh_read_index(pc.layer, xa));
-        Centre b = centre_at(drbokeh_read_index(pc.layer, xb));
-        gather_disk_pair(xa, h, a, b);
-        cw_a = a.cw;
-        cw_b = b.cw;
-        vis_a = visibility(a.vis_sum, a.vis_weight);
-        vis_b = visibility(b.vis_sum, b.vis_weight);
+        Centre c[RUN];
+        bool occluding = false;
+        for (int k = 0; k < RUN; ++k) {
+            c[k] = centre_at(drbokeh_read_index(pc.layer, x0 + ivec2(min(k, last), 0)));
+            occluding = occluding || c[k].occluder > 0.0;
+        }
+        // Branches are masks on lavapipe: only a lane group with an occluding centre pays for
+        // the occlusion terms.
+        if (occluding) {
+            gather_disk_run(x0, h, c, true);
+        } else {
+            gather_disk_run(x0, h, c, false);
+        }
+        for (int k = 0; k < RUN; ++k) {
+            cw[k] = c[k].cw;
+            vis[k] = visibility(c[k].vis_sum, c[k].vis_weight);
+        }
     } else {
-        gather_general(xa, h, cw_a, vis_a);
-        gather_general(xb, h, cw_b, vis_b);
+        for (int k = 0; k < RUN; ++k) {
+            gather_general(x0 + ivec2(min(k, last), 0), h, cw[k], vis[k]);
+        }
     }
-    layer_cw[drbokeh_core_index(pc.layer, xa)] = cw_a;
-    layer_vis[drbokeh_core_index(pc.layer, xa)] = vis_a;
-    if (has_b) {
-        layer_cw[drbokeh_core_index(pc.layer, xb)] = cw_b;
-        layer_vis[drbokeh_core_index(pc.layer, xb)] = vis_b;
+    for (int k = 0; k <= last; ++k) {
+        int out_index = drbokeh_core_index(pc.layer, x0 + ivec2(k, 0));
+        layer_cw[out_index] = cw[k];
+        layer_vis[out_index] = vis[k];
     }
 }

@@ -179,8 +179,8 @@ impl DrBokehGpu {
     /// the whole frame as one tile and reads every intermediate).
     pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
         let groups = self.composite.groups_for([b.core.width() as u32, b.core.height() as u32, 1]);
-        // The optimised layer kernel writes two adjacent pixels per invocation.
-        let per_invocation = if self.kernel == LayerKernel::Optimised { 2 } else { 1 };
+        // The optimised layer kernel writes four adjacent pixels per invocation.
+        let per_invocation = if self.kernel == LayerKernel::Optimised { 4 } else { 1 };
         let layer_groups = self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
         if self.kernel == LayerKernel::Optimised {
             let extent = [b.read.width() as u32, b.read.height() as u32, params.layer_count as u32];
