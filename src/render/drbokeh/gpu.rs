@@ -26,6 +26,8 @@ pub struct DrBokehGpu {
     kernel: LayerKernel,
     sources: ComputePipeline,
     layer: ComputePipeline,
+    /// The optimised kernel's disk path (default model, disk aperture); `None` for the baseline.
+    layer_disk: Option<ComputePipeline>,
     composite: ComputePipeline,
 }
 
@@ -70,15 +72,19 @@ impl DrBokehGpu {
 
     pub fn with_kernel(ctx: &Context, kernel: LayerKernel) -> Result<Self> {
         let push = std::mem::size_of::<super::DrBokehPush>();
-        let layer = match kernel {
-            LayerKernel::Optimised => ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER, 9, push)?,
-            LayerKernel::Baseline => ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?,
+        let (layer, layer_disk) = match kernel {
+            LayerKernel::Optimised => (
+                ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER, 9, push)?,
+                Some(ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_DISK, 9, push)?),
+            ),
+            LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None),
         };
         Ok(Self {
             ctx: ctx.clone(),
             kernel,
             sources: ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_SOURCES, 5, push)?,
             layer,
+            layer_disk,
             composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_COMPOSITE, 3, push)?,
         })
     }
@@ -182,6 +188,10 @@ impl DrBokehGpu {
         // The optimised layer kernel writes four adjacent pixels per invocation.
         let per_invocation = if self.kernel == LayerKernel::Optimised { 4 } else { 1 };
         let layer_groups = self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
+        let layer_pipeline = match &self.layer_disk {
+            Some(disk) if disk_path(params) => disk,
+            _ => &self.layer,
+        };
         if self.kernel == LayerKernel::Optimised {
             let extent = [b.read.width() as u32, b.read.height() as u32, params.layer_count as u32];
             let bindings = [b.rgba.all(), b.disparity.all(), b.area_lut.all(), b.source_pa.all(), b.source_sa.all()];
@@ -203,7 +213,7 @@ impl DrBokehGpu {
                 LayerKernel::Optimised => &bindings[..],
                 LayerKernel::Baseline => &bindings[..7],
             };
-            batch.dispatch(&self.layer, bindings, &params.push_tile(layer, b.core, b.read), layer_groups)?;
+            batch.dispatch(layer_pipeline, bindings, &params.push_tile(layer, b.core, b.read), layer_groups)?;
         }
         let push = params.push_tile(0, b.core, b.read);
         batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
@@ -256,6 +266,13 @@ impl ForwardBuffers {
         let whole = Rect { x0: 0, y0: 0, x1: params.width, y1: params.height };
         Self::new(ctx, stack, params, &search_windows(params, stack), whole, whole)
     }
+}
+
+/// Whether the disk-path layer kernel applies: the default model with a disk aperture and no
+/// kernel image (mirrors the header of `glsl/drbokeh_layer_disk.comp`).
+fn disk_path(params: &Params) -> bool {
+    let [blades, _, _, kernel] = params.lens.aperture;
+    params.model == Model::DrBokeh && blades < 3.0 && (kernel < 0.5 || params.lens.kernel_size == 0)
 }
 
 fn round_to_tile(pixels: usize) -> usize {
