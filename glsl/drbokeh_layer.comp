@@ -11,8 +11,8 @@
 // - Default model, disk aperture (the common case): P / A(r_y), s_y and alpha_y come from the
 //   per-source prepass (drbokeh_layer_sources.comp), one gauge serves the scatter and the
 //   visibility, the in-layer occlusion is evaluated only for centres that can occlude
-//   (alpha_x * in_focus(r_x) > 0; elsewhere O = 1 exactly), and each invocation gathers four
-//   adjacent pixels from one load per source (loads are per-lane gathers on lavapipe).
+//   (alpha_x * in_focus(r_x) > 0; elsewhere O = 1 exactly), and each invocation gathers a
+//   run of adjacent pixels from one load per source (loads are per-lane gathers on lavapipe).
 //   Lanes whose centres cannot occlude run a loop without the occlusion terms.
 // - Every other model or aperture runs the first kernel's per-tap terms over the clipped disk
 //   (this file); the disk path is glsl/drbokeh_layer_disk.comp, the same body
@@ -32,7 +32,7 @@
 // Push constants: DrBokehPush (all fields but max_support). The read rect holds every source
 // within the window of every pixel of the core; borders are the image's, not the tile's.
 // Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer (the host asks
-// groups_for(ceil(core width / 4), core height): four pixels per invocation).
+// groups_for(ceil(core width / RUN), core height): RUN pixels per invocation).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "drbokeh_layer.glsl"

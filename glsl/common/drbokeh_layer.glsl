@@ -8,7 +8,11 @@
 
 #include "drbokeh.glsl"
 
-// 4 x 16 invocations of RUN = 4 pixels each: one 16x16 tile (one search window) per workgroup.
+// Pixels per invocation, horizontally adjacent (a divisor of the 16 px tile): each source
+// load serves RUN centres. The host derives RUN from local_size_x (16 / local_size_x).
+const int RUN = 4;
+
+// 16 / RUN x 16 invocations of RUN pixels each: one 16x16 tile (one search window) per group.
 layout(local_size_x = 4, local_size_y = 16, local_size_z = 1) in;
 
 layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
@@ -56,9 +60,6 @@ Centre centre_at(int index) {
     float r = abs(s);
     return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0);
 }
-
-// Pixels per invocation on the disk path, horizontally adjacent (a divisor of the 16 px tile).
-const int RUN = 4;
 
 // One tap of the disk path: source (pa = P / A, sa = (s, alpha)) at Euclidean gauge g;
 // `inside` = the offset lies in the centre's window disk (taps outside add exact zeros).

@@ -185,8 +185,9 @@ impl DrBokehGpu {
     /// the whole frame as one tile and reads every intermediate).
     pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
         let groups = self.composite.groups_for([b.core.width() as u32, b.core.height() as u32, 1]);
-        // The optimised layer kernel writes four adjacent pixels per invocation.
-        let per_invocation = if self.kernel == LayerKernel::Optimised { 4 } else { 1 };
+        // A layer workgroup covers one 16x16 search tile: the optimised kernels write a run of
+        // TILE / local_size_x adjacent pixels per invocation.
+        let per_invocation = TILE as u32 / self.layer.shader().local_size[0];
         let layer_groups = self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
         let layer_pipeline = match &self.layer_disk {
             Some(disk) if disk_path(params) => disk,
