@@ -1,7 +1,23 @@
-// Dr.Bokeh pass 2 of 3 (per layer): C_l, W_l and V_l of every pixel, gathered over its tile's
+// Dr.Bokeh pass 2b of 3 (per layer): C_l, W_l and V_l of every pixel, gathered over its tile's
 // window. C_l = sum_y P(y) S K O / A (P premultiplied RGB), W_l = sum_y a(y) S K O / A,
 // V_l = soft-disk mean alpha over x's CoC (default) or the released square box (compat).
-// CPU reference: src/render/drbokeh/cpu.rs `layer_pixel` (same loops, same order).
+// CPU reference: src/render/drbokeh/cpu.rs `layer_pixel` (same taps, same order).
+//
+// Why it is faster than the first kernel (kept as glsl/drbokeh_layer_naive.comp, the
+// benchmark baseline):
+// - Taps outside the Euclidean disk of radius h + 1 are skipped: h = ceil(reach) - 1 and every
+//   gauge is at least the Euclidean length, so their S, K and V terms are exactly 0 (pi/4 of
+//   the square). Rows and columns are clipped to the image instead of tested per tap.
+// - Default model, disk aperture (the common case): P / A(r_y), s_y and alpha_y come from the
+//   per-source prepass (drbokeh_layer_sources.comp), one gauge serves the scatter and the
+//   visibility, the in-layer occlusion is evaluated only for centres that can occlude
+//   (alpha_x * in_focus(r_x) > 0; elsewhere O = 1 exactly), and each invocation gathers a
+//   run of adjacent pixels from one load per source (loads are per-lane gathers on lavapipe).
+//   Lanes whose centres cannot occlude run a loop without the occlusion terms.
+// - Every other model or aperture runs the first kernel's per-tap terms over the clipped disk
+//   (this file); the disk path is glsl/drbokeh_layer_disk.comp, the same body
+//   (glsl/common/drbokeh_layer.glsl) with DRBOKEH_LAYER_DISK, which the host picks for the
+//   default model with a disk aperture (`disk_path` in src/render/drbokeh/gpu.rs).
 //
 // Bindings (set 0, std430), "read" = the uploaded rect pc.read, "core" = the frame tile pc.core:
 //   0: rgba         readonly  vec4[layer_count * read pixels]      premultiplied, layer-major
@@ -11,91 +27,12 @@
 //   4: kernel       readonly  float[max(1, kernel_size^2)]         Params::kernel_f32
 //   5: layer_cw     writeonly vec4[layer_count * core pixels]      (C_l.rgb, W_l)
 //   6: layer_vis    writeonly float[layer_count * core pixels]     V_l
+//   7: source_pa    readonly  vec4[layer_count * read pixels]      P / A(r), prepass
+//   8: source_sa    readonly  vec2[layer_count * read pixels]      (s, alpha), prepass
 // Push constants: DrBokehPush (all fields but max_support). The read rect holds every source
 // within the window of every pixel of the core; borders are the image's, not the tile's.
-// Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer.
+// Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer (the host asks
+// groups_for(ceil(core width / RUN), core height): RUN pixels per invocation).
 #version 450
 #extension GL_GOOGLE_include_directive : require
-#include "drbokeh.glsl"
-
-layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
-
-layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
-layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
-layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
-layout(std430, set = 0, binding = 5) writeonly buffer LayerCw { vec4 layer_cw[]; };
-layout(std430, set = 0, binding = 6) writeonly buffer LayerVis { float layer_vis[]; };
-
-float drbokeh_area_lut(int index) {
-    return area_lut[index];
-}
-
-float aperture_kernel_texel(int index) {
-    return kernel_weights[index];
-}
-
-void main() {
-    ivec2 x = drbokeh_core_pixel(gl_GlobalInvocationID);
-    if (x.x < 0) {
-        return;
-    }
-    int ix = drbokeh_read_index(pc.layer, x);
-    int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x.y / DRBOKEH_TILE) * pc.tiles_x + x.x / DRBOKEH_TILE];
-    float rel_x = disparity[ix] - pc.focus_disparity;
-    float s_x = pc.k_px * rel_x;
-    float r_x = abs(s_x);
-    float alpha_x = rgba[ix].w;
-    int box_half = drbokeh_visibility_box_compat(r_x);
-    bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
-
-    vec4 cw = vec4(0.0);
-    float vis_sum = 0.0;
-    float vis_weight = 0.0;
-    for (int oy = -h; oy <= h; ++oy) {
-        int sy = x.y + oy;
-        if (sy < 0 || sy >= pc.height) {
-            continue;
-        }
-        for (int ox = -h; ox <= h; ++ox) {
-            int sx = x.x + ox;
-            if (sx < 0 || sx >= pc.width) {
-                continue;
-            }
-            int iy = drbokeh_read_index(pc.layer, ivec2(sx, sy));
-            vec4 p = rgba[iy];
-            float rel_y = disparity[iy] - pc.focus_disparity;
-            float s_y = pc.k_px * rel_y;
-            float r_y = abs(s_y);
-            // Offset x - y: the lens term is evaluated where the source lands.
-            vec2 offset = vec2(float(-ox), float(-oy));
-            bool is_self = ox == 0 && oy == 0;
-
-            if (p.w > 0.0) {
-                vec2 lens = drbokeh_lens(offset, r_y, rel_y);
-                float s = compat ? drbokeh_scatter_compat(r_y, lens.x) : drbokeh_scatter(r_y, lens.x);
-                float o = compat ? drbokeh_occlusion_compat(rel_y, rel_x, r_x, is_self)
-                                 : drbokeh_occlusion(s_y, s_x, r_x, alpha_x, is_self);
-                float weight = s * lens.y * o / drbokeh_area_for(r_y);
-                cw.xyz += p.xyz * weight;
-                cw.w += p.w * weight;
-            }
-
-            if (compat) {
-                if (abs(ox) <= box_half && abs(oy) <= box_half) {
-                    vis_sum += p.w;
-                    vis_weight += 1.0;
-                }
-            } else {
-                vec2 lens = drbokeh_lens(offset, r_x, rel_x);
-                float d = drbokeh_scatter(r_x, lens.x) * lens.y;
-                vis_sum += p.w * d;
-                vis_weight += d;
-            }
-        }
-    }
-    int out_index = drbokeh_core_index(pc.layer, x);
-    layer_cw[out_index] = cw;
-    layer_vis[out_index] = vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
-}
+#include "drbokeh_layer.glsl"

@@ -9,7 +9,7 @@ use crate::render::drbokeh::{DrBokehGpu, Model, RenderOptions};
 use crate::render::Lens;
 use crate::stack::{Layer, LayerStack};
 use crate::vk::Context;
-use crate::Result;
+use crate::{Error, Result};
 
 /// Which part of the frame is blurred.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -43,31 +43,54 @@ pub struct LargeFrameResult {
 /// A textured far wall and a near disk covering a tenth of the frame; CoC radii scale with
 /// the frame width so a 7680 px frame gets `max_coc_px` at its most blurred layer.
 pub fn two_layer_stack(width: usize, height: usize, focus: Focus, max_coc_px: f32) -> Result<(LayerStack, Lens)> {
+    layered_stack(width, height, 2, focus, max_coc_px)
+}
+
+/// [`two_layer_stack`] with `layers - 2` more disks (a tenth of the frame each) between the
+/// near disk and the wall. Mostly in focus: the wall is in focus and the disks' CoC radii step
+/// from `max_coc_px` (front) toward 0; fully defocused: every layer's CoC is between half the
+/// largest and `max_coc_px`, the wall's at half.
+pub fn layered_stack(width: usize, height: usize, layers: usize, focus: Focus, max_coc_px: f32) -> Result<(LayerStack, Lens)> {
+    if layers < 2 {
+        return Err(Error::param("the procedural stack needs at least two layers"));
+    }
     let (near, far) = (1.0f32, 0.5f32);
     let (focus_disparity, k) = match focus {
         Focus::MostlyInFocus => (far, max_coc_px / (near - far)),
         // Focus in between, the near layer the most blurred (twice the far one's CoC).
         Focus::FullyDefocused => (far + (near - far) / 3.0, max_coc_px / ((near - far) * 2.0 / 3.0)),
     };
+    let steps = (layers - 1) as f32;
+    let disk_disparity = |i: usize| match focus {
+        _ if i == 0 => near,
+        Focus::MostlyInFocus => far + (near - far) * (1.0 - i as f32 / steps),
+        Focus::FullyDefocused => focus_disparity + (near - focus_disparity) * (1.0 - 0.5 * i as f32 / steps),
+    };
     let radius = ((width * height) as f32 / (10.0 * std::f32::consts::PI)).sqrt();
-    let (cx, cy) = (width as f32 * 0.4, height as f32 * 0.5);
-    let disk = Image::from_fn(width, height, |x, y| {
-        let d = ((x as f32 - cx).powi(2) + (y as f32 - cy).powi(2)).sqrt();
-        let a = (radius - d + 0.5).clamp(0.0, 1.0);
-        [0.9 * a, 0.3 * a, 0.2 * a, a]
-    });
+    let n = width * height;
+    let mut stack_layers: Vec<Layer> = (0..layers - 1)
+        .map(|i| {
+            // Disk 0 is the two-layer stack's; later ones walk right and down.
+            let t = i as f32 / steps;
+            let (cx, cy) = (width as f32 * (0.4 + 0.3 * t), height as f32 * (0.5 - 0.2 * t));
+            let colour = [0.9 - 0.5 * t, 0.3 + 0.5 * t, 0.2 + 0.3 * t];
+            let rgba = Image::from_fn(width, height, |x, y| {
+                let d = ((x as f32 - cx).powi(2) + (y as f32 - cy).powi(2)).sqrt();
+                let a = (radius - d + 0.5).clamp(0.0, 1.0);
+                [colour[0] * a, colour[1] * a, colour[2] * a, a]
+            });
+            let name = if i == 0 { "near".to_string() } else { format!("disk{i}") };
+            Layer { name, rgba, disparity: vec![disk_disparity(i); n] }
+        })
+        .collect();
     let wall = Image::from_fn(width, height, |x, y| {
         let checker = if (x / 64 + y / 64) % 2 == 0 { 0.8 } else { 0.2 };
         let highlight = if x % 97 == 0 && y % 89 == 0 { 20.0 } else { 0.0 };
         [checker + highlight, checker * 0.9, 1.0 - checker, 1.0]
     });
-    let n = width * height;
-    let layers = vec![
-        Layer { name: "near".into(), rgba: disk, disparity: vec![near; n] },
-        Layer { name: "far".into(), rgba: wall, disparity: vec![far; n] },
-    ];
+    stack_layers.push(Layer { name: "far".into(), rgba: wall, disparity: vec![far; n] });
     let lens = Lens { coc: CocModel::new(k, focus_disparity)?, aperture: Aperture::Disk };
-    Ok((LayerStack::new(width, height, layers)?, lens))
+    Ok((LayerStack::new(width, height, stack_layers)?, lens))
 }
 
 /// Renders the two-layer stack once and measures it.

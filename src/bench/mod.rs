@@ -9,6 +9,7 @@ pub(crate) mod font;
 pub mod gt_cache;
 pub mod large;
 mod methods;
+pub mod perf;
 mod runner;
 mod sheet;
 mod table;

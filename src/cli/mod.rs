@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 mod bench;
 mod bench_depth;
 mod bench_large;
+mod bench_perf;
 mod camera_args;
 mod character_args;
 mod devices;
@@ -58,6 +59,8 @@ enum Command {
     BenchLarge(bench_large::Args),
     /// Depth from defocus on the benchmark scenes: Dr.Bokeh vs GaussPSF (depth error, PSNR).
     BenchDepth(bench_depth::Args),
+    /// Time the Dr.Bokeh forward kernels on fixed cases against the first straightforward one.
+    BenchPerf(bench_perf::Args),
 }
 
 pub fn main() -> std::process::ExitCode {
@@ -79,6 +82,7 @@ pub fn main() -> std::process::ExitCode {
         Command::Bench(args) => bench::run(args),
         Command::BenchLarge(args) => bench_large::run(args),
         Command::BenchDepth(args) => bench_depth::run(args),
+        Command::BenchPerf(args) => bench_perf::run(args),
     };
     // Validation messages raised while contexts were torn down fail the command too.
     let result = result.and_then(|()| Ok(lensblur::vk::validation::check_unreported()?));

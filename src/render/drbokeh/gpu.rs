@@ -14,15 +14,31 @@ use crate::tiling::Rect;
 use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
 use crate::Result;
 
-/// Bytes per pixel of one layer: uploaded rgba + disparity, or written (C, W) + V.
-const LAYER_BYTES_PER_PIXEL: u64 = 20;
+/// Bytes per read pixel of one layer: uploaded rgba + disparity, prepass P / A + (s, alpha).
+const READ_BYTES_PER_PIXEL: u64 = 20 + 24;
+/// Bytes per core pixel of one layer: written (C, W) + V.
+const CORE_BYTES_PER_PIXEL: u64 = 20;
 pub(crate) const VEC4: u64 = 16;
 
 /// The Dr.Bokeh pipelines on one device; build once, render many stacks.
 pub struct DrBokehGpu {
     ctx: Context,
+    kernel: LayerKernel,
+    sources: ComputePipeline,
     layer: ComputePipeline,
+    /// The optimised kernel's disk path (default model, disk aperture); `None` for the baseline.
+    layer_disk: Option<ComputePipeline>,
     composite: ComputePipeline,
+}
+
+/// Which layer-pass kernel renders (same results within f32 rounding).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LayerKernel {
+    /// The per-source prepass and the optimised gathers (`drbokeh_layer.comp`).
+    #[default]
+    Optimised,
+    /// The first straightforward gather (`drbokeh_layer_naive.comp`): the benchmark baseline.
+    Baseline,
 }
 
 /// How to cut and report a render.
@@ -51,10 +67,24 @@ pub struct RenderStats {
 
 impl DrBokehGpu {
     pub fn new(ctx: &Context) -> Result<Self> {
+        Self::with_kernel(ctx, LayerKernel::Optimised)
+    }
+
+    pub fn with_kernel(ctx: &Context, kernel: LayerKernel) -> Result<Self> {
         let push = std::mem::size_of::<super::DrBokehPush>();
+        let (layer, layer_disk) = match kernel {
+            LayerKernel::Optimised => (
+                ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER, 9, push)?,
+                Some(ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_DISK, 9, push)?),
+            ),
+            LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None),
+        };
         Ok(Self {
             ctx: ctx.clone(),
-            layer: ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER, 7, push)?,
+            kernel,
+            sources: ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_SOURCES, 5, push)?,
+            layer,
+            layer_disk,
             composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_COMPOSITE, 3, push)?,
         })
     }
@@ -104,7 +134,7 @@ impl DrBokehGpu {
             let read = (tile.min(params.width.max(params.height)) as u64 + 2 * max_window as u64).pow(2);
             let core = (tile as u64).pow(2);
             let largest_binding = layers * read.max(core) * VEC4;
-            let total = layers * (read + core) * LAYER_BYTES_PER_PIXEL + core * VEC4;
+            let total = layers * (read * READ_BYTES_PER_PIXEL + core * CORE_BYTES_PER_PIXEL) + core * VEC4;
             largest_binding <= range && total <= budget
         };
         let mut tile = round_to_tile(params.width.max(params.height));
@@ -154,7 +184,20 @@ impl DrBokehGpu {
     /// Records the layer passes and the composite of one frame tile (the backward pass records
     /// the whole frame as one tile and reads every intermediate).
     pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
-        let groups = self.layer.groups_for([b.core.width() as u32, b.core.height() as u32, 1]);
+        let groups = self.composite.groups_for([b.core.width() as u32, b.core.height() as u32, 1]);
+        // A layer workgroup covers one 16x16 search tile: the optimised kernels write a run of
+        // TILE / local_size_x adjacent pixels per invocation.
+        let per_invocation = TILE as u32 / self.layer.shader().local_size[0];
+        let layer_groups = self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
+        let layer_pipeline = match &self.layer_disk {
+            Some(disk) if disk_path(params) => disk,
+            _ => &self.layer,
+        };
+        if self.kernel == LayerKernel::Optimised {
+            let extent = [b.read.width() as u32, b.read.height() as u32, params.layer_count as u32];
+            let bindings = [b.rgba.all(), b.disparity.all(), b.area_lut.all(), b.source_pa.all(), b.source_sa.all()];
+            batch.dispatch(&self.sources, &bindings, &params.push_tile(0, b.core, b.read), self.sources.groups_for(extent))?;
+        }
         for layer in 0..params.layer_count {
             let bindings = [
                 b.rgba.all(),
@@ -164,8 +207,14 @@ impl DrBokehGpu {
                 b.kernel.all(),
                 b.layer_cw.all(),
                 b.layer_vis.all(),
+                b.source_pa.all(),
+                b.source_sa.all(),
             ];
-            batch.dispatch(&self.layer, &bindings, &params.push_tile(layer, b.core, b.read), groups)?;
+            let bindings = match self.kernel {
+                LayerKernel::Optimised => &bindings[..],
+                LayerKernel::Baseline => &bindings[..7],
+            };
+            batch.dispatch(layer_pipeline, bindings, &params.push_tile(layer, b.core, b.read), layer_groups)?;
         }
         let push = params.push_tile(0, b.core, b.read);
         batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
@@ -185,12 +234,16 @@ pub(crate) struct ForwardBuffers {
     pub layer_cw: Buffer,
     pub layer_vis: Buffer,
     pub result: Buffer,
+    /// Prepass outputs over the read rect: P / A(r) per source, and (s, alpha).
+    pub source_pa: Buffer,
+    pub source_sa: Buffer,
 }
 
 impl ForwardBuffers {
     pub fn new(ctx: &Context, stack: &LayerStack, params: &Params, windows: &[i32], core: Rect, read: Rect) -> Result<Self> {
         let layers = params.layer_count as u64;
         let core_pixels = core.area() as u64;
+        let read_pixels = read.area() as u64;
         let rgba: Vec<[f32; 4]> = stack.layers.iter().flat_map(|l| crop(&l.rgba.pixels, params.width, read)).collect();
         let disparity: Vec<f32> = stack.layers.iter().flat_map(|l| crop(&l.disparity, params.width, read)).collect();
         Ok(Self {
@@ -204,6 +257,8 @@ impl ForwardBuffers {
             layer_cw: Buffer::zeroed(ctx, "drbokeh layer_cw", layers * core_pixels * VEC4)?,
             layer_vis: Buffer::zeroed(ctx, "drbokeh layer_vis", layers * core_pixels * 4)?,
             result: Buffer::zeroed(ctx, "drbokeh result", core_pixels * VEC4)?,
+            source_pa: Buffer::zeroed(ctx, "drbokeh source_pa", layers * read_pixels * VEC4)?,
+            source_sa: Buffer::zeroed(ctx, "drbokeh source_sa", layers * read_pixels * 8)?,
         })
     }
 
@@ -214,6 +269,13 @@ impl ForwardBuffers {
         let windows = super::bounds::grow_windows(search_windows(params, stack), margin);
         Self::new(ctx, stack, params, &windows, whole, whole)
     }
+}
+
+/// Whether the disk-path layer kernel applies: the default model with a disk aperture and no
+/// kernel image (mirrors the header of `glsl/drbokeh_layer_disk.comp`).
+fn disk_path(params: &Params) -> bool {
+    let [blades, _, _, kernel] = params.lens.aperture;
+    params.model == Model::DrBokeh && blades < 3.0 && (kernel < 0.5 || params.lens.kernel_size == 0)
 }
 
 fn round_to_tile(pixels: usize) -> usize {

@@ -12,8 +12,11 @@
 //!    support of a source with alpha > 0 and gather radius, dilated so a tile's window
 //!    half-width covers every source tile whose support reaches it. They also give each frame
 //!    tile its halo, so they are computed before any upload.
-//! 2. `layer` (GPU `glsl/drbokeh_layer.comp`, per layer): C_l, W_l and V_l of every pixel over
-//!    its tile's window.
+//! 2. `layer` (GPU, per layer): C_l, W_l and V_l of every pixel over its tile's window. A
+//!    prepass (`glsl/drbokeh_layer_sources.comp`) stores each source's P / A(r), s and alpha
+//!    once; `glsl/drbokeh_layer_disk.comp` (default model, disk aperture) and
+//!    `glsl/drbokeh_layer.comp` (every other case) gather runs of four pixels per invocation.
+//!    The first straightforward kernel stays as [`LayerKernel::Baseline`] for benchmarks.
 //! 3. `composite` (GPU `glsl/drbokeh_composite.comp`): front-to-back blend of all layers.
 //!
 //! Large frames are rendered in frame tiles ([`gpu`]): each uploads its core plus halo, and
@@ -38,7 +41,7 @@ mod tests;
 pub use backward::{BackwardOptions, DrBokehCpu};
 pub use backward_cpu::{backward_cpu, CpuGradients, CpuLayerGradients};
 pub use cpu::{render_cpu, render_cpu_params, render_cpu_terms, LayerTerms, Terms, Window};
-pub use gpu::{DrBokehGpu, RenderOptions, RenderStats};
+pub use gpu::{DrBokehGpu, LayerKernel, RenderOptions, RenderStats};
 pub use gpu_backward::DrBokehGpuGrad;
 pub use params::Params;
 

@@ -1,0 +1,215 @@
+// Body of the Dr.Bokeh layer pass (pass 2b of 3), compiled twice: glsl/drbokeh_layer_disk.comp
+// defines DRBOKEH_LAYER_DISK (default model, disk aperture, the fast path) and
+// glsl/drbokeh_layer.comp does not (every model and aperture). Two pipelines rather than a
+// runtime branch so that neither carries the other's code: lavapipe runs branches under lane
+// masks. Bindings, push constants and dispatch: see glsl/drbokeh_layer.comp.
+#ifndef LENSBLUR_DRBOKEH_LAYER_GLSL
+#define LENSBLUR_DRBOKEH_LAYER_GLSL
+
+#include "drbokeh.glsl"
+
+// Pixels per invocation, horizontally adjacent (a divisor of the 16 px tile): each source
+// load serves RUN centres. The host derives RUN from local_size_x (16 / local_size_x).
+const int RUN = 4;
+
+// 16 / RUN x 16 invocations of RUN pixels each: one 16x16 tile (one search window) per group.
+layout(local_size_x = 4, local_size_y = 16, local_size_z = 1) in;
+
+layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
+layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
+layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
+layout(std430, set = 0, binding = 5) writeonly buffer LayerCw { vec4 layer_cw[]; };
+layout(std430, set = 0, binding = 6) writeonly buffer LayerVis { float layer_vis[]; };
+layout(std430, set = 0, binding = 7) readonly buffer SourcePa { vec4 source_pa[]; };
+layout(std430, set = 0, binding = 8) readonly buffer SourceSa { vec2 source_sa[]; };
+
+float drbokeh_area_lut(int index) {
+    return area_lut[index];
+}
+
+float aperture_kernel_texel(int index) {
+    return kernel_weights[index];
+}
+
+// Largest |ox| with ox^2 + oy^2 < (h + 1)^2: the row of the window disk at height oy.
+int row_half_width(int h, int oy) {
+    int room = (h + 1) * (h + 1) - oy * oy;
+    int half_width = int(sqrt(float(room)));
+    // sqrt is correctly rounded and room < 2^24, so this corrects a perfect square only.
+    if (half_width * half_width >= room) {
+        half_width -= 1;
+    }
+    return half_width;
+}
+
+// One output pixel's centre terms and running sums on the disk path.
+struct Centre {
+    float s;        // signed CoC radius
+    float support;  // r + 1/2: V gathers where the gauge is below it
+    float occluder; // alpha * in_focus(r): O = 1 - occluder * behind; 0 (O = 1) at most centres
+    vec4 cw;
+    float vis_sum;
+    float vis_weight;
+};
+
+Centre centre_at(int index) {
+    float s = source_sa[index].x;
+    float alpha = source_sa[index].y;
+    float r = abs(s);
+    return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0);
+}
+
+// One tap of the disk path: source (pa = P / A, sa = (s, alpha)) at Euclidean gauge g;
+// `inside` = the offset lies in the centre's window disk (taps outside add exact zeros).
+// `occlusion` is a constant at each call: the occlusion-free loop does not evaluate it.
+void disk_tap(inout Centre c, vec4 pa, vec2 sa, float g, bool inside, bool is_self, bool occlusion) {
+    float s = smoothstep(0.0, 1.0, abs(sa.x) + 0.5 - g);
+    if (occlusion && c.occluder > 0.0 && !is_self) {
+        s *= 1.0 - c.occluder * (1.0 - smoothstep(-0.5, 0.0, sa.x - c.s));
+    }
+    float d = smoothstep(0.0, 1.0, c.support - g);
+    s = inside ? s : 0.0;
+    d = inside ? d : 0.0;
+    c.cw += pa * s;
+    c.vis_sum += sa.y * d;
+    c.vis_weight += d;
+}
+
+// Default model, disk aperture: the terms of drbokeh_lens / drbokeh_scatter / drbokeh_occlusion
+// with K = 1 and a Euclidean gauge, for RUN horizontally adjacent centres x0 + (k, 0) (same
+// 16x16 tile, same window): each source is loaded once for all of them, and centre k's gauge
+// is the one centre k - 1 had a column earlier. Each centre still sums its own taps in the
+// first kernel's order.
+void gather_disk_run(ivec2 x0, int h, inout Centre c[RUN], bool occlusion) {
+    int oy0 = max(-h, -x0.y);
+    int oy1 = min(h, pc.height - 1 - x0.y);
+    for (int oy = oy0; oy <= oy1; ++oy) {
+        int half_width = row_half_width(h, oy);
+        // Offsets from x0: centre k's row is [k - hw, k + hw], clipped to the image.
+        int ox0 = max(-half_width, -x0.x);
+        int ox1 = min(half_width + RUN - 1, pc.width - 1 - x0.x);
+        int row = drbokeh_read_index(pc.layer, ivec2(x0.x, x0.y + oy));
+        float oy2 = float(oy * oy);
+        float g[RUN]; // g[k] = gauge of the current column from centre k
+        for (int k = 1; k < RUN; ++k) {
+            g[k] = sqrt(float((ox0 - k) * (ox0 - k)) + oy2);
+        }
+        for (int ox = ox0; ox <= ox1; ++ox) {
+            vec4 pa = source_pa[row + ox];
+            vec2 sa = source_sa[row + ox];
+            g[0] = sqrt(float(ox * ox) + oy2);
+            for (int k = 0; k < RUN; ++k) {
+                int o = ox - k;
+                disk_tap(c[k], pa, sa, g[k], o >= -half_width && o <= half_width, o == 0 && oy == 0, occlusion);
+            }
+            for (int k = RUN - 1; k > 0; --k) {
+                g[k] = g[k - 1];
+            }
+        }
+    }
+}
+
+float visibility(float vis_sum, float vis_weight) {
+    return vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
+}
+
+// Any model and aperture: the first kernel's per-tap terms over the clipped window disk.
+void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
+    int ix = drbokeh_read_index(pc.layer, x);
+    float rel_x = disparity[ix] - pc.focus_disparity;
+    float s_x = pc.k_px * rel_x;
+    float r_x = abs(s_x);
+    float alpha_x = rgba[ix].w;
+    int box_half = drbokeh_visibility_box_compat(r_x);
+    bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
+    cw = vec4(0.0);
+    float vis_sum = 0.0;
+    float vis_weight = 0.0;
+    int oy0 = max(-h, -x.y);
+    int oy1 = min(h, pc.height - 1 - x.y);
+    for (int oy = oy0; oy <= oy1; ++oy) {
+        int half_width = row_half_width(h, oy);
+        int ox0 = max(-half_width, -x.x);
+        int ox1 = min(half_width, pc.width - 1 - x.x);
+        int row = drbokeh_read_index(pc.layer, ivec2(x.x, x.y + oy));
+        for (int ox = ox0; ox <= ox1; ++ox) {
+            int iy = row + ox;
+            vec4 p = rgba[iy];
+            float rel_y = disparity[iy] - pc.focus_disparity;
+            float s_y = pc.k_px * rel_y;
+            float r_y = abs(s_y);
+            // Offset x - y: the lens term is evaluated where the source lands.
+            vec2 offset = vec2(float(-ox), float(-oy));
+            bool is_self = ox == 0 && oy == 0;
+            if (p.w > 0.0) {
+                vec2 lens = drbokeh_lens(offset, r_y, rel_y);
+                float s = compat ? drbokeh_scatter_compat(r_y, lens.x) : drbokeh_scatter(r_y, lens.x);
+                float o = compat ? drbokeh_occlusion_compat(rel_y, rel_x, r_x, is_self)
+                                 : drbokeh_occlusion(s_y, s_x, r_x, alpha_x, is_self);
+                float weight = s * lens.y * o / drbokeh_area_for(r_y);
+                cw.xyz += p.xyz * weight;
+                cw.w += p.w * weight;
+            }
+            if (compat) {
+                if (abs(ox) <= box_half && abs(oy) <= box_half) {
+                    vis_sum += p.w;
+                    vis_weight += 1.0;
+                }
+            } else {
+                vec2 lens = drbokeh_lens(offset, r_x, rel_x);
+                float d = drbokeh_scatter(r_x, lens.x) * lens.y;
+                vis_sum += p.w * d;
+                vis_weight += d;
+            }
+        }
+    }
+    vis = visibility(vis_sum, vis_weight);
+}
+
+// Each invocation writes RUN horizontally adjacent pixels x0 + (k, 0) of the core.
+void main() {
+    ivec2 local = ivec2(RUN * gl_GlobalInvocationID.x, gl_GlobalInvocationID.y);
+    if (local.x >= pc.core.z || local.y >= pc.core.w) {
+        return;
+    }
+    ivec2 x0 = pc.core.xy + local;
+    // Centres past the core (only at the image's right edge) repeat the last one, unwritten.
+    int last = min(RUN, pc.core.z - local.x) - 1;
+    int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x0.y / DRBOKEH_TILE) * pc.tiles_x + x0.x / DRBOKEH_TILE];
+    vec4 cw[RUN];
+    float vis[RUN];
+#ifdef DRBOKEH_LAYER_DISK
+    {
+        Centre c[RUN];
+        bool occluding = false;
+        for (int k = 0; k < RUN; ++k) {
+            c[k] = centre_at(drbokeh_read_index(pc.layer, x0 + ivec2(min(k, last), 0)));
+            occluding = occluding || c[k].occluder > 0.0;
+        }
+        // Branches are masks on lavapipe: only a lane group with an occluding centre pays for
+        // the occlusion terms.
+        if (occluding) {
+            gather_disk_run(x0, h, c, true);
+        } else {
+            gather_disk_run(x0, h, c, false);
+        }
+        for (int k = 0; k < RUN; ++k) {
+            cw[k] = c[k].cw;
+            vis[k] = visibility(c[k].vis_sum, c[k].vis_weight);
+        }
+    }
+#else
+    for (int k = 0; k < RUN; ++k) {
+        gather_general(x0 + ivec2(min(k, last), 0), h, cw[k], vis[k]);
+    }
+#endif
+    for (int k = 0; k <= last; ++k) {
+        int out_index = drbokeh_core_index(pc.layer, x0 + ivec2(k, 0));
+        layer_cw[out_index] = cw[k];
+        layer_vis[out_index] = vis[k];
+    }
+}
+
+#endif

@@ -1,0 +1,47 @@
+// Dr.Bokeh pass 2a (all layers, one dispatch): the per-source terms of the layer gathers,
+// computed once per source instead of once per tap (a source is read by ~pi r^2 centres).
+//   source_pa = P(y) / A(r_y)   (premultiplied RGBA over the area normalisation; exactly 0
+//                                when alpha <= 0, so such sources add nothing to C and W)
+//   source_sa = (s_y, alpha_y)  (signed CoC radius in px, raw alpha for the visibility V)
+// Read by glsl/drbokeh_layer.comp; CPU terms: src/render/drbokeh/cpu.rs `layer_pixel`.
+//
+// Bindings (set 0, std430), over the uploaded rect pc.read, layer-major like the sources:
+//   0: rgba       readonly  vec4[layer_count * read pixels]
+//   1: disparity  readonly  float[layer_count * read pixels]
+//   2: area_lut   readonly  float[area_count]
+//   3: source_pa  writeonly vec4[layer_count * read pixels]
+//   4: source_sa  writeonly vec2[layer_count * read pixels]
+// Dispatch: (ceil(read width / 16), ceil(read height / 16), layer_count).
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "drbokeh.glsl"
+
+layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
+
+layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
+layout(std430, set = 0, binding = 2) readonly buffer AreaLut { float area_lut[]; };
+layout(std430, set = 0, binding = 3) writeonly buffer SourcePa { vec4 source_pa[]; };
+layout(std430, set = 0, binding = 4) writeonly buffer SourceSa { vec2 source_sa[]; };
+
+float drbokeh_area_lut(int index) {
+    return area_lut[index];
+}
+
+// Never called here (no lens term); GLSL needs a body for the declaration in aperture.glsl.
+float aperture_kernel_texel(int index) {
+    return 0.0;
+}
+
+void main() {
+    ivec2 local = ivec2(gl_GlobalInvocationID.xy);
+    int layer = int(gl_GlobalInvocationID.z);
+    if (local.x >= pc.read.z || local.y >= pc.read.w || layer >= pc.layer_count) {
+        return;
+    }
+    int i = drbokeh_read_index(layer, pc.read.xy + local);
+    vec4 p = rgba[i];
+    float s = pc.k_px * (disparity[i] - pc.focus_disparity);
+    source_pa[i] = p.w > 0.0 ? p / drbokeh_area_for(abs(s)) : vec4(0.0);
+    source_sa[i] = vec2(s, p.w);
+}
