@@ -1,6 +1,7 @@
 //! `lensblur render` on bad input, through the real binary: every case must exit non-zero
 //! with a message naming the file (and layer/channel where there is one) and what to do,
 //! without panicking, and must leave no output and no temporary file behind.
+mod common;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -15,12 +16,6 @@ const CAMERA: PhysicalCamera =
 const W: usize = 16;
 const H: usize = 12;
 
-fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensblur-bad-input-{test}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn listing(dir: &Path) -> BTreeSet<String> {
     std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect()
@@ -103,7 +98,7 @@ const BLUR: [&str; 4] = ["--blur", "8", "--focus-disparity", "0.3"];
 
 #[test]
 fn missing_empty_truncated_and_garbage_files_are_refused() {
-    let dir = temp_dir("files");
+    let dir = common::temp_dir("bad-input", "files");
     refused(&dir, &dir.join("nope.exr"), &[], &["nope.exr", "No such file"]);
     let empty = dir.join("empty.exr");
     std::fs::write(&empty, b"").unwrap();
@@ -127,7 +122,7 @@ fn missing_empty_truncated_and_garbage_files_are_refused() {
 
 #[test]
 fn a_huge_header_is_refused_before_allocating_and_the_budget_is_a_flag() {
-    let dir = temp_dir("huge");
+    let dir = common::temp_dir("bad-input", "huge");
     let valid = valid_stack(&dir);
     // 100000 x 100000 pixels (40 GB of RGBA): reading it would abort on allocation.
     let huge = dir.join("huge.exr");
@@ -149,7 +144,7 @@ fn patch_box(bytes: &[u8], name: &[u8], x_max: i32, y_max: i32, nth: usize) -> V
 
 #[test]
 fn deep_exr_is_refused_with_a_way_out() {
-    let dir = temp_dir("deep");
+    let dir = common::temp_dir("bad-input", "deep");
     let deep = dir.join("deep.exr");
     std::fs::write(&deep, deep_scanline_file()).unwrap();
     refused(&dir, &deep, &[], &["deep.exr", "deep", "flatten"]);
@@ -194,7 +189,7 @@ fn deep_scanline_file() -> Vec<u8> {
 
 #[test]
 fn missing_channels_and_unknown_layers_name_what_exists() {
-    let dir = temp_dir("channels");
+    let dir = common::temp_dir("bad-input", "channels");
     let no_depth = dir.join("no-depth.exr");
     write_image(&no_depth, &Image::from_fn(W, H, |_, _| [0.5, 0.5, 0.5, 1.0]), &WriteOptions::default()).unwrap();
     refused(&dir, &no_depth, &BLUR, &["no-depth.exr", "depth", "R, G, B, A", "Z channel"]);
@@ -213,7 +208,7 @@ fn missing_channels_and_unknown_layers_name_what_exists() {
 
 #[test]
 fn non_finite_colour_or_alpha_is_named_and_can_be_replaced() {
-    let dir = temp_dir("nonfinite");
+    let dir = common::temp_dir("bad-input", "nonfinite");
     let nan = dir.join("nan.exr");
     plain_with(&nan, "G", |v| v[..3].fill(f32::NAN));
     refused(&dir, &nan, &BLUR, &["nan.exr", "channel 'G'", "3 NaN/Inf", "--replace-nonfinite"]);
@@ -228,7 +223,7 @@ fn non_finite_colour_or_alpha_is_named_and_can_be_replaced() {
 
 #[test]
 fn bad_depth_is_refused_but_far_sentinels_render() {
-    let dir = temp_dir("depth");
+    let dir = common::temp_dir("bad-input", "depth");
     for (name, value) in [("negative.exr", -2.0f32), ("zero.exr", 0.0), ("nan-depth.exr", f32::NAN), ("minus-inf.exr", f32::NEG_INFINITY)] {
         let path = dir.join(name);
         plain_with(&path, "Z", |v| v[7] = value);
@@ -251,7 +246,7 @@ fn bad_depth_is_refused_but_far_sentinels_render() {
 
 #[test]
 fn non_positive_camera_parameters_name_the_flag() {
-    let dir = temp_dir("camera");
+    let dir = common::temp_dir("bad-input", "camera");
     let valid = valid_stack(&dir);
     for (flag, value) in [("--fstop", "0"), ("--fstop", "-2"), ("--focal-length", "0"), ("--focus-distance", "-1"), ("--focus-distance", "0")] {
         let arg = format!("{flag}={value}");
@@ -262,7 +257,7 @@ fn non_positive_camera_parameters_name_the_flag() {
 
 #[test]
 fn mismatched_part_sizes_are_refused() {
-    let dir = temp_dir("parts");
+    let dir = common::temp_dir("bad-input", "parts");
     let path = dir.join("parts.exr");
     let part = |name: &'static str, z: f32| {
         exr_layer(
@@ -281,7 +276,7 @@ fn mismatched_part_sizes_are_refused() {
 
 #[test]
 fn a_missing_output_directory_is_refused_before_rendering() {
-    let dir = temp_dir("outdir");
+    let dir = common::temp_dir("bad-input", "outdir");
     let valid = valid_stack(&dir);
     let out = dir.join("no-such-dir").join("out.exr");
     let output = lensblur(&["render", valid.to_str().unwrap(), "-o", out.to_str().unwrap()]);
@@ -294,7 +289,7 @@ fn a_missing_output_directory_is_refused_before_rendering() {
 
 #[test]
 fn an_interrupted_render_exits_130_and_leaves_nothing() {
-    let dir = temp_dir("interrupt");
+    let dir = common::temp_dir("bad-input", "interrupt");
     let (w, h) = (128, 128);
     let layers = vec![Layer { name: "wall".into(), rgba: Image::from_fn(w, h, |x, _| [x as f32 / 128.0, 0.5, 0.2, 1.0]), disparity: vec![0.9; w * h] }];
     let input = dir.join("big.exr");

@@ -1,6 +1,7 @@
 //! `lensblur render --device`: the CPU path renders what the Vulkan path renders (within the
 //! GPU-vs-CPU tolerances of each method), a machine without Vulkan falls back to the CPU with
 //! a warning, and a device that cannot be opened is a clear error that writes nothing.
+mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -14,12 +15,6 @@ const CAMERA: PhysicalCamera =
 const W: usize = 24;
 const H: usize = 20;
 
-fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensblur-cli-device-{test}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// A square subject at 2 m over a checkered wall at 4 m (in focus).
 fn write_input(dir: &Path) -> PathBuf {
@@ -91,7 +86,7 @@ fn worst_relative(gpu: &Image, cpu: &Image) -> f32 {
 
 #[test]
 fn cpu_device_matches_the_gpu_within_each_methods_tolerance() {
-    let dir = temp_dir("match");
+    let dir = common::temp_dir("cli-device", "match");
     let input = write_input(&dir);
     // drbokeh: f32 GPU against the f64 reference, 5e-5 relative (tests/drbokeh_gpu.rs); vdslr
     // and multiview: the 2e-4 of their own GPU-vs-CPU tests (f32 both sides, long ray marches).
@@ -118,7 +113,7 @@ fn input_composite(dir: &Path, input: &Path) -> PathBuf {
 
 #[test]
 fn an_unknown_lensblur_device_is_a_clear_error_and_writes_nothing() {
-    let dir = temp_dir("unknown");
+    let dir = common::temp_dir("cli-device", "unknown");
     let input = write_input(&dir);
     let out = dir.join("out.exr");
     let output = lensblur(&["render", input.to_str().unwrap(), "-o", out.to_str().unwrap()], &[("LENSBLUR_DEVICE", "nonesuch-gpu")]);
@@ -135,7 +130,7 @@ const NO_VULKAN: [(&str, &str); 2] = [("VK_ICD_FILENAMES", "/nonexistent/icd.jso
 
 #[test]
 fn without_vulkan_auto_falls_back_to_the_cpu_and_gpu_refuses() {
-    let dir = temp_dir("novulkan");
+    let dir = common::temp_dir("cli-device", "novulkan");
     let input = write_input(&dir);
     let (fallback, warning) = render(&input, &dir.join("auto.exr"), &[], &NO_VULKAN);
     assert!(warning.contains("no usable Vulkan device") && warning.contains("on the CPU"), "{warning}");
@@ -151,7 +146,7 @@ fn without_vulkan_auto_falls_back_to_the_cpu_and_gpu_refuses() {
 
 #[test]
 fn every_method_renders_bit_identical_files_twice() {
-    let dir = temp_dir("determinism");
+    let dir = common::temp_dir("cli-device", "determinism");
     let input = write_input(&dir);
     for method in ["drbokeh", "drbokeh-compat", "multiview", "vdslr", "oracle", "gather", "scatter"] {
         let outputs: Vec<Vec<u8>> = (0..2)

@@ -2,7 +2,7 @@
 //! depth that produced the target, colour channels pass through unchanged.
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use lensblur::camera::{Aperture, CocModel};
@@ -11,12 +11,6 @@ use lensblur::render::drbokeh::{DrBokehGpu, Model};
 use lensblur::render::Lens;
 use lensblur::stack::{write_image, write_stack, Layer, LayerStack, SampleType, StackWriteOptions, WriteOptions};
 
-fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensblur-cli-fit-{test}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// A textured disk at depth `subject_z` over a textured wall at Z = 4 (in focus).
 fn stack(subject_z: f32) -> LayerStack {
@@ -52,7 +46,7 @@ fn disparity_error(z: &[f32], alpha: &[f32], truth: f32) -> f32 {
 
 #[test]
 fn fitted_depth_approaches_the_depth_that_made_the_target() {
-    let dir = temp_dir("fit");
+    let dir = common::temp_dir("cli-fit", "fit");
     let ctx = common::gpu();
     let lens = Lens { coc: CocModel::new(16.0, 0.25).unwrap(), aperture: Aperture::Disk };
     // Target: the subject at Z = 2 (disparity 0.5, CoC 4 px), rendered by Dr.Bokeh itself.

@@ -2,7 +2,7 @@
 //! through the file's Z convention (checked against finite differences of the render).
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use lensblur::camera::{Aperture, CocModel};
@@ -11,12 +11,6 @@ use lensblur::render::drbokeh::{DrBokehGpu, Model};
 use lensblur::render::Lens;
 use lensblur::stack::{write_image, write_stack, Layer, LayerStack, SampleType, StackWriteOptions, WriteOptions};
 
-fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensblur-cli-grad-{test}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// A soft-edged subject at Z = 2 over a textured wall at Z = 4 (disparities 0.5 and 0.25).
 fn stack(subject_z: f32) -> LayerStack {
@@ -54,7 +48,7 @@ fn loss(renderer: &DrBokehGpu, stack: &LayerStack, lens: &Lens, g: &Image) -> f6
 
 #[test]
 fn gradients_carry_the_input_channel_names_and_the_z_chain_rule() {
-    let dir = temp_dir("names");
+    let dir = common::temp_dir("cli-grad", "names");
     let input = dir.join("shot.exr");
     write_stack(&input, &stack(2.0), &StackWriteOptions::default()).unwrap();
     let g = grad_output(40, 32);
@@ -103,7 +97,7 @@ fn gradients_carry_the_input_channel_names_and_the_z_chain_rule() {
 
 #[test]
 fn methods_without_a_backward_pass_are_refused() {
-    let dir = temp_dir("method");
+    let dir = common::temp_dir("cli-grad", "method");
     let input = dir.join("shot.exr");
     write_stack(&input, &stack(2.0), &StackWriteOptions::default()).unwrap();
     let run = Command::new(env!("CARGO_BIN_EXE_lensblur"))

@@ -22,13 +22,6 @@ const CAMERA: PhysicalCamera = PhysicalCamera {
     focus_distance: 4.0,
 };
 
-fn temp_dir(test: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("lensblur-cli-render-{test}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn lensblur(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_lensblur"))
@@ -112,7 +105,7 @@ fn read_image(path: &Path, prefix: &str) -> Image {
 
 #[test]
 fn render_matches_the_library_and_reads_the_camera_from_the_header() {
-    let dir = temp_dir("header");
+    let dir = common::temp_dir("cli-render", "header");
     let input = write_input(&dir, Some(CAMERA));
     let out = dir.join("out.exr");
     let json = ok(lensblur(&[
@@ -169,7 +162,7 @@ fn render_matches_the_library_and_reads_the_camera_from_the_header() {
 
 #[test]
 fn flags_override_the_header_and_missing_camera_is_a_clear_error() {
-    let dir = temp_dir("flags");
+    let dir = common::temp_dir("cli-render", "flags");
     let input = write_input(&dir, None);
     let out = dir.join("out.exr");
     let failed = lensblur(&[
@@ -211,7 +204,7 @@ fn flags_override_the_header_and_missing_camera_is_a_clear_error() {
 
 #[test]
 fn output_naming_half_pass_through_and_preview() {
-    let dir = temp_dir("naming");
+    let dir = common::temp_dir("cli-render", "naming");
     let input = dir.join("comp.exr");
     // A plain RGBZ image with a cryptomatte-like pass: single image, auto-layered.
     let (w, h) = (40, 32);
@@ -316,7 +309,7 @@ fn output_naming_half_pass_through_and_preview() {
 
 #[test]
 fn ldr_input_with_depth_image_renders_to_jpeg() {
-    let dir = temp_dir("ldr");
+    let dir = common::temp_dir("cli-render", "ldr");
     let (w, h) = (32u32, 24u32);
     let colour = image::RgbImage::from_fn(w, h, |x, y| {
         image::Rgb([(x * 8) as u8, (y * 10) as u8, 128])
@@ -348,7 +341,7 @@ fn ldr_input_with_depth_image_renders_to_jpeg() {
 
 #[test]
 fn refuses_to_overwrite_the_input_and_names_bad_flags() {
-    let dir = temp_dir("refuse");
+    let dir = common::temp_dir("cli-render", "refuse");
     let input = write_input(&dir, Some(CAMERA));
     let before = std::fs::read(&input).unwrap();
     let failed = lensblur(&[

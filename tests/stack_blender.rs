@@ -3,6 +3,7 @@
 //! files we write load in Blender (image + compositor Image node) with the same pixels.
 //! Slow (several Blender starts), so it lives in its own test file. Fails, never skips,
 //! when Blender is missing: CI installs it.
+mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -13,11 +14,6 @@ use lensblur::stack::{
     StackWriteOptions, WriteOptions,
 };
 
-fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensblur-blender-{}-{test}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn script(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -63,7 +59,7 @@ fn render_scene(dir: &Path) {
 
 #[test]
 fn blender_multilayer_render_with_two_view_layers_is_read_correctly() {
-    let dir = temp_dir("render");
+    let dir = common::temp_dir("blender", "render");
     render_scene(&dir);
     let file = read_stack(&dir.join("render.exr"), &ReadOptions::default()).unwrap();
     let names: Vec<&str> = file.stack.layers.iter().map(|l| l.name.as_str()).collect();
@@ -163,7 +159,7 @@ fn read_plain(path: &Path) -> Image {
 
 #[test]
 fn our_files_load_in_blender_with_the_same_pixels() {
-    let dir = temp_dir("ours");
+    let dir = common::temp_dir("blender", "ours");
     let (w, h) = (12, 8);
     let colour = Image::from_fn(w, h, |x, y| [x as f32 / 16.0, y as f32 / 8.0, 0.5, 1.0]);
     let front = Image::from_fn(w, h, |x, _| {

@@ -1,6 +1,7 @@
 //! EXR/PNG stack I/O: every naming convention read back from files generated in code,
 //! our writers read back by our reader, and every documented error.
-use std::path::{Path, PathBuf};
+mod common;
+use std::path::Path;
 
 use exr::prelude::{
     f16, AnyChannel, AnyChannels, Encoding, FlatSamples, ImageAttributes, IntegerBounds,
@@ -16,11 +17,6 @@ use lensblur::stack::{
 const W: usize = 8;
 const H: usize = 6;
 
-fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensblur-stack-io-{}-{test}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn half(values: impl IntoIterator<Item = f32>) -> FlatSamples {
     FlatSamples::F16(values.into_iter().map(f16::from_f32).collect())
@@ -143,7 +139,7 @@ fn assert_layer(layer: &Layer, l: usize, disparity: f32) {
 
 #[test]
 fn blender_multilayer_with_half_colour_and_float_depth() {
-    let dir = temp_dir("blender");
+    let dir = common::temp_dir("stack-io", "blender");
     let path = dir.join("render.exr");
     let n = W * H;
     // The back view layer is opaque at z = 10; the front one covers the left half at z = 2,
@@ -216,7 +212,7 @@ fn blender_multilayer_with_half_colour_and_float_depth() {
 
 #[test]
 fn blender_file_output_value_depth() {
-    let dir = temp_dir("fileoutput");
+    let dir = common::temp_dir("stack-io", "fileoutput");
     let path = dir.join("out.exr");
     let n = W * H;
     let channels = layer_channels(
@@ -248,7 +244,7 @@ fn blender_file_output_value_depth() {
 
 #[test]
 fn oiio_long_names_and_inverse_z() {
-    let dir = temp_dir("long");
+    let dir = common::temp_dir("stack-io", "long");
     let path = dir.join("nuke.exr");
     let n = W * H;
     let mut channels = layer_channels(0, as_refs(&names("fg.", true, "depth")), |_| 0.5, opaque, n);
@@ -286,7 +282,7 @@ fn oiio_long_names_and_inverse_z() {
 
 #[test]
 fn unprefixed_rgbz_is_one_single_image_layer() {
-    let dir = temp_dir("plain");
+    let dir = common::temp_dir("stack-io", "plain");
     let path = dir.join("plain.exr");
     let n = W * H;
     let mut channels = layer_channels(
@@ -320,7 +316,7 @@ fn unprefixed_rgbz_is_one_single_image_layer() {
 
 #[test]
 fn multi_part_files_name_layers_after_parts_and_place_data_windows() {
-    let dir = temp_dir("multipart");
+    let dir = common::temp_dir("stack-io", "multipart");
     let path = dir.join("parts.exr");
     // The front part only stores a 3x2 window at (2, 1); outside it the layer is transparent.
     let front = layer_channels(0, ["R", "G", "B", "A", "Z"], |_| 2.0, opaque, 6);
@@ -381,7 +377,7 @@ fn multi_part_files_name_layers_after_parts_and_place_data_windows() {
 
 #[test]
 fn transparent_pixels_get_depth_from_nearby_opaque_ones() {
-    let dir = temp_dir("fill");
+    let dir = common::temp_dir("stack-io", "fill");
     let path = dir.join("fill.exr");
     // Left column at z = 1, right column at z = 4, the middle transparent with junk Z.
     let alpha = |i: usize| {
@@ -421,7 +417,7 @@ fn transparent_pixels_get_depth_from_nearby_opaque_ones() {
 
 #[test]
 fn layer_selection_by_name_and_glob_in_any_order() {
-    let dir = temp_dir("select");
+    let dir = common::temp_dir("stack-io", "select");
     let path = dir.join("sel.exr");
     let mut channels = Vec::new();
     for (l, name) in ["fg_hair", "fg_body", "bg"].iter().enumerate() {
@@ -478,7 +474,7 @@ fn layer_selection_by_name_and_glob_in_any_order() {
 
 #[test]
 fn errors_name_the_problem() {
-    let dir = temp_dir("errors");
+    let dir = common::temp_dir("stack-io", "errors");
     let missing = read_stack(&dir.join("missing.exr"), &ReadOptions::default())
         .unwrap_err()
         .to_string();
@@ -594,7 +590,7 @@ fn sample_stack() -> LayerStack {
 
 #[test]
 fn written_stacks_read_back_identically_in_every_naming_and_depth_kind() {
-    let dir = temp_dir("stack_rt");
+    let dir = common::temp_dir("stack-io", "stack_rt");
     for naming in [StackNaming::BlenderMultilayer, StackNaming::LayerDotChannel] {
         for kind in [DepthKind::Z, DepthKind::InverseZ, DepthKind::Disparity] {
             let path = dir.join(format!("{naming:?}-{kind:?}.exr"));
@@ -643,7 +639,7 @@ fn written_stacks_read_back_identically_in_every_naming_and_depth_kind() {
 
 #[test]
 fn written_images_carry_names_precision_and_pass_through_channels() {
-    let dir = temp_dir("image_rt");
+    let dir = common::temp_dir("stack-io", "image_rt");
     let image = Image::from_fn(W, H, |x, y| [x as f32 / 3.0, y as f32 / 7.0, 0.1, 1.0]);
     let extra = ExtraChannel {
         name: "CryptoObject00.R".into(),
@@ -727,7 +723,7 @@ fn written_images_carry_names_precision_and_pass_through_channels() {
 
 #[test]
 fn failed_writes_leave_nothing_behind() {
-    let dir = temp_dir("atomic");
+    let dir = common::temp_dir("stack-io", "atomic");
     let image = Image::new(W, H);
     let bad = ExtraChannel {
         name: "R".into(),
@@ -771,7 +767,7 @@ fn failed_writes_leave_nothing_behind() {
 
 #[test]
 fn ldr_inputs_are_decoded_to_linear_and_depth_images_follow_the_depth_kind() {
-    let dir = temp_dir("ldr");
+    let dir = common::temp_dir("stack-io", "ldr");
     let colour = image::RgbImage::from_fn(4, 2, |x, _| image::Rgb([(x * 80) as u8, 128, 255]));
     colour.save(dir.join("photo.png")).unwrap();
     let depth16 = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(4, 2, |x, _| {

@@ -1,7 +1,8 @@
 //! Interop with OpenImageIO (`oiiotool`, `iinfo` from Debian's `openimageio-tools`): files
 //! it writes are read correctly, files we write it reads. These fail, never skip, when the
 //! tools are missing: CI installs them.
-use std::path::{Path, PathBuf};
+mod common;
+use std::path::Path;
 use std::process::Command;
 
 use lensblur::image::Image;
@@ -11,11 +12,6 @@ use lensblur::stack::{
     StackNaming, StackWriteOptions, WriteOptions,
 };
 
-fn temp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensblur-oiio-{}-{test}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// Runs a tool and returns its stdout; panics (test failure) if it is missing or fails.
 fn tool(program: &str, args: &[&str]) -> String {
@@ -41,7 +37,7 @@ fn s(path: &Path) -> &str {
 
 #[test]
 fn oiiotool_layer_dot_channel_files_read_correctly() {
-    let dir = temp_dir("layers");
+    let dir = common::temp_dir("oiio", "layers");
     let path = dir.join("layers.exr");
     #[rustfmt::skip]
     tool("oiiotool", &[
@@ -74,7 +70,7 @@ fn oiiotool_layer_dot_channel_files_read_correctly() {
 
 #[test]
 fn oiiotool_multi_part_files_use_part_names() {
-    let dir = temp_dir("parts");
+    let dir = common::temp_dir("oiio", "parts");
     let path = dir.join("parts.exr");
     #[rustfmt::skip]
     tool("oiiotool", &[
@@ -100,7 +96,7 @@ fn oiiotool_multi_part_files_use_part_names() {
 
 #[test]
 fn oiiotool_data_windows_are_placed_in_the_display_window() {
-    let dir = temp_dir("window");
+    let dir = common::temp_dir("oiio", "window");
     let path = dir.join("window.exr");
     #[rustfmt::skip]
     tool("oiiotool", &[
@@ -133,7 +129,7 @@ fn oiiotool_data_windows_are_placed_in_the_display_window() {
 fn oiiotool_parts_with_different_data_windows_share_the_display_window() {
     // OpenEXR itself refuses parts with different display windows, so sizes can only differ
     // in data windows: a small part must land at its offset in the common frame.
-    let dir = temp_dir("partwindows");
+    let dir = common::temp_dir("oiio", "partwindows");
     let path = dir.join("partwindows.exr");
     #[rustfmt::skip]
     tool("oiiotool", &[
@@ -163,7 +159,7 @@ fn stats_line(stats: &str, key: &str) -> Vec<f64> {
 
 #[test]
 fn our_outputs_read_back_in_oiiotool() {
-    let dir = temp_dir("ours");
+    let dir = common::temp_dir("oiio", "ours");
     let image = Image::filled(12, 10, [0.25, 0.5, 0.75, 1.0]);
     let plain = dir.join("plain.exr");
     write_image(

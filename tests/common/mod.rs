@@ -1,5 +1,7 @@
 //! Shared test setup. GPU tests never skip: without a Vulkan device they fail loudly.
 #![allow(dead_code)]
+use std::path::PathBuf;
+
 use lensblur::image::Image;
 use lensblur::vk::{Context, ContextOptions};
 
@@ -38,4 +40,13 @@ pub fn pattern(width: usize, height: usize) -> Image {
         let alpha = if (x / 5 + y / 3) % 4 == 0 { 0.5 } else { 1.0 };
         [alpha * (h + highlight), alpha * (1.0 - h), alpha * 0.5 * h, alpha]
     })
+}
+
+/// A fresh, empty scratch directory for one test (`lensblur-<suite>-<test>-<pid>`), so
+/// parallel tests and earlier runs never see each other's files.
+pub fn temp_dir(suite: &str, test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lensblur-{suite}-{test}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
 }
