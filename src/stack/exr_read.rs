@@ -113,8 +113,9 @@ pub fn read_rgba(path: &Path, layer: Option<&str>, max_pixels: u64) -> Result<Im
     let ch = &candidate.group.channels;
     let fetch = |name: &str| -> Result<Vec<f32>> {
         let channel = find_channel(part, name).ok_or_else(|| Error::input(path, format!("channel '{name}' vanished")))?;
-        check_finite(path, &candidate.name, name, &channel.sample_data)?;
-        Ok(place(&channel.sample_data, data, display, 0.0))
+        let mut values = place(&channel.sample_data, data, display, 0.0);
+        check_finite(path, &candidate.name, name, &mut values, false)?;
+        Ok(values)
     };
     let [red, green, blue] = [&ch.red, &ch.green, &ch.blue].map(|name| fetch(name.as_deref().unwrap_or_default()));
     let (red, green, blue) = (red?, green?, blue?);
