@@ -75,7 +75,7 @@ impl DrBokehGpuGrad {
     /// progress) like the forward's [`DrBokehGpu::render_with`]. Every pixel sums the same
     /// terms in the same order whatever the tiling, and the scalar gradients are summed on the
     /// host in image order after the last tile, so the result is bit-identical for every tile
-    /// size.
+    /// size. `RenderStats::taps` counts the forward's gathers over the tiles' receivers.
     pub fn backward_with(
         &self,
         stack: &LayerStack,
