@@ -4,14 +4,16 @@
 // 1 - v). T_l is recomputed per layer (O(layers^2) reads of V: no fixed-size arrays).
 // CPU reference: src/render/drbokeh/backward_cpu.rs `composite_pixel`.
 //
-// Bindings (set 0, std430):
-//   0: layer_cw     readonly  vec4[layer_count * width * height]  (C_l.rgb, W_l)
-//   1: layer_vis    readonly  float[layer_count * width * height] V_l
-//   2: grad_output  readonly  vec4[width * height]                dL/d(output RGBA)
-//   3: adj_cw       writeonly vec4[layer_count * width * height]  dL/d(C_l.rgb, W_l)
-//   4: adj_vis      writeonly float[layer_count * width * height] dL/dV_l
-// Push constants: DrBokehPush; reads width, height, layer_count, model.
-// Dispatch: (ceil(width / 16), ceil(height / 16), 1), once, after the forward passes.
+// Bindings (set 0, std430): "core" = pc.core, the receivers of this frame tile (the forward's
+// core); "read" = pc.read, the uploaded sources (the adjoints are stored read-local so that
+// pass 4, whose core is the tile's sources, indexes them like the sources):
+//   0: layer_cw     readonly  vec4[layer_count * core pixels]  (C_l.rgb, W_l)
+//   1: layer_vis    readonly  float[layer_count * core pixels] V_l
+//   2: grad_output  readonly  vec4[core pixels]                dL/d(output RGBA)
+//   3: adj_cw       writeonly vec4[layer_count * read pixels]  dL/d(C_l.rgb, W_l)
+//   4: adj_vis      writeonly float[layer_count * read pixels] dL/dV_l
+// Push constants: DrBokehPush; reads core, read, layer_count, model.
+// Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once, after the forward passes.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "drbokeh_grad.glsl"
@@ -33,27 +35,26 @@ float aperture_kernel_texel(int index) {
 }
 
 // The existence-gated visibility v_l the forward composites with.
-float gated_visibility(int at) {
+float gated_visibility(int l, ivec2 x) {
+    int at = drbokeh_core_index(l, x);
     float v = layer_vis[at];
     return pc.model == DRBOKEH_MODEL_DRBOKEH ? v * drbokeh_existence_gate(layer_cw[at].w) : v;
 }
 
 void main() {
-    ivec2 x = ivec2(gl_GlobalInvocationID.xy);
-    if (!drbokeh_inside(x)) {
+    ivec2 x = drbokeh_core_pixel(gl_GlobalInvocationID);
+    if (x.x < 0) {
         return;
     }
-    int n = pc.width * pc.height;
-    int i = x.y * pc.width + x.x;
-    vec4 gout = grad_output[i];
+    vec4 gout = grad_output[drbokeh_core_index(0, x)];
     float acc = 0.0;
     for (int l = pc.layer_count - 1; l >= 0; --l) {
         float t = 1.0;
         for (int k = 0; k < l; ++k) {
-            t *= 1.0 - gated_visibility(k * n + i);
+            t *= 1.0 - gated_visibility(k, x);
         }
-        vec4 cw = layer_cw[l * n + i];
-        float vis = layer_vis[l * n + i];
+        vec4 cw = layer_cw[drbokeh_core_index(l, x)];
+        float vis = layer_vis[drbokeh_core_index(l, x)];
         float gate = pc.model == DRBOKEH_MODEL_DRBOKEH ? drbokeh_existence_gate(cw.w) : 1.0;
         float v = vis * gate;
         vec3 colour = cw.w > 0.0 ? cw.xyz / cw.w : vec3(0.0);
@@ -70,7 +71,7 @@ void main() {
             d_cw.w += d_v * vis * drbokeh_d_existence_gate(cw.w);
             d_vis = d_v * gate;
         }
-        adj_cw[l * n + i] = d_cw;
-        adj_vis[l * n + i] = d_vis;
+        adj_cw[drbokeh_read_index(l, x)] = d_cw;
+        adj_vis[drbokeh_read_index(l, x)] = d_vis;
     }
 }

@@ -3,17 +3,18 @@
 // occlusion O(y, x) and V_l(x), and dL/dV_l(x) / sum D (normalised adjoint of V for pass 4).
 // CPU reference: src/render/drbokeh/backward_cpu.rs `own_pixel`.
 //
-// Bindings (set 0, std430):
-//   0: rgba         readonly  vec4[layer_count * width * height]
-//   1: disparity    readonly  float[layer_count * width * height]
-//   2: tile_window  readonly  int[layer_count * tiles_x * tiles_y] (forward pass 2)
+// Bindings (set 0, std430), "read" = the uploaded rect pc.read (it holds the window of every
+// receiver of the core pc.core: the same rects as the forward's):
+//   0: rgba         readonly  vec4[layer_count * read pixels]
+//   1: disparity    readonly  float[layer_count * read pixels]
+//   2: tile_window  readonly  int[layer_count * tiles_x * tiles_y] whole image (forward pass 1)
 //   3: area_lut     readonly  float[area_count]
 //   4: kernel       readonly  float[max(1, kernel_size^2)]
-//   5: adj_cw       readonly  vec4[layer_count * width * height]  (backward pass 1)
-//   6: adj_vis      readonly  float[layer_count * width * height]
-//   7: own          writeonly vec4[layer_count * width * height]  (alpha, s, rel, V / sum D)
+//   5: adj_cw       readonly  vec4[layer_count * read pixels]  (backward pass 1, core entries)
+//   6: adj_vis      readonly  float[layer_count * read pixels]
+//   7: own          writeonly vec4[layer_count * read pixels]  (alpha, s, rel, V / sum D), core entries
 // Push constants: DrBokehPush (leaky_slope included).
-// Dispatch: (ceil(width / 16), ceil(height / 16), 1), once per layer, after pass 1.
+// Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer, after pass 1.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "drbokeh_grad.glsl"
@@ -38,12 +39,11 @@ float aperture_kernel_texel(int index) {
 }
 
 void main() {
-    ivec2 x = ivec2(gl_GlobalInvocationID.xy);
-    if (!drbokeh_inside(x)) {
+    ivec2 x = drbokeh_core_pixel(gl_GlobalInvocationID);
+    if (x.x < 0) {
         return;
     }
-    int base = pc.layer * pc.width * pc.height;
-    int ix = base + x.y * pc.width + x.x;
+    int ix = drbokeh_read_index(pc.layer, x);
     int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x.y / DRBOKEH_TILE) * pc.tiles_x + x.x / DRBOKEH_TILE];
     DrBokehPx dst = drbokeh_px(disparity[ix], rgba[ix].w);
     vec4 adj = adj_cw[ix];
@@ -62,7 +62,7 @@ void main() {
             if (sx < 0 || sx >= pc.width) {
                 continue;
             }
-            int iy = base + sy * pc.width + sx;
+            int iy = drbokeh_read_index(pc.layer, ivec2(sx, sy));
             vec4 p = rgba[iy];
             DrBokehPx src = drbokeh_px(disparity[iy], p.w);
             vec2 offset = vec2(float(-ox), float(-oy));

@@ -4,21 +4,23 @@
 // Writes the final gradients and rel_y * dL/ds_y, y's share of dL/dK (summed on the host).
 // CPU reference: src/render/drbokeh/backward_cpu.rs `source_pixel`.
 //
-// Bindings (set 0, std430):
-//   0: rgba            readonly  vec4[layer_count * width * height]
-//   1: disparity       readonly  float[layer_count * width * height]
-//   2: tile_window     readonly  int[layer_count * tiles_x * tiles_y]
+// Bindings (set 0, std430), "core" = pc.core, the sources this frame tile differentiates,
+// "read" = pc.read, the uploaded rect: it holds every receiver within reach of the core (the
+// core of passes 1 and 2, whose outputs are stored read-local) and their windows:
+//   0: rgba            readonly  vec4[layer_count * read pixels]
+//   1: disparity       readonly  float[layer_count * read pixels]
+//   2: tile_window     readonly  int[layer_count * tiles_x * tiles_y] whole image
 //   3: area_lut        readonly  float[area_count]
 //   4: kernel          readonly  float[max(1, kernel_size^2)]
-//   5: adj_cw          readonly  vec4[layer_count * width * height]  (pass 1)
-//   6: own             readonly  vec4[layer_count * width * height]  (pass 2)
-//   7: grad_rgba       writeonly vec4[layer_count * width * height]
-//   8: grad_disparity  writeonly float[layer_count * width * height]
-//   9: k_partial       writeonly float[layer_count * width * height]
-//  10: tile_reach      readonly  int[layer_count * tiles_x * tiles_y] (drbokeh_backward_tile_reach)
+//   5: adj_cw          readonly  vec4[layer_count * read pixels]  (pass 1)
+//   6: own             readonly  vec4[layer_count * read pixels]  (pass 2)
+//   7: grad_rgba       writeonly vec4[layer_count * core pixels]
+//   8: grad_disparity  writeonly float[layer_count * core pixels]
+//   9: k_partial       writeonly float[layer_count * core pixels]
+//  10: tile_reach      readonly  int[layer_count * tiles_x * tiles_y] whole image (drbokeh_backward_tile_reach)
 // Push constants: DrBokehPush (leaky_slope included).
-// Dispatch: (ceil(width / 16), ceil(height / 16), 1), once per layer, after pass 2 and
-// tile_reach (pass 3).
+// Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer, after pass 2
+// and tile_reach (pass 3).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "drbokeh_grad.glsl"
@@ -55,13 +57,12 @@ float vis_share(vec2 offset, DrBokehPx dst) {
 }
 
 void main() {
-    ivec2 y = ivec2(gl_GlobalInvocationID.xy);
-    if (!drbokeh_inside(y)) {
+    ivec2 y = drbokeh_core_pixel(gl_GlobalInvocationID);
+    if (y.x < 0) {
         return;
     }
-    int base = pc.layer * pc.width * pc.height;
     int tile_base = pc.layer * pc.tiles_x * pc.tiles_y;
-    int iy = base + y.y * pc.width + y.x;
+    int iy = drbokeh_read_index(pc.layer, y);
     vec4 p = rgba[iy];
     DrBokehPx src = drbokeh_px(disparity[iy], p.w);
     vec4 own_y = own[iy];
@@ -83,7 +84,7 @@ void main() {
             if (abs(ox) > h || abs(oy) > h) {
                 continue; // the receiver's window does not hold this source
             }
-            int ix = base + ry * pc.width + rx;
+            int ix = drbokeh_read_index(pc.layer, ivec2(rx, ry));
             DrBokehPx dst = drbokeh_px(disparity[ix], rgba[ix].w);
             vec2 offset = vec2(float(ox), float(oy));
             if (p.w > 0.0) {
@@ -97,7 +98,8 @@ void main() {
             d_p.w += own[ix].w * vis_share(offset, dst);
         }
     }
-    grad_rgba[iy] = d_p;
-    grad_disparity[iy] = pc.k_px * d_s + d_rel;
-    k_partial[iy] = src.rel * d_s;
+    int out_index = drbokeh_core_index(pc.layer, y);
+    grad_rgba[out_index] = d_p;
+    grad_disparity[out_index] = pc.k_px * d_s + d_rel;
+    k_partial[out_index] = src.rel * d_s;
 }

@@ -199,34 +199,75 @@ fn gpu_backward_is_deterministic() {
     finish(ctx);
 }
 
-/// Timing on the test device (run by hand: `cargo test --test drbokeh_backward_gpu timing -- --ignored --nocapture`).
+/// Gradients as bits, for exact comparison: per layer rgba and disparity, then K and focus.
+fn bits(g: &StackGradients) -> (Vec<u32>, Vec<u32>, u64, u64) {
+    let rgba = g.layers.iter().flat_map(|l| l.rgba.iter().flatten().map(|v| v.to_bits())).collect();
+    let disparity = g.layers.iter().flat_map(|l| l.disparity.iter().map(|v| v.to_bits())).collect();
+    (rgba, disparity, g.k_px.to_bits(), g.focus_disparity.to_bits())
+}
+
 #[test]
-#[ignore]
-fn timing_forward_vs_backward_256() {
+fn gradients_are_bit_identical_whatever_the_tile_size() {
+    use lensblur::render::drbokeh::RenderOptions;
+    use std::sync::atomic::{AtomicUsize, Ordering};
     let ctx = gpu();
-    let stack = scene(256, 256, 0.9);
-    let gout = grad_output(256, 256);
-    let lens = lens(Aperture::Disk);
-    let forward = DrBokehGpu::new(&ctx).unwrap();
-    let backward = DrBokehGpuGrad::new(&ctx, Model::DrBokeh, BackwardOptions::exact()).unwrap();
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(|a, b| a.partial_cmp(b).unwrap());
-        v[v.len() / 2]
-    };
-    let mut f = Vec::new();
-    let mut b = Vec::new();
-    for _ in 0..3 {
-        let t = std::time::Instant::now();
-        forward.render(&stack, &lens, Model::DrBokeh).unwrap();
-        f.push(t.elapsed().as_secs_f64());
-        let t = std::time::Instant::now();
-        backward.backward(&stack, &lens, &gout).unwrap();
-        b.push(t.elapsed().as_secs_f64());
+    // 75x53 is divisible by none of the tile sides (16, 32, 48); K = 16 with the near layer at
+    // d ~ 1.15 gives CoCs up to 10.5 px, so a tile's receivers and their sources reach well
+    // into its neighbours (two tiles away for the 16 px ones).
+    let (w, h) = (75, 53);
+    let stack = scene(w, h, 1.15);
+    let gout = grad_output(w, h);
+    let lens = Lens { coc: CocModel::new(16.0, 0.5).unwrap(), aperture: Aperture::Disk };
+    for options in [BackwardOptions::exact(), BackwardOptions::leaky()] {
+        let renderer = DrBokehGpuGrad::new(&ctx, Model::DrBokeh, options).unwrap();
+        let (whole, whole_stats) = renderer.backward_with_stats(&stack, &lens, &gout).unwrap();
+        assert_eq!(whole_stats.tiles, 1, "a small frame is one tile");
+        let want = bits(&whole);
+        for tile in [16, 24, 40] {
+            let done = AtomicUsize::new(0);
+            let progress = |finished: usize, _total: usize| done.store(finished, Ordering::Relaxed);
+            let tiled_options = RenderOptions { tile: Some(tile), progress: Some(&progress) };
+            let (tiled, stats) = renderer.backward_with(&stack, &lens, &gout, &tiled_options).unwrap();
+            let side = tile.div_ceil(16) * 16;
+            assert_eq!(stats.tiles, w.div_ceil(side) * h.div_ceil(side));
+            assert_eq!(done.load(Ordering::Relaxed), stats.tiles, "progress reaches the last tile");
+            // Smaller tiles hold less on the device (the point of tiling).
+            assert!(stats.peak_device_bytes < whole_stats.peak_device_bytes, "tile {tile}: {} vs {} bytes", stats.peak_device_bytes, whole_stats.peak_device_bytes);
+            let got = bits(&tiled);
+            let label = format!("leak {}, tile {tile}", options.leaky_slope);
+            let differing = |a: &[u32], b: &[u32]| a.iter().zip(b).filter(|(x, y)| x != y).count();
+            assert_eq!(differing(&got.0, &want.0), 0, "{label}: rgba gradients differ from the untiled ones");
+            assert_eq!(differing(&got.1, &want.1), 0, "{label}: disparity gradients differ from the untiled ones");
+            assert_eq!((got.2, got.3), (want.2, want.3), "{label}: K / focus gradients differ from the untiled ones");
+        }
+        assert!(whole.k_px != 0.0 && whole.layers[0].disparity.iter().any(|&g| g != 0.0));
     }
-    eprintln!("256x256x3 wall: forward {:.3} s, forward+backward {:.3} s (median of 3)", median(f), median(b));
-    let (_, fs) = forward.render_with(&stack, &lens, Model::DrBokeh, &Default::default()).unwrap();
-    let (_, bs) = backward.backward_with_stats(&stack, &lens, &gout).unwrap();
-    eprintln!("device: forward {:?} ns, forward+backward {:?} ns", fs.device_ns, bs.device_ns);
     finish(ctx);
 }
 
+#[test]
+fn tiled_gpu_backward_matches_cpu_reference() {
+    use lensblur::render::drbokeh::RenderOptions;
+    let ctx = gpu();
+    let (w, h) = (45, 37);
+    let stack = scene(w, h, 0.95);
+    let gout = grad_output(w, h);
+    let lens = lens(Aperture::polygon(5, 10.0, 0.1).unwrap());
+    for (model, options) in [(Model::DrBokeh, BackwardOptions::exact()), (Model::DrBokeh, BackwardOptions::leaky()), (Model::Compat, BackwardOptions::exact())] {
+        let renderer = DrBokehGpuGrad::new(&ctx, model, options).unwrap();
+        let (got, stats) = renderer.backward_with(&stack, &lens, &gout, &RenderOptions { tile: Some(16), progress: None }).unwrap();
+        assert_eq!(stats.tiles, 9);
+        let want = backward_cpu(&stack, &lens, model, options, &gout).unwrap();
+        let label = format!("{model:?} leak {}", options.leaky_slope);
+        for (l, (g, c)) in got.layers.iter().zip(&want.layers).enumerate() {
+            let rgba = worst(g.rgba.iter().flatten().copied(), c.rgba.iter().flatten().copied());
+            let disparity = worst(g.disparity.iter().copied(), c.disparity.iter().copied());
+            // Same bound as the untiled comparison: the tiles sum the same f32 terms.
+            assert!(rgba < 1e-4 && disparity < 1e-4, "{label} layer {l}: rgba {rgba:e}, disparity {disparity:e}");
+        }
+        let k = (got.k_px - want.k_px).abs() / want.k_px.abs().max(1.0);
+        let f = (got.focus_disparity - want.focus_disparity).abs() / want.focus_disparity.abs().max(1.0);
+        assert!(k < 1e-4 && f < 1e-4, "{label}: K {} vs {}, focus {} vs {}", got.k_px, want.k_px, got.focus_disparity, want.focus_disparity);
+    }
+    finish(ctx);
+}

@@ -8,8 +8,8 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _};
 use lensblur::image::Image;
-use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpuGrad, Model};
-use lensblur::render::grad::{Differentiable, StackGradients};
+use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpuGrad, Model, RenderOptions};
+use lensblur::render::grad::StackGradients;
 use lensblur::render::{InputKind, Method};
 use lensblur::stack::{read_rgba, write_named_channels, DepthKind, StackInfo};
 use lensblur::vk::Context;
@@ -52,6 +52,9 @@ pub struct Args {
     /// depth gradients (for optimisation; off = the exact gradient of the render).
     #[arg(long)]
     pub leaky: bool,
+    /// Frame tile side in pixels (default: the largest the device's limits and memory allow).
+    #[arg(long, value_name = "N")]
+    pub tile: Option<usize>,
     /// Print a JSON report on stdout.
     #[arg(long)]
     pub json: bool,
@@ -82,7 +85,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let ctx = Context::from_env().context("opening the Vulkan device")?;
     let options = if args.leaky { BackwardOptions::leaky() } else { BackwardOptions::exact() };
     let renderer = DrBokehGpuGrad::new(&ctx, model, options)?;
-    let grads = renderer.backward(&loaded.stack, &loaded.camera.lens, &grad_output)?;
+    let tiling = RenderOptions { tile: args.tile, progress: None };
+    let (grads, stats) = renderer.backward_with(&loaded.stack, &loaded.camera.lens, &grad_output, &tiling)?;
     drop(renderer);
     let channels = gradient_channels(info, &loaded, &grads);
     write_named_channels(&args.output, loaded.stack.width, loaded.stack.height, channels)
@@ -94,6 +98,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "input": args.input, "output": args.output, "method": args.method, "leaky": args.leaky,
             "layers": loaded.stack.layers.iter().map(|l| &l.name).collect::<Vec<_>>(),
             "camera_gradients": camera, "seconds": start.elapsed().as_secs_f64(),
+            "tiles": stats.tiles, "tile_size": stats.tile_size, "peak_device_bytes": stats.peak_device_bytes,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {

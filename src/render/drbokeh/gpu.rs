@@ -15,9 +15,9 @@ use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
 use crate::Result;
 
 /// Bytes per read pixel of one layer: uploaded rgba + disparity, prepass P / A + (s, alpha).
-const READ_BYTES_PER_PIXEL: u64 = 20 + 24;
+pub(crate) const READ_BYTES_PER_PIXEL: u64 = 20 + 24;
 /// Bytes per core pixel of one layer: written (C, W) + V.
-const CORE_BYTES_PER_PIXEL: u64 = 20;
+pub(crate) const CORE_BYTES_PER_PIXEL: u64 = 20;
 pub(crate) const VEC4: u64 = 16;
 
 /// The Dr.Bokeh pipelines on one device; build once, render many stacks.
@@ -107,41 +107,17 @@ impl DrBokehGpu {
     ) -> Result<(Image, RenderStats)> {
         let params = Params::new(stack, lens, model)?;
         let windows = search_windows(&params, stack);
-        let mut tile = match options.tile {
-            Some(tile) => round_to_tile(tile),
-            None => self.auto_tile_size(&params, windows.iter().copied().max().unwrap_or(0)),
-        };
-        loop {
-            match self.render_tiles(stack, &params, &windows, tile, options) {
-                // Drivers report a budget they cannot always honour: retry with smaller tiles.
-                Err(error) if error.is_out_of_memory() && tile > TILE => {
-                    log::warn!("out of device memory with {tile} px tiles; retrying with {} px", tile / 2);
-                    tile = round_to_tile(tile / 2);
-                }
-                result => return result,
-            }
-        }
-    }
-
-    /// The largest tile (multiple of 16, at most the frame) whose buffers fit the device's
-    /// storage-buffer range and a quarter of its memory, assuming the worst halo everywhere.
-    fn auto_tile_size(&self, params: &Params, max_window: i32) -> usize {
-        let info = self.ctx.info();
-        let range = info.max_storage_buffer_range as u64;
-        let budget = info.device_local_bytes.min(info.max_allocation_bytes) / 4;
-        let layers = params.layer_count as u64;
-        let fits = |tile: usize| {
+        let max_window = windows.iter().copied().max().unwrap_or(0);
+        let footprint = |tile: usize| {
             let read = (tile.min(params.width.max(params.height)) as u64 + 2 * max_window as u64).pow(2);
             let core = (tile as u64).pow(2);
-            let largest_binding = layers * read.max(core) * VEC4;
-            let total = layers * (read * READ_BYTES_PER_PIXEL + core * CORE_BYTES_PER_PIXEL) + core * VEC4;
-            largest_binding <= range && total <= budget
+            let layers = params.layer_count as u64;
+            Footprint {
+                largest_binding: layers * read.max(core) * VEC4,
+                total: layers * (read * READ_BYTES_PER_PIXEL + core * CORE_BYTES_PER_PIXEL) + core * VEC4,
+            }
         };
-        let mut tile = round_to_tile(params.width.max(params.height));
-        while tile > TILE && !fits(tile) {
-            tile = round_to_tile(tile * 3 / 4);
-        }
-        tile
+        run_tiled(&self.ctx, &params, options, footprint, |tile| self.render_tiles(stack, &params, &windows, tile, options))
     }
 
     fn render_tiles(
@@ -182,7 +158,7 @@ impl DrBokehGpu {
     }
 
     /// Records the layer passes and the composite of one frame tile (the backward pass records
-    /// the whole frame as one tile and reads every intermediate).
+    /// them over its receivers and reads every intermediate).
     pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
         let groups = self.composite.groups_for([b.core.width() as u32, b.core.height() as u32, 1]);
         // A layer workgroup covers one 16x16 search tile: the optimised kernels write a run of
@@ -261,14 +237,6 @@ impl ForwardBuffers {
             source_sa: Buffer::zeroed(ctx, "drbokeh source_sa", layers * read_pixels * 8)?,
         })
     }
-
-    /// The whole frame as one tile, with its search windows grown by `margin` pixels (the
-    /// leaky backward's; 0 = the forward's own).
-    pub fn whole_frame(ctx: &Context, stack: &LayerStack, params: &Params, margin: i32) -> Result<Self> {
-        let whole = Rect { x0: 0, y0: 0, x1: params.width, y1: params.height };
-        let windows = super::bounds::grow_windows(search_windows(params, stack), margin);
-        Self::new(ctx, stack, params, &windows, whole, whole)
-    }
 }
 
 /// Whether the disk-path layer kernel applies: the default model with a disk aperture and no
@@ -278,8 +246,60 @@ fn disk_path(params: &Params) -> bool {
     params.model == Model::DrBokeh && blades < 3.0 && (kernel < 0.5 || params.lens.kernel_size == 0)
 }
 
-fn round_to_tile(pixels: usize) -> usize {
+pub(crate) fn round_to_tile(pixels: usize) -> usize {
     pixels.max(1).div_ceil(TILE) * TILE
+}
+
+/// Device bytes of one frame tile, assuming the worst halo everywhere.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Footprint {
+    /// The largest single buffer (bound as one storage buffer: at most the device's range).
+    pub largest_binding: u64,
+    /// All the tile's buffers together.
+    pub total: u64,
+}
+
+/// Runs `attempt` on tiles of the options' side, or else the largest whose `footprint` fits
+/// the device; while it runs out of device memory, again with tiles half as large. Shared by
+/// the forward and the backward, so both cut frames by the same policy.
+pub(crate) fn run_tiled<T>(
+    ctx: &Context,
+    params: &Params,
+    options: &RenderOptions,
+    footprint: impl Fn(usize) -> Footprint,
+    mut attempt: impl FnMut(usize) -> Result<T>,
+) -> Result<T> {
+    let mut tile = match options.tile {
+        Some(tile) => round_to_tile(tile),
+        None => auto_tile_size(ctx, params, footprint),
+    };
+    loop {
+        match attempt(tile) {
+            // Drivers report a budget they cannot always honour: retry with smaller tiles.
+            Err(error) if error.is_out_of_memory() && tile > TILE => {
+                log::warn!("out of device memory with {tile} px tiles; retrying with {} px", tile / 2);
+                tile = round_to_tile(tile / 2);
+            }
+            result => return result,
+        }
+    }
+}
+
+/// The largest tile (multiple of 16, at most the frame) whose buffers fit the device's
+/// storage-buffer range and a quarter of its memory.
+fn auto_tile_size(ctx: &Context, params: &Params, footprint: impl Fn(usize) -> Footprint) -> usize {
+    let info = ctx.info();
+    let range = info.max_storage_buffer_range as u64;
+    let budget = info.device_local_bytes.min(info.max_allocation_bytes) / 4;
+    let fits = |tile: usize| {
+        let f = footprint(tile);
+        f.largest_binding <= range && f.total <= budget
+    };
+    let mut tile = round_to_tile(params.width.max(params.height));
+    while tile > TILE && !fits(tile) {
+        tile = round_to_tile(tile * 3 / 4);
+    }
+    tile
 }
 
 /// `tile x tile` cores in row-major order, the last row and column cut by the frame.
@@ -294,14 +314,14 @@ pub fn frame_cores(width: usize, height: usize, tile: usize) -> Vec<Rect> {
 }
 
 /// The 16x16 search tiles a frame core overlaps (cores start on multiples of 16).
-fn search_tiles(params: &Params, core: Rect) -> impl Iterator<Item = usize> + '_ {
+pub(crate) fn search_tiles(params: &Params, core: Rect) -> impl Iterator<Item = usize> + '_ {
     let (tx0, tx1) = (core.x0 / TILE, core.x1.div_ceil(TILE));
     let (ty0, ty1) = (core.y0 / TILE, core.y1.div_ceil(TILE));
     (ty0..ty1).flat_map(move |ty| (tx0..tx1).map(move |tx| ty * params.tiles_x + tx))
 }
 
 /// Pixels around `core` its gathers read: the largest window over its search tiles and layers.
-fn halo(params: &Params, windows: &[i32], core: Rect) -> usize {
+pub(crate) fn halo(params: &Params, windows: &[i32], core: Rect) -> usize {
     let per_layer = params.tiles_x * params.tiles_y;
     let mut halo = 0;
     for layer in 0..params.layer_count {
@@ -313,7 +333,7 @@ fn halo(params: &Params, windows: &[i32], core: Rect) -> usize {
 }
 
 /// Source pixels the core's gathers visit (upper bound: windows are not clipped at borders).
-fn taps(params: &Params, windows: &[i32], core: Rect) -> u64 {
+pub(crate) fn taps(params: &Params, windows: &[i32], core: Rect) -> u64 {
     let per_layer = params.tiles_x * params.tiles_y;
     let mut taps = 0u64;
     for layer in 0..params.layer_count {
@@ -329,6 +349,6 @@ fn taps(params: &Params, windows: &[i32], core: Rect) -> u64 {
 }
 
 /// The pixels of `rect` from a row-major image `width` wide.
-fn crop<T: Copy>(pixels: &[T], width: usize, rect: Rect) -> impl Iterator<Item = T> + '_ {
+pub(crate) fn crop<T: Copy>(pixels: &[T], width: usize, rect: Rect) -> impl Iterator<Item = T> + '_ {
     (rect.y0..rect.y1).flat_map(move |y| pixels[y * width + rect.x0..y * width + rect.x1].iter().copied())
 }

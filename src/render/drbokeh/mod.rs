@@ -21,7 +21,8 @@
 //!
 //! Large frames are rendered in frame tiles ([`gpu`]): each uploads its core plus halo, and
 //! since every pixel reads the same sources in the same order, the output is bit-identical
-//! whatever the tile size.
+//! whatever the tile size. The backward ([`DrBokehGpuGrad`]) tiles the frame the same way, by
+//! the same policy, with the same guarantee.
 use crate::camera::{Aperture, CocModel};
 
 pub mod backward;
