@@ -4,7 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use lensblur::bench::blender::{case_name, compare_with_blender, BlenderComparison};
 use lensblur::bench::end_to_end::{run_end_to_end, EndToEndResult};
+use lensblur::bench::large::Focus;
 use lensblur::bench::perf::{load_average, perf_cases, run_perf_case, PerfRenderers, PerfResult};
 use lensblur::bench::perf_backward::{backward_cases, run_backward_case, BackwardRenderers, BackwardResult};
 use lensblur::vk::Context as GpuContext;
@@ -80,6 +82,10 @@ pub fn run_suite(quick: bool, json: Option<&Path>, flags: &PerfFlags) -> anyhow:
     if group(PerfGroup::EndToEnd) {
         report["end_to_end"] = serde_json::to_value(end_to_end_group(&flags.out, flags.repeats)?)?;
     }
+    if group(PerfGroup::Blender) {
+        let focuses: Vec<Focus> = [Focus::MostlyInFocus, Focus::FullyDefocused].into_iter().filter(|&f| wanted(&case_name(f))).collect();
+        report["blender"] = serde_json::to_value(blender_group(&focuses, &flags.out, flags.repeats)?)?;
+    }
     let load_after = load_average();
     println!("load average after: {}", format_load(load_after));
     report["load_average_after"] = serde_json::to_value(load_after)?;
@@ -139,6 +145,36 @@ fn end_to_end_group(out: &Path, repeats: usize) -> anyhow::Result<Vec<EndToEndRe
     println!("{:<28} {:>5} {:>9} {:>9} {:>9} {:>9}", "end to end (process)", "runs", "median s", "min s", "max s", "first s");
     for r in &results {
         println!("{:<28} {:>5} {:>9.3} {:>9.3} {:>9.3} {:>9.3}", r.name, r.runs, r.median_seconds, r.min_seconds, r.max_seconds, r.first_seconds);
+    }
+    Ok(results)
+}
+
+fn blender_group(focuses: &[Focus], out: &Path, repeats: usize) -> anyhow::Result<Vec<BlenderComparison>> {
+    let exe = std::env::current_exe().context("finding the lensblur executable")?;
+    let mut results = Vec::new();
+    for &focus in focuses {
+        let r = compare_with_blender(&exe, out, focus, repeats).with_context(|| format!("case {}", case_name(focus)))?;
+        println!(
+            "{}: lensblur render (process) median {:.3} s; Blender {} Defocus compositing median {:.3} s \
+             (process {:.1} s); ratio {:.3} (goal <= 0.5)\n  f-stop {:.3}, lens {} mm, sensor {} mm, focus {} m \
+             (Blender: Z x {:.1}, focus {:.2}, blur_max {}); images: {} {}",
+            r.name,
+            r.lensblur_median_seconds,
+            r.blender_version,
+            r.blender_median_seconds,
+            r.blender_process_seconds,
+            r.ratio,
+            r.camera.fstop,
+            r.camera.focal_length_mm,
+            r.camera.sensor_width_mm,
+            r.camera.focus_distance,
+            r.blender.z_scale,
+            r.blender.focus_distance,
+            r.blender.blur_max,
+            r.lensblur_png.display(),
+            r.blender_png.display()
+        );
+        results.push(r);
     }
     Ok(results)
 }
