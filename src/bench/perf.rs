@@ -134,7 +134,7 @@ pub fn run_perf_case(renderers: &PerfRenderers, case: &PerfCase, repeats: usize)
     Ok(PerfResult { case: case.clone(), optimised, baseline, speedup, cpu_speedup })
 }
 
-fn median(values: &mut [f64]) -> f64 {
+pub(crate) fn median(values: &mut [f64]) -> f64 {
     values.sort_by(f64::total_cmp);
     values[values.len() / 2]
 }

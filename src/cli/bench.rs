@@ -9,7 +9,7 @@ use lensblur::vk::Context as GpuContext;
 
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  lensblur bench --quick\n  lensblur bench --methods oracle,scatter --scenes fence,branches\n  \
-lensblur bench --json out/bench.json --sheet out/bench.png\n\n\
+lensblur bench --json out/bench.json --sheet out/bench.png\n  lensblur bench --perf --quick --json perf.json\n\n\
 Prints one table: a row per method, a column per metric, 'mean (worst scene)'. Metrics are computed on\n\
 sRGB-encoded RGB composited over black and clipped to [0,1] (RMSE, scale-invariant RMSE, PSNR,\n\
 SSIM 11x11 sigma 1.5 averaged over R,G,B, ZNCC); time is the render alone.\n\
@@ -39,9 +39,18 @@ pub struct Args {
     /// Write a labelled contact sheet of all renders and error maps as PNG.
     #[arg(long, value_name = "FILE.png")]
     sheet: Option<PathBuf>,
+    /// Run the performance suite instead (the same as `lensblur bench-perf`): kernel,
+    /// backward, end-to-end and Blender case groups; see --groups.
+    #[arg(long)]
+    perf: bool,
+    #[command(flatten)]
+    perf_flags: super::bench_perf::PerfFlags,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if args.perf {
+        return super::bench_perf::run_suite(args.quick, args.json.as_deref(), &args.perf_flags);
+    }
     let gpu = GpuContext::from_env().context("opening the Vulkan device")?;
     let methods = select_methods(all_methods(&gpu)?, &args.methods)?;
     let tracing = bar("ray tracing {msg}", "rows")?;

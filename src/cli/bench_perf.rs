@@ -1,68 +1,182 @@
 //! `lensblur bench-perf`: the Dr.Bokeh forward renderer's fixed performance cases, optimised
 //! kernel against the first straightforward one in the same run (wall and device time,
 //! effective taps/s, peak memory, speed-up), with the machine's load average.
+use std::path::{Path, PathBuf};
+
 use anyhow::Context;
+use lensblur::bench::blender::{case_name, compare_with_blender, BlenderComparison};
+use lensblur::bench::end_to_end::{run_end_to_end, EndToEndResult};
+use lensblur::bench::large::Focus;
 use lensblur::bench::perf::{load_average, perf_cases, run_perf_case, PerfRenderers, PerfResult};
+use lensblur::bench::perf_backward::{backward_cases, run_backward_case, BackwardRenderers, BackwardResult};
 use lensblur::vk::Context as GpuContext;
 
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  lensblur bench-perf --quick\n  lensblur bench-perf --cases 1024-2l-coc32 --json perf.json\n  lensblur bench-perf --no-baseline")]
+#[command(after_help = "Examples:\n  lensblur bench-perf --quick\n  lensblur bench-perf --cases 1024-2l-coc32 --json perf.json\n  \
+lensblur bench-perf --no-baseline\n  lensblur bench --perf --groups end-to-end\n  lensblur bench --perf --groups blender --out blender-cmp\n\n\
+`lensblur bench --perf` is the same suite.")]
 pub struct Args {
-    /// Only the 1024x1024 cases.
+    /// Only the 1024x1024 kernel cases.
     #[arg(long)]
-    quick: bool,
-    /// Comma-separated substrings; run the cases whose name contains one (e.g. 1024-2l-coc32).
-    #[arg(long)]
-    cases: Option<String>,
-    /// Renders per kernel and case; the median is reported.
-    #[arg(long, default_value_t = 3)]
-    repeats: usize,
-    /// Skip the baseline kernel (it is several times slower).
-    #[arg(long)]
-    no_baseline: bool,
+    pub quick: bool,
     /// Also write the results as JSON to FILE.
     #[arg(long, value_name = "FILE")]
-    json: Option<std::path::PathBuf>,
+    pub json: Option<PathBuf>,
+    #[command(flatten)]
+    pub flags: PerfFlags,
+}
+
+/// The suite's flags that `lensblur bench` does not have already (it has --quick and --json).
+#[derive(clap::Args, Clone)]
+#[command(next_help_heading = "Performance (with --perf)")]
+pub struct PerfFlags {
+    /// Case groups to run: kernel (optimised vs baseline forward kernel), backward (forward vs
+    /// forward+backward), end-to-end (whole `lensblur render` processes), blender (Blender's
+    /// Defocus node vs `lensblur render`, needs `blender` on PATH).
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "kernel,backward,end-to-end")]
+    pub groups: Vec<PerfGroup>,
+    /// Comma-separated substrings; run the kernel and backward cases whose name contains one
+    /// (e.g. 1024-2l-coc32, backward-256).
+    #[arg(long)]
+    pub cases: Option<String>,
+    /// Renders per kernel and case; the median is reported (end-to-end: processes, at least 5).
+    #[arg(long, default_value_t = 3)]
+    pub repeats: usize,
+    /// Skip the baseline kernel (it is several times slower).
+    #[arg(long)]
+    pub no_baseline: bool,
+    /// Folder for the end-to-end and Blender inputs and the Blender comparison's PNGs.
+    #[arg(long, value_name = "DIR", default_value = "target/lensblur-perf")]
+    pub out: PathBuf,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PerfGroup {
+    Kernel,
+    Backward,
+    EndToEnd,
+    Blender,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let filters: Vec<String> = args.cases.iter().flat_map(|c| c.split(',')).map(str::to_string).collect();
-    let cases: Vec<_> = perf_cases(args.quick)
-        .into_iter()
-        .filter(|case| filters.is_empty() || filters.iter().any(|f| case.name.contains(f.as_str())))
-        .collect();
-    if cases.is_empty() {
-        anyhow::bail!("no case matches --cases {}", args.cases.unwrap_or_default());
-    }
+    run_suite(args.quick, args.json.as_deref(), &args.flags)
+}
+
+/// The whole suite (`bench-perf` and `bench --perf`).
+pub fn run_suite(quick: bool, json: Option<&Path>, flags: &PerfFlags) -> anyhow::Result<()> {
+    let filters: Vec<String> = flags.cases.iter().flat_map(|c| c.split(',')).map(str::to_string).collect();
+    let wanted = |name: &str| filters.is_empty() || filters.iter().any(|f| name.contains(f.as_str()));
+    let group = |g: PerfGroup| flags.groups.contains(&g);
     let ctx = GpuContext::from_env().context("opening the Vulkan device")?;
-    let renderers = PerfRenderers::new(&ctx, !args.no_baseline).context("building the renderers")?;
     let load_before = load_average();
     println!("device: {}; load average before: {}", ctx.info().name, format_load(load_before));
+    let mut report = serde_json::json!({ "device": ctx.info().name, "repeats": flags.repeats, "load_average_before": load_before });
+    if group(PerfGroup::Kernel) {
+        let cases: Vec<_> = perf_cases(quick).into_iter().filter(|c| wanted(&c.name)).collect();
+        report["results"] = serde_json::to_value(kernel_group(&ctx, &cases, flags)?)?;
+    }
+    if group(PerfGroup::Backward) {
+        let cases: Vec<_> = backward_cases(quick).into_iter().filter(|c| wanted(&c.name)).collect();
+        report["backward"] = serde_json::to_value(backward_group(&ctx, &cases, flags.repeats)?)?;
+    }
+    if group(PerfGroup::EndToEnd) {
+        report["end_to_end"] = serde_json::to_value(end_to_end_group(&flags.out, flags.repeats)?)?;
+    }
+    if group(PerfGroup::Blender) {
+        let focuses: Vec<Focus> = [Focus::MostlyInFocus, Focus::FullyDefocused].into_iter().filter(|&f| wanted(&case_name(f))).collect();
+        report["blender"] = serde_json::to_value(blender_group(&focuses, &flags.out, flags.repeats)?)?;
+    }
+    let load_after = load_average();
+    println!("load average after: {}", format_load(load_after));
+    report["load_average_after"] = serde_json::to_value(load_after)?;
+    if let Some(path) = json {
+        std::fs::write(path, serde_json::to_string_pretty(&report)?).with_context(|| format!("writing {}", path.display()))?;
+    }
+    ctx.finish()?;
+    Ok(())
+}
+
+fn kernel_group(ctx: &GpuContext, cases: &[lensblur::bench::perf::PerfCase], flags: &PerfFlags) -> anyhow::Result<Vec<PerfResult>> {
+    if cases.is_empty() {
+        return Ok(Vec::new());
+    }
+    let renderers = PerfRenderers::new(ctx, !flags.no_baseline).context("building the renderers")?;
     println!(
         "{:<28} {:>8} {:>8} {:>8} {:>10} {:>8} {:>8} {:>10} {:>8} {:>8} {:>7} {:>7}",
         "case", "wall s", "device s", "cpu s", "eff tap/s", "base s", "base cpu", "base tap/s", "speedup", "cpu x", "dev MiB", "hostMiB"
     );
     let mut results = Vec::new();
-    for case in &cases {
-        let result = run_perf_case(&renderers, case, args.repeats).with_context(|| format!("case {}", case.name))?;
+    for case in cases {
+        let result = run_perf_case(&renderers, case, flags.repeats).with_context(|| format!("case {}", case.name))?;
         print_row(&result);
         results.push(result);
     }
-    let load_after = load_average();
-    println!("load average after: {}", format_load(load_after));
-    if let Some(path) = &args.json {
-        let report = serde_json::json!({
-            "device": ctx.info().name,
-            "repeats": args.repeats,
-            "load_average_before": load_before,
-            "load_average_after": load_after,
-            "results": results,
-        });
-        std::fs::write(path, serde_json::to_string_pretty(&report)?).with_context(|| format!("writing {}", path.display()))?;
+    Ok(results)
+}
+
+fn backward_group(ctx: &GpuContext, cases: &[lensblur::bench::perf_backward::BackwardCase], repeats: usize) -> anyhow::Result<Vec<BackwardResult>> {
+    if cases.is_empty() {
+        return Ok(Vec::new());
     }
-    drop(renderers);
-    ctx.finish()?;
-    Ok(())
+    let renderers = BackwardRenderers::new(ctx).context("building the backward pipelines")?;
+    println!("{:<28} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8}", "case", "fwd s", "fwd dev s", "bwd s", "bwd dev s", "bwd/fwd", "dev b/f");
+    let mut results = Vec::new();
+    for case in cases {
+        let r = run_backward_case(&renderers, case, repeats).with_context(|| format!("case {}", case.name))?;
+        let opt = |v: Option<f64>, digits: usize| v.map(|v| format!("{v:.digits$}")).unwrap_or_else(|| "-".into());
+        println!(
+            "{:<28} {:>9.3} {:>9} {:>9.3} {:>9} {:>7.2}x {:>8}",
+            r.case.name,
+            r.forward_wall_seconds,
+            opt(r.forward_device_seconds, 3),
+            r.backward_wall_seconds,
+            opt(r.backward_device_seconds, 3),
+            r.ratio,
+            opt(r.device_ratio, 2)
+        );
+        results.push(r);
+    }
+    Ok(results)
+}
+
+fn end_to_end_group(out: &Path, repeats: usize) -> anyhow::Result<Vec<EndToEndResult>> {
+    let exe = std::env::current_exe().context("finding the lensblur executable")?;
+    let results = run_end_to_end(&exe, out, 256, repeats.max(5)).context("timing `lensblur render` processes")?;
+    println!("{:<28} {:>5} {:>9} {:>9} {:>9} {:>9}", "end to end (process)", "runs", "median s", "min s", "max s", "first s");
+    for r in &results {
+        println!("{:<28} {:>5} {:>9.3} {:>9.3} {:>9.3} {:>9.3}", r.name, r.runs, r.median_seconds, r.min_seconds, r.max_seconds, r.first_seconds);
+    }
+    Ok(results)
+}
+
+fn blender_group(focuses: &[Focus], out: &Path, repeats: usize) -> anyhow::Result<Vec<BlenderComparison>> {
+    let exe = std::env::current_exe().context("finding the lensblur executable")?;
+    let mut results = Vec::new();
+    for &focus in focuses {
+        let r = compare_with_blender(&exe, out, focus, repeats).with_context(|| format!("case {}", case_name(focus)))?;
+        println!(
+            "{}: lensblur render (process) median {:.3} s; Blender {} Defocus compositing median {:.3} s \
+             (process {:.1} s); ratio {:.3} (goal <= 0.5)\n  f-stop {:.3}, lens {} mm, sensor {} mm, focus {} m \
+             (Blender: Z x {:.1}, focus {:.2}, blur_max {}); images: {} {}",
+            r.name,
+            r.lensblur_median_seconds,
+            r.blender_version,
+            r.blender_median_seconds,
+            r.blender_process_seconds,
+            r.ratio,
+            r.camera.fstop,
+            r.camera.focal_length_mm,
+            r.camera.sensor_width_mm,
+            r.camera.focus_distance,
+            r.blender.z_scale,
+            r.blender.focus_distance,
+            r.blender.blur_max,
+            r.lensblur_png.display(),
+            r.blender_png.display()
+        );
+        results.push(r);
+    }
+    Ok(results)
 }
 
 fn print_row(r: &PerfResult) {
