@@ -13,7 +13,9 @@
 //   visibility, the in-layer occlusion is evaluated only for centres that can occlude
 //   (alpha_x * in_focus(r_x) > 0; elsewhere O = 1 exactly), and each invocation gathers a
 //   run of adjacent pixels from one load per source (loads are per-lane gathers on lavapipe).
-//   Lanes whose centres cannot occlude run a loop without the occlusion terms.
+//   Lanes whose centres cannot occlude run a loop without the occlusion terms, and there the
+//   columns where every tap's smoothsteps are exactly 1 (from a per-tile lower bound of the
+//   sources' |s|) add P / A and alpha without evaluating any term: same sums, same bits.
 // - Every other model or aperture runs the first kernel's per-tap terms over the clipped disk
 //   (this file); the disk path is glsl/drbokeh_layer_disk.comp, the same body
 //   (glsl/common/drbokeh_layer.glsl) with DRBOKEH_LAYER_DISK, which the host picks for the
@@ -29,6 +31,8 @@
 //   6: layer_vis    writeonly float[layer_count * core pixels]     V_l
 //   7: source_pa    readonly  vec4[layer_count * read pixels]      P / A(r), prepass
 //   8: source_sa    readonly  vec2[layer_count * read pixels]      (s, alpha), prepass
+//   9: tile_interior readonly float[layer_count * tiles_x * tiles_y] whole image, bounds.rs
+//                                 `interior_bounds` (disk path only: its cheap interior taps)
 // Push constants: DrBokehPush (all fields but max_support). The read rect holds every source
 // within the window of every pixel of the core; borders are the image's, not the tile's.
 // Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer (the host asks

@@ -148,3 +148,24 @@ fn output_is_bit_identical_whatever_the_tile_size() {
     drop(renderer);
     finish(ctx);
 }
+
+#[test]
+fn disk_path_interior_is_bit_identical_to_full_taps_tiled_or_not() {
+    use lensblur::render::drbokeh::RenderOptions;
+    let ctx = gpu();
+    let interior = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
+    let full = DrBokehGpu::with_kernel(&ctx, LayerKernel::OptimisedNoInterior).unwrap();
+    // K = 50 around focus 0.5: the tilted near layer (soft alpha edges) has CoC 20-25 px, the
+    // HDR far one ~20 px, the ring is in focus (occluding centres); 70x53 divides no tile.
+    let stack = scene(70, 53);
+    let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture: Aperture::Disk };
+    let reference = full.render(&stack, &lens, Model::DrBokeh).unwrap();
+    for tile in [None, Some(32)] {
+        let options = RenderOptions { tile, ..RenderOptions::default() };
+        let (fast, _) = interior.render_with(&stack, &lens, Model::DrBokeh, &options).unwrap();
+        let differing = fast.pixels.iter().zip(&reference.pixels).filter(|(a, b)| a != b).count();
+        assert_eq!(differing, 0, "tile {tile:?}: {differing} pixels differ from the full-tap disk path");
+    }
+    drop((interior, full));
+    finish(ctx);
+}

@@ -24,6 +24,7 @@ layout(std430, set = 0, binding = 5) writeonly buffer LayerCw { vec4 layer_cw[];
 layout(std430, set = 0, binding = 6) writeonly buffer LayerVis { float layer_vis[]; };
 layout(std430, set = 0, binding = 7) readonly buffer SourcePa { vec4 source_pa[]; };
 layout(std430, set = 0, binding = 8) readonly buffer SourceSa { vec2 source_sa[]; };
+layout(std430, set = 0, binding = 9) readonly buffer TileInterior { float tile_interior[]; };
 
 float drbokeh_area_lut(int index) {
     return area_lut[index];
@@ -77,12 +78,34 @@ void disk_tap(inout Centre c, vec4 pa, vec2 sa, float g, bool inside, bool is_se
     c.vis_weight += d;
 }
 
+// Largest m in [-1, half_width] with t - g(m, oy) >= 1, g computed exactly as the gauges of
+// gather_disk_run: every column |o| <= m of the row is then interior (g grows with |o|).
+int interior_half_width(float t, float oy2, int half_width) {
+    float room = max((t - 1.0) * (t - 1.0) - oy2, 0.0);
+    int m = int(min(sqrt(room), float(half_width)));
+    // The estimate is off by a rounding at most: settle it with the exact test.
+    while (m >= 0 && t - sqrt(float(m * m) + oy2) < 1.0) {
+        m -= 1;
+    }
+    while (m < half_width && t - sqrt(float((m + 1) * (m + 1)) + oy2) >= 1.0) {
+        m += 1;
+    }
+    return m;
+}
+
 // Default model, disk aperture: the terms of drbokeh_lens / drbokeh_scatter / drbokeh_occlusion
 // with K = 1 and a Euclidean gauge, for RUN horizontally adjacent centres x0 + (k, 0) (same
 // 16x16 tile, same window): each source is loaded once for all of them, and centre k's gauge
 // is the one centre k - 1 had a column earlier. Each centre still sums its own taps in the
 // first kernel's order.
-void gather_disk_run(ivec2 x0, int h, inout Centre c[RUN], bool occlusion) {
+//
+// Interior: `t` <= every centre's support and <= fl(m + 1/2) for a lower bound m of |s| over
+// the window's sources with alpha > 0 (tile_interior). Where t - g >= 1 both smoothsteps are
+// exactly 1 (their argument is >= t - g by monotonic rounding), and sources with alpha <= 0
+// have P / A = 0 exactly, so without occlusion a tap adds exactly (P / A, alpha, 1): the
+// middle columns of each row, interior for all RUN centres, add those without any gauge, in
+// the same order, so the sums are bit-identical.
+void gather_disk_run(ivec2 x0, int h, float t, inout Centre c[RUN], bool occlusion) {
     int oy0 = max(-h, -x0.y);
     int oy1 = min(h, pc.height - 1 - x0.y);
     for (int oy = oy0; oy <= oy1; ++oy) {
@@ -92,11 +115,48 @@ void gather_disk_run(ivec2 x0, int h, inout Centre c[RUN], bool occlusion) {
         int ox1 = min(half_width + RUN - 1, pc.width - 1 - x0.x);
         int row = drbokeh_read_index(pc.layer, ivec2(x0.x, x0.y + oy));
         float oy2 = float(oy * oy);
+        // Middle columns [mid0, mid1]: |ox - k| <= interior half-width for every centre k.
+        int mid0 = ox1 + 1;
+        int mid1 = ox1;
+        if (!occlusion) {
+            int interior = interior_half_width(t, oy2, half_width);
+            int a = max(ox0, RUN - 1 - interior);
+            int b = min(ox1, interior);
+            if (a <= b) {
+                mid0 = a;
+                mid1 = b;
+            }
+        }
         float g[RUN]; // g[k] = gauge of the current column from centre k
         for (int k = 1; k < RUN; ++k) {
             g[k] = sqrt(float((ox0 - k) * (ox0 - k)) + oy2);
         }
-        for (int ox = ox0; ox <= ox1; ++ox) {
+        for (int ox = ox0; ox < mid0; ++ox) {
+            vec4 pa = source_pa[row + ox];
+            vec2 sa = source_sa[row + ox];
+            g[0] = sqrt(float(ox * ox) + oy2);
+            for (int k = 0; k < RUN; ++k) {
+                int o = ox - k;
+                disk_tap(c[k], pa, sa, g[k], o >= -half_width && o <= half_width, o == 0 && oy == 0, occlusion);
+            }
+            for (int k = RUN - 1; k > 0; --k) {
+                g[k] = g[k - 1];
+            }
+        }
+        for (int ox = mid0; ox <= mid1; ++ox) {
+            vec4 pa = source_pa[row + ox];
+            float alpha = source_sa[row + ox].y;
+            for (int k = 0; k < RUN; ++k) {
+                c[k].cw += pa;
+                c[k].vis_sum += alpha;
+                c[k].vis_weight += 1.0;
+            }
+        }
+        // The right part resumes the gauges at column mid1 + 1.
+        for (int k = 1; k < RUN; ++k) {
+            g[k] = sqrt(float((mid1 + 1 - k) * (mid1 + 1 - k)) + oy2);
+        }
+        for (int ox = mid1 + 1; ox <= ox1; ++ox) {
             vec4 pa = source_pa[row + ox];
             vec2 sa = source_sa[row + ox];
             g[0] = sqrt(float(ox * ox) + oy2);
@@ -177,23 +237,29 @@ void main() {
     ivec2 x0 = pc.core.xy + local;
     // Centres past the core (only at the image's right edge) repeat the last one, unwritten.
     int last = min(RUN, pc.core.z - local.x) - 1;
-    int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x0.y / DRBOKEH_TILE) * pc.tiles_x + x0.x / DRBOKEH_TILE];
+    int tile = pc.layer * pc.tiles_x * pc.tiles_y + (x0.y / DRBOKEH_TILE) * pc.tiles_x + x0.x / DRBOKEH_TILE;
+    int h = tile_window[tile];
     vec4 cw[RUN];
     float vis[RUN];
 #ifdef DRBOKEH_LAYER_DISK
     {
         Centre c[RUN];
         bool occluding = false;
+        float t = tile_interior[tile] + 0.5;
         for (int k = 0; k < RUN; ++k) {
             c[k] = centre_at(drbokeh_read_index(pc.layer, x0 + ivec2(min(k, last), 0)));
             occluding = occluding || c[k].occluder > 0.0;
+            t = min(t, c[k].support);
         }
+        // A margin far above f32 rounding: the interior test stays sound however the compiler
+        // orders the adds of the tap's smoothstep arguments.
+        t -= t * (1.0 / 65536.0);
         // Branches are masks on lavapipe: only a lane group with an occluding centre pays for
         // the occlusion terms.
         if (occluding) {
-            gather_disk_run(x0, h, c, true);
+            gather_disk_run(x0, h, t, c, true);
         } else {
-            gather_disk_run(x0, h, c, false);
+            gather_disk_run(x0, h, t, c, false);
         }
         for (int k = 0; k < RUN; ++k) {
             cw[k] = c[k].cw;

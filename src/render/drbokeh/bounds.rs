@@ -8,8 +8,10 @@
 //! `reach_T = max(gather_T, max { support_U : tile U's support reaches tile T })` covers both.
 use rayon::prelude::*;
 
+use super::gpu::search_tiles;
 use super::{math, Model, Params, TILE};
 use crate::stack::{Layer, LayerStack};
+use crate::tiling::Rect;
 
 /// Per tile `[scatter support, gather radius]` (mirrors the `tile_bounds` vec2 buffer):
 /// support = max over pixels with alpha > 0 (transparent sources scatter nothing),
@@ -92,4 +94,56 @@ pub fn grow_windows(mut windows: Vec<i32>, margin: i32) -> Vec<i32> {
         *w += margin;
     }
     windows
+}
+
+/// Interior bounds of the frame tile `core` (the `tile_interior` float buffer of
+/// `drbokeh_layer_disk.comp`, indexed like `windows`): per layer and search tile of the core, a
+/// lower bound of the f32 `|s|` the shader computes for every source with alpha > 0 in the
+/// tile's window (square, so a superset of the disk), `f32::MAX` where there is none. Tiles
+/// outside the core hold 0, which disables the interior. Only a smaller bound is ever safe:
+/// it shrinks the cheap interior, so the margin is generous.
+pub fn interior_bounds(params: &Params, stack: &LayerStack, windows: &[i32], core: Rect) -> Vec<f32> {
+    let per_layer = params.tiles_x * params.tiles_y;
+    let mut bounds = vec![0.0f32; windows.len()];
+    for (l, layer) in stack.layers.iter().enumerate() {
+        let mut source_min = vec![None; per_layer];
+        for t in search_tiles(params, core) {
+            let h = windows[l * per_layer + t];
+            if h < 0 {
+                continue;
+            }
+            let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
+            let cover = |tile: usize, side: usize| {
+                let first = (tile * TILE).saturating_sub(h as usize) / TILE;
+                let last = (((tile + 1) * TILE).min(side) - 1 + h as usize).min(side - 1) / TILE;
+                first..=last
+            };
+            let mut m = f32::INFINITY;
+            for uy in cover(ty, params.height) {
+                for ux in cover(tx, params.width) {
+                    let u = uy * params.tiles_x + ux;
+                    m = m.min(*source_min[u].get_or_insert_with(|| min_abs_s(params, layer, ux, uy)));
+                }
+            }
+            bounds[l * per_layer + t] = if m.is_finite() { (m - (1e-3 + 1e-5 * m)).max(0.0) } else { f32::MAX };
+        }
+    }
+    bounds
+}
+
+/// Smallest f32 `|s|` over the sources with alpha > 0 of tile (tx, ty), evaluated as
+/// `glsl/drbokeh_layer_sources.comp` does; 0 if one is not finite, infinity if none.
+fn min_abs_s(params: &Params, layer: &Layer, tx: usize, ty: usize) -> f32 {
+    let push = params.push(0);
+    let mut m = f32::INFINITY;
+    for py in ty * TILE..((ty + 1) * TILE).min(params.height) {
+        for px in tx * TILE..((tx + 1) * TILE).min(params.width) {
+            let i = py * params.width + px;
+            if layer.rgba.pixels[i][3] > 0.0 {
+                let s = (push.k_px * (layer.disparity[i] - push.focus_disparity)).abs();
+                m = m.min(if s.is_finite() { s } else { 0.0 });
+            }
+        }
+    }
+    m
 }

@@ -4,7 +4,7 @@
 //! sources in the same order whatever the tiling, so the output is bit-identical for every
 //! tile size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
 //! lens, area table, push constants) and the search windows are shared with it.
-use super::bounds::search_windows;
+use super::bounds::{interior_bounds, search_windows};
 use super::{Model, Params, TILE};
 use crate::image::Image;
 use crate::render::Lens;
@@ -39,6 +39,9 @@ pub enum LayerKernel {
     Optimised,
     /// The first straightforward gather (`drbokeh_layer_naive.comp`): the benchmark baseline.
     Baseline,
+    /// [`LayerKernel::Optimised`] with every disk-path tap evaluated in full (interior bounds
+    /// of 0): the reference its cheap interior is bit-identical to. Forward renders only.
+    OptimisedNoInterior,
 }
 
 /// How to cut and report a render.
@@ -73,9 +76,9 @@ impl DrBokehGpu {
     pub fn with_kernel(ctx: &Context, kernel: LayerKernel) -> Result<Self> {
         let push = std::mem::size_of::<super::DrBokehPush>();
         let (layer, layer_disk) = match kernel {
-            LayerKernel::Optimised => (
-                ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER, 9, push)?,
-                Some(ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_DISK, 9, push)?),
+            LayerKernel::Optimised | LayerKernel::OptimisedNoInterior => (
+                ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER, 10, push)?,
+                Some(ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_DISK, 10, push)?),
             ),
             LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None),
         };
@@ -136,7 +139,8 @@ impl DrBokehGpu {
         let mut device_ns = Some(0.0);
         for (done, &core) in cores.iter().enumerate() {
             let read = core.grown(halo(params, windows, core), params.width, params.height);
-            let buffers = ForwardBuffers::new(ctx, stack, params, windows, core, read)?;
+            let interior = self.kernel != LayerKernel::OptimisedNoInterior;
+            let buffers = ForwardBuffers::with_interior(ctx, stack, params, windows, core, read, interior)?;
             stats.peak_device_bytes = stats.peak_device_bytes.max(ctx.allocated_bytes().saturating_sub(baseline));
             let mut batch = CommandBatch::new(ctx)?;
             self.record(&mut batch, params, &buffers)?;
@@ -169,7 +173,7 @@ impl DrBokehGpu {
             Some(disk) if disk_path(params) => disk,
             _ => &self.layer,
         };
-        if self.kernel == LayerKernel::Optimised {
+        if self.kernel != LayerKernel::Baseline {
             let extent = [b.read.width() as u32, b.read.height() as u32, params.layer_count as u32];
             let bindings = [b.rgba.all(), b.disparity.all(), b.area_lut.all(), b.source_pa.all(), b.source_sa.all()];
             batch.dispatch(&self.sources, &bindings, &params.push_tile(0, b.core, b.read), self.sources.groups_for(extent))?;
@@ -185,9 +189,10 @@ impl DrBokehGpu {
                 b.layer_vis.all(),
                 b.source_pa.all(),
                 b.source_sa.all(),
+                b.tile_interior.all(),
             ];
             let bindings = match self.kernel {
-                LayerKernel::Optimised => &bindings[..],
+                LayerKernel::Optimised | LayerKernel::OptimisedNoInterior => &bindings[..],
                 LayerKernel::Baseline => &bindings[..7],
             };
             batch.dispatch(layer_pipeline, bindings, &params.push_tile(layer, b.core, b.read), layer_groups)?;
@@ -213,10 +218,27 @@ pub(crate) struct ForwardBuffers {
     /// Prepass outputs over the read rect: P / A(r) per source, and (s, alpha).
     pub source_pa: Buffer,
     pub source_sa: Buffer,
+    /// Per layer and search tile, a lower bound of |s| over its window's sources with
+    /// alpha > 0 ([`interior_bounds`]): where the disk path's taps cost two adds.
+    pub tile_interior: Buffer,
 }
 
 impl ForwardBuffers {
     pub fn new(ctx: &Context, stack: &LayerStack, params: &Params, windows: &[i32], core: Rect, read: Rect) -> Result<Self> {
+        Self::with_interior(ctx, stack, params, windows, core, read, true)
+    }
+
+    /// `interior = false` uploads bounds of 0: every disk-path tap is then evaluated in full.
+    pub fn with_interior(
+        ctx: &Context,
+        stack: &LayerStack,
+        params: &Params,
+        windows: &[i32],
+        core: Rect,
+        read: Rect,
+        interior: bool,
+    ) -> Result<Self> {
+        let tile_interior = if interior { interior_bounds(params, stack, windows, core) } else { vec![0.0; windows.len()] };
         let layers = params.layer_count as u64;
         let core_pixels = core.area() as u64;
         let read_pixels = read.area() as u64;
@@ -235,6 +257,7 @@ impl ForwardBuffers {
             result: Buffer::zeroed(ctx, "drbokeh result", core_pixels * VEC4)?,
             source_pa: Buffer::zeroed(ctx, "drbokeh source_pa", layers * read_pixels * VEC4)?,
             source_sa: Buffer::zeroed(ctx, "drbokeh source_sa", layers * read_pixels * 8)?,
+            tile_interior: Buffer::from_slice(ctx, "drbokeh tile_interior", &tile_interior)?,
         })
     }
 }
