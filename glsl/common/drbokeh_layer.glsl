@@ -93,6 +93,28 @@ int interior_half_width(float t, float oy2, int half_width) {
     return m;
 }
 
+// Full disk taps of columns [from, to] (offsets from x0) of one window row for all RUN
+// centres, in x order: centre k's gauge is the one centre k - 1 had a column earlier.
+void full_taps(inout Centre c[RUN], int row, int from, int to, int half_width, int oy, bool occlusion) {
+    float oy2 = float(oy * oy);
+    float g[RUN]; // g[k] = gauge of the current column from centre k
+    for (int k = 1; k < RUN; ++k) {
+        g[k] = sqrt(float((from - k) * (from - k)) + oy2);
+    }
+    for (int ox = from; ox <= to; ++ox) {
+        vec4 pa = source_pa[row + ox];
+        vec2 sa = source_sa[row + ox];
+        g[0] = sqrt(float(ox * ox) + oy2);
+        for (int k = 0; k < RUN; ++k) {
+            int o = ox - k;
+            disk_tap(c[k], pa, sa, g[k], o >= -half_width && o <= half_width, o == 0 && oy == 0, occlusion);
+        }
+        for (int k = RUN - 1; k > 0; --k) {
+            g[k] = g[k - 1];
+        }
+    }
+}
+
 // Default model, disk aperture: the terms of drbokeh_lens / drbokeh_scatter / drbokeh_occlusion
 // with K = 1 and a Euclidean gauge, for RUN horizontally adjacent centres x0 + (k, 0) (same
 // 16x16 tile, same window): each source is loaded once for all of them, and centre k's gauge
@@ -127,22 +149,7 @@ void gather_disk_run(ivec2 x0, int h, float t, inout Centre c[RUN], bool occlusi
                 mid1 = b;
             }
         }
-        float g[RUN]; // g[k] = gauge of the current column from centre k
-        for (int k = 1; k < RUN; ++k) {
-            g[k] = sqrt(float((ox0 - k) * (ox0 - k)) + oy2);
-        }
-        for (int ox = ox0; ox < mid0; ++ox) {
-            vec4 pa = source_pa[row + ox];
-            vec2 sa = source_sa[row + ox];
-            g[0] = sqrt(float(ox * ox) + oy2);
-            for (int k = 0; k < RUN; ++k) {
-                int o = ox - k;
-                disk_tap(c[k], pa, sa, g[k], o >= -half_width && o <= half_width, o == 0 && oy == 0, occlusion);
-            }
-            for (int k = RUN - 1; k > 0; --k) {
-                g[k] = g[k - 1];
-            }
-        }
+        full_taps(c, row, ox0, mid0 - 1, half_width, oy, occlusion);
         for (int ox = mid0; ox <= mid1; ++ox) {
             vec4 pa = source_pa[row + ox];
             float alpha = source_sa[row + ox].y;
@@ -152,22 +159,7 @@ void gather_disk_run(ivec2 x0, int h, float t, inout Centre c[RUN], bool occlusi
                 c[k].vis_weight += 1.0;
             }
         }
-        // The right part resumes the gauges at column mid1 + 1.
-        for (int k = 1; k < RUN; ++k) {
-            g[k] = sqrt(float((mid1 + 1 - k) * (mid1 + 1 - k)) + oy2);
-        }
-        for (int ox = mid1 + 1; ox <= ox1; ++ox) {
-            vec4 pa = source_pa[row + ox];
-            vec2 sa = source_sa[row + ox];
-            g[0] = sqrt(float(ox * ox) + oy2);
-            for (int k = 0; k < RUN; ++k) {
-                int o = ox - k;
-                disk_tap(c[k], pa, sa, g[k], o >= -half_width && o <= half_width, o == 0 && oy == 0, occlusion);
-            }
-            for (int k = RUN - 1; k > 0; --k) {
-                g[k] = g[k - 1];
-            }
-        }
+        full_taps(c, row, mid1 + 1, ox1, half_width, oy, occlusion);
     }
 }
 
