@@ -51,7 +51,12 @@ impl Aperture {
         if !rotation_deg.is_finite() {
             return Err(Error::param("aperture rotation must be finite"));
         }
-        Ok(Aperture::Polygon { blades, rotation: rotation_deg.to_radians(), roundness })
+        // An n-gon is unchanged by a turn of 360/n degrees. Reducing here (in f64) keeps the
+        // gauge's angle arithmetic in range: a huge rotation (found by fuzzing:
+        // 2.2e21 degrees) otherwise loses every bit of the angle and the gauge went negative.
+        let sector_deg = 360.0 / blades as f64;
+        let rotation = (rotation_deg as f64).rem_euclid(sector_deg).to_radians() as f32;
+        Ok(Aperture::Polygon { blades, rotation, roundness })
     }
 
     /// Parses the CLI form: `disk`, `polygon:BLADES[:rotation=DEG][:roundness=R]`,
@@ -302,10 +307,27 @@ mod tests {
     fn parse_accepts_documented_forms_and_refuses_others() {
         assert_eq!(Aperture::parse("disk").unwrap(), Aperture::Disk);
         let p = Aperture::parse("polygon:5:rotation=90:roundness=0.25").unwrap();
-        assert_eq!(p, Aperture::Polygon { blades: 5, rotation: 90f32.to_radians(), roundness: 0.25 });
+        // 90 degrees is 18 degrees for a pentagon (its symmetry is 72 degrees).
+        assert_eq!(p, Aperture::Polygon { blades: 5, rotation: 18f64.to_radians() as f32, roundness: 0.25 });
         for bad in ["", "polygon", "polygon:2", "polygon:6:spin=3", "polygon:6:roundness=2", "hexagon", "image:"] {
             assert!(Aperture::parse(bad).is_err(), "{bad}");
         }
+    }
+
+    /// Fuzzing regression (fuzz/artifacts/params): a huge rotation gave a negative gauge.
+    #[test]
+    fn polygon_rotation_is_reduced_by_the_symmetry_and_huge_rotations_stay_valid() {
+        let huge = Aperture::parse("polygon:6:rotation=22222222222222:rotation=2222222222222022222225").unwrap();
+        for (u, v) in [(0.6, -0.3), (-0.2, 0.9), (1.0, 0.0)] {
+            let gauge = huge.gauge(u, v);
+            // The gauge of a hexagon lies between its inradius ratio and 1 times the radius.
+            let length = (u * u + v * v as f32).sqrt();
+            assert!(gauge >= length - 1e-6 && gauge <= length / (PI / 6.0).cos() + 1e-5, "({u}, {v}): {gauge}");
+        }
+        // Turning by the symmetry angle changes nothing.
+        let a = Aperture::polygon(6, 10.0, 0.0).unwrap();
+        let b = Aperture::polygon(6, 70.0, 0.0).unwrap();
+        assert!((a.gauge(0.6, -0.3) - b.gauge(0.6, -0.3)).abs() < 1e-6);
     }
 
     #[test]
