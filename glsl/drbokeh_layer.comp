@@ -15,7 +15,10 @@
 //   run of adjacent pixels from one load per source (loads are per-lane gathers on lavapipe).
 //   Lanes whose centres cannot occlude run a loop without the occlusion terms, and there the
 //   columns where every tap's smoothsteps are exactly 1 (from a per-tile lower bound of the
-//   sources' |s|) add P / A and alpha without evaluating any term: same sums, same bits.
+//   sources' |s|) add P / A and alpha without evaluating any term: one span sum per row
+//   and invocation from global 16-px block sums (drbokeh_layer_blocks.comp), shared by the
+//   run's centres. Same terms, another summation order (f32 rounding apart from the full
+//   taps), yet every sum is a function of global positions: bit-identical for every tiling.
 // - Every other model or aperture runs the first kernel's per-tap terms over the clipped disk
 //   (this file); the disk path is glsl/drbokeh_layer_disk.comp, the same body
 //   (glsl/common/drbokeh_layer.glsl) with DRBOKEH_LAYER_DISK, which the host picks for the
@@ -33,6 +36,9 @@
 //   8: source_sa    readonly  vec2[layer_count * read pixels]      (s, alpha), prepass
 //   9: tile_interior readonly float[layer_count * tiles_x * tiles_y] whole image, bounds.rs
 //                                 `interior_bounds` (disk path only: its cheap interior taps)
+//  10: block_prefix readonly vec4[layer_count * read pixels]      row block sums of P / A and
+//  11: block_suffix readonly vec4[layer_count * read pixels]      alpha, prepass 2a'
+//  12: block_alpha  readonly vec2[layer_count * read pixels]      (drbokeh_layer_blocks.comp)
 // Push constants: DrBokehPush (all fields but max_support). The read rect holds every source
 // within the window of every pixel of the core; borders are the image's, not the tile's.
 // Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer (the host asks

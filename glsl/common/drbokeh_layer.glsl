@@ -25,6 +25,9 @@ layout(std430, set = 0, binding = 6) writeonly buffer LayerVis { float layer_vis
 layout(std430, set = 0, binding = 7) readonly buffer SourcePa { vec4 source_pa[]; };
 layout(std430, set = 0, binding = 8) readonly buffer SourceSa { vec2 source_sa[]; };
 layout(std430, set = 0, binding = 9) readonly buffer TileInterior { float tile_interior[]; };
+layout(std430, set = 0, binding = 10) readonly buffer BlockPrefix { vec4 block_prefix[]; };
+layout(std430, set = 0, binding = 11) readonly buffer BlockSuffix { vec4 block_suffix[]; };
+layout(std430, set = 0, binding = 12) readonly buffer BlockAlpha { vec2 block_alpha[]; };
 
 float drbokeh_area_lut(int index) {
     return area_lut[index];
@@ -115,6 +118,41 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, int half_width, i
     }
 }
 
+// Sum of (P / A, alpha) over global columns [a, b] of one read row (`base` + x = read index of
+// global column x), from the global 16-px blocks of drbokeh_layer_blocks.comp: within one
+// block the columns left to right; else the suffix of a's block from a, the totals of the
+// whole blocks between (left to right), then the prefix of b's block up to b. Which values
+// enter depends on a and b only, and each is a function of global positions: the same bits
+// for every read rect. Only block parts inside [a, b] (so inside the read rect) are read.
+void span_sum(int base, int a, int b, out vec4 pa, out float alpha) {
+    int block_a = a / DRBOKEH_TILE;
+    int block_b = b / DRBOKEH_TILE;
+    if (block_a == block_b) {
+        if (a == block_a * DRBOKEH_TILE) {
+            // The block's prefix is this very left-to-right sum.
+            pa = block_prefix[base + b];
+            alpha = block_alpha[base + b].x;
+            return;
+        }
+        pa = vec4(0.0);
+        alpha = 0.0;
+        for (int x = a; x <= b; ++x) {
+            pa += source_pa[base + x];
+            alpha += source_sa[base + x].y;
+        }
+        return;
+    }
+    pa = block_suffix[base + a];
+    alpha = block_alpha[base + a].y;
+    for (int block = block_a + 1; block < block_b; ++block) {
+        int first = base + block * DRBOKEH_TILE;
+        pa += block_suffix[first];
+        alpha += block_alpha[first].y;
+    }
+    pa += block_prefix[base + b];
+    alpha += block_alpha[base + b].x;
+}
+
 // Default model, disk aperture: the terms of drbokeh_lens / drbokeh_scatter / drbokeh_occlusion
 // with K = 1 and a Euclidean gauge, for RUN horizontally adjacent centres x0 + (k, 0) (same
 // 16x16 tile, same window): each source is loaded once for all of them, and centre k's gauge
@@ -125,8 +163,9 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, int half_width, i
 // the window's sources with alpha > 0 (tile_interior). Where t - g >= 1 both smoothsteps are
 // exactly 1 (their argument is >= t - g by monotonic rounding), and sources with alpha <= 0
 // have P / A = 0 exactly, so without occlusion a tap adds exactly (P / A, alpha, 1): the
-// middle columns of each row, interior for all RUN centres, add those without any gauge, in
-// the same order, so the sums are bit-identical.
+// middle columns of each row, interior for all RUN centres, add one span sum (span_sum) and
+// their count without any gauge. Another order than the full taps' (f32 rounding apart),
+// but the span is a function of global positions, so still the same bits for every tiling.
 void gather_disk_run(ivec2 x0, int h, float t, inout Centre c[RUN], bool occlusion) {
     int oy0 = max(-h, -x0.y);
     int oy1 = min(h, pc.height - 1 - x0.y);
@@ -150,13 +189,15 @@ void gather_disk_run(ivec2 x0, int h, float t, inout Centre c[RUN], bool occlusi
             }
         }
         full_taps(c, row, ox0, mid0 - 1, half_width, oy, occlusion);
-        for (int ox = mid0; ox <= mid1; ++ox) {
-            vec4 pa = source_pa[row + ox];
-            float alpha = source_sa[row + ox].y;
+        if (mid0 <= mid1) {
+            vec4 pa;
+            float alpha;
+            span_sum(row - x0.x, x0.x + mid0, x0.x + mid1, pa, alpha);
+            float count = float(mid1 - mid0 + 1);
             for (int k = 0; k < RUN; ++k) {
                 c[k].cw += pa;
                 c[k].vis_sum += alpha;
-                c[k].vis_weight += 1.0;
+                c[k].vis_weight += count;
             }
         }
         full_taps(c, row, mid1 + 1, ox1, half_width, oy, occlusion);

@@ -14,8 +14,9 @@ use crate::tiling::Rect;
 use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
 use crate::Result;
 
-/// Bytes per read pixel of one layer: uploaded rgba + disparity, prepass P / A + (s, alpha).
-pub(crate) const READ_BYTES_PER_PIXEL: u64 = 20 + 24;
+/// Bytes per read pixel of one layer: uploaded rgba + disparity, prepass P / A + (s, alpha),
+/// block prefix + suffix of (P / A, alpha).
+pub(crate) const READ_BYTES_PER_PIXEL: u64 = 20 + 24 + 40;
 /// Bytes per core pixel of one layer: written (C, W) + V.
 pub(crate) const CORE_BYTES_PER_PIXEL: u64 = 20;
 pub(crate) const VEC4: u64 = 16;
@@ -25,6 +26,8 @@ pub struct DrBokehGpu {
     ctx: Context,
     kernel: LayerKernel,
     sources: ComputePipeline,
+    /// Row block sums of the prepass for the disk path's interior spans.
+    blocks: ComputePipeline,
     layer: ComputePipeline,
     /// The optimised kernel's disk path (default model, disk aperture); `None` for the baseline.
     layer_disk: Option<ComputePipeline>,
@@ -40,7 +43,8 @@ pub enum LayerKernel {
     /// The first straightforward gather (`drbokeh_layer_naive.comp`): the benchmark baseline.
     Baseline,
     /// [`LayerKernel::Optimised`] with every disk-path tap evaluated in full (interior bounds
-    /// of 0): the reference its cheap interior is bit-identical to. Forward renders only.
+    /// of 0): the reference its cheap interior (block sums, another summation order) agrees
+    /// with within f32 rounding. Forward renders only.
     OptimisedNoInterior,
 }
 
@@ -77,8 +81,8 @@ impl DrBokehGpu {
         let push = std::mem::size_of::<super::DrBokehPush>();
         let (layer, layer_disk) = match kernel {
             LayerKernel::Optimised | LayerKernel::OptimisedNoInterior => (
-                ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER, 10, push)?,
-                Some(ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_DISK, 10, push)?),
+                ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER, 13, push)?,
+                Some(ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_DISK, 13, push)?),
             ),
             LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None),
         };
@@ -86,6 +90,7 @@ impl DrBokehGpu {
             ctx: ctx.clone(),
             kernel,
             sources: ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_SOURCES, 5, push)?,
+            blocks: ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_BLOCKS, 5, push)?,
             layer,
             layer_disk,
             composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_COMPOSITE, 3, push)?,
@@ -169,14 +174,23 @@ impl DrBokehGpu {
         // TILE / local_size_x adjacent pixels per invocation.
         let per_invocation = TILE as u32 / self.layer.shader().local_size[0];
         let layer_groups = self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
-        let layer_pipeline = match &self.layer_disk {
-            Some(disk) if disk_path(params) => disk,
-            _ => &self.layer,
+        let (layer_pipeline, disk) = match &self.layer_disk {
+            Some(disk) if disk_path(params) => (disk, true),
+            _ => (&self.layer, false),
         };
+        let push = params.push_tile(0, b.core, b.read);
         if self.kernel != LayerKernel::Baseline {
             let extent = [b.read.width() as u32, b.read.height() as u32, params.layer_count as u32];
             let bindings = [b.rgba.all(), b.disparity.all(), b.area_lut.all(), b.source_pa.all(), b.source_sa.all()];
-            batch.dispatch(&self.sources, &bindings, &params.push_tile(0, b.core, b.read), self.sources.groups_for(extent))?;
+            batch.dispatch(&self.sources, &bindings, &push, self.sources.groups_for(extent))?;
+        }
+        if self.kernel == LayerKernel::Optimised && disk {
+            // One invocation per global 16-px block (of those the read rect touches) and row.
+            let blocks = (b.read.x1 - 1) / TILE - b.read.x0 / TILE + 1;
+            let extent = [blocks as u32, b.read.height() as u32, params.layer_count as u32];
+            let bindings =
+                [b.source_pa.all(), b.source_sa.all(), b.block_prefix.all(), b.block_suffix.all(), b.block_alpha.all()];
+            batch.dispatch(&self.blocks, &bindings, &push, self.blocks.groups_for(extent))?;
         }
         for layer in 0..params.layer_count {
             let bindings = [
@@ -190,6 +204,9 @@ impl DrBokehGpu {
                 b.source_pa.all(),
                 b.source_sa.all(),
                 b.tile_interior.all(),
+                b.block_prefix.all(),
+                b.block_suffix.all(),
+                b.block_alpha.all(),
             ];
             let bindings = match self.kernel {
                 LayerKernel::Optimised | LayerKernel::OptimisedNoInterior => &bindings[..],
@@ -197,7 +214,6 @@ impl DrBokehGpu {
             };
             batch.dispatch(layer_pipeline, bindings, &params.push_tile(layer, b.core, b.read), layer_groups)?;
         }
-        let push = params.push_tile(0, b.core, b.read);
         batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
     }
 }
@@ -219,8 +235,14 @@ pub(crate) struct ForwardBuffers {
     pub source_pa: Buffer,
     pub source_sa: Buffer,
     /// Per layer and search tile, a lower bound of |s| over its window's sources with
-    /// alpha > 0 ([`interior_bounds`]): where the disk path's taps cost two adds.
+    /// alpha > 0 ([`interior_bounds`]): where the disk path sums whole row spans from block sums.
     pub tile_interior: Buffer,
+    /// Over the read rect: per source, the sums of (P / A, alpha) from its global 16-px row
+    /// block's first column to it (prefix) and from it to the block's last (suffix, with
+    /// both alphas in `block_alpha`): the disk path's interior spans.
+    pub block_prefix: Buffer,
+    pub block_suffix: Buffer,
+    pub block_alpha: Buffer,
 }
 
 impl ForwardBuffers {
@@ -258,6 +280,9 @@ impl ForwardBuffers {
             source_pa: Buffer::zeroed(ctx, "drbokeh source_pa", layers * read_pixels * VEC4)?,
             source_sa: Buffer::zeroed(ctx, "drbokeh source_sa", layers * read_pixels * 8)?,
             tile_interior: Buffer::from_slice(ctx, "drbokeh tile_interior", &tile_interior)?,
+            block_prefix: Buffer::zeroed(ctx, "drbokeh block_prefix", layers * read_pixels * VEC4)?,
+            block_suffix: Buffer::zeroed(ctx, "drbokeh block_suffix", layers * read_pixels * VEC4)?,
+            block_alpha: Buffer::zeroed(ctx, "drbokeh block_alpha", layers * read_pixels * 8)?,
         })
     }
 }
