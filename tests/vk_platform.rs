@@ -107,3 +107,61 @@ fn shader_workgroup_size_is_read_from_spirv() {
     assert_eq!(lensblur::shaders::DISK_BLUR.local_size, [16, 16, 1]);
     let _ = Image::new(1, 1);
 }
+
+/// Opens the validated device with its pipeline cache in `dir`.
+fn gpu_with_pipeline_cache(dir: &std::path::Path) -> lensblur::vk::Context {
+    let options = lensblur::vk::ContextOptions {
+        validation: true,
+        pipeline_cache: Some(dir.to_owned()),
+        ..lensblur::vk::ContextOptions::from_env()
+    };
+    lensblur::vk::Context::new(&options).expect("GPU tests need a Vulkan device with validation layers (see README)")
+}
+
+fn blur_once(ctx: &lensblur::vk::Context) -> Image {
+    let blur = DiskBlur::new(ctx).unwrap();
+    blur.run(&pattern(40, 30), &DiskKernel::new(4.5)).unwrap()
+}
+
+#[test]
+fn compiled_pipelines_are_saved_on_close_and_reloaded_by_the_next_process() {
+    let dir = common::temp_dir("vk_platform", "pipeline_cache_round_trip");
+    let first = gpu_with_pipeline_cache(&dir);
+    let file = first.pipeline_cache_file().expect("a cache folder was given").to_owned();
+    assert!(file.starts_with(&dir), "{} is not inside {}", file.display(), dir.display());
+    assert_eq!(first.pipeline_cache_loaded_bytes(), 0, "an empty folder has nothing to load");
+    let expected = blur_once(&first);
+    finish(first);
+    let saved = std::fs::read(&file).expect("closing the device writes the cache file");
+    assert!(saved.len() >= 32, "a cache file holds at least the 32-byte Vulkan header");
+    let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.path() != file).collect();
+    assert!(leftovers.is_empty(), "temporary files left behind: {leftovers:?}");
+
+    let second = gpu_with_pipeline_cache(&dir);
+    assert_eq!(second.pipeline_cache_loaded_bytes(), saved.len(), "the saved cache is accepted whole");
+    assert_eq!(blur_once(&second).pixels, expected.pixels, "a cached pipeline computes the same bits");
+    finish(second);
+}
+
+#[test]
+fn a_corrupt_or_foreign_cache_file_is_ignored_and_replaced() {
+    let dir = common::temp_dir("vk_platform", "pipeline_cache_foreign");
+    let probe = gpu_with_pipeline_cache(&dir);
+    let file = probe.pipeline_cache_file().unwrap().to_owned();
+    let expected = blur_once(&probe);
+    finish(probe);
+    let valid = std::fs::read(&file).unwrap();
+    let mut foreign_uuid = valid.clone();
+    foreign_uuid[20] ^= 0xff;
+    let mut garbage = vec![0xA5u8; 4096];
+    garbage[..4].copy_from_slice(&32u32.to_le_bytes());
+    for (what, bytes) in [("another driver build's cache", foreign_uuid), ("garbage", garbage), ("an empty file", Vec::new())] {
+        std::fs::write(&file, &bytes).unwrap();
+        let ctx = gpu_with_pipeline_cache(&dir);
+        assert_eq!(ctx.pipeline_cache_loaded_bytes(), 0, "{what} must not reach the driver");
+        assert_eq!(blur_once(&ctx).pixels, expected.pixels, "{what}: same result without the cache");
+        finish(ctx);
+        let rewritten = std::fs::read(&file).unwrap();
+        assert_eq!(&rewritten[..32], &valid[..32], "{what} is replaced by this device's cache");
+    }
+}

@@ -1,13 +1,13 @@
 //! End-to-end timing of `lensblur render`: whole processes of the current executable on a
 //! procedural stack written to a temporary EXR, from spawn to exit (the output appears by
 //! rename before the process exits, so exit is "file written"). Medians of the runs; one row
-//! as is and one with Mesa's on-disk shader cache off (`MESA_SHADER_CACHE_DISABLE=true`: every
-//! process compiles its shaders from scratch, what a first run on a fresh machine pays).
+//! as is, one with Mesa's on-disk shader cache off (`MESA_SHADER_CACHE_DISABLE=true`: every
+//! process compiles its shaders from scratch, what a first run on a fresh machine pays), and
+//! one with our own Vulkan pipeline cache off as well (`LENSBLUR_PIPELINE_CACHE=off`).
 //!
-//! No Vulkan pipeline cache of our own: measured on lavapipe (256^2, two layers),
-//! `vkCreateComputePipelines` takes about 20 ms of the ~300 ms process for all four Dr.Bokeh
-//! pipelines; lavapipe compiles to machine code at the first dispatch, and that is what Mesa's
-//! own disk cache already keeps across processes.
+//! On lavapipe the last two rows agree: it compiles to machine code at the first dispatch and
+//! keeps that in Mesa's cache, and its `vkGetPipelineCacheData` holds only the header. Drivers
+//! that compile at pipeline creation (discrete GPUs) are what the pipeline cache is for.
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -26,6 +26,8 @@ pub struct EndToEndResult {
     pub runs: usize,
     /// Whether Mesa's shader disk cache was left on (it is by default).
     pub driver_shader_cache: bool,
+    /// Whether lensblur's own on-disk Vulkan pipeline cache was on (it is by default).
+    pub pipeline_cache: bool,
     pub median_seconds: f64,
     pub min_seconds: f64,
     pub max_seconds: f64,
@@ -68,8 +70,8 @@ pub fn time_render_process(exe: &Path, input: &Path, args: &[String], output: &P
     Ok(seconds)
 }
 
-/// `runs` (at least 5) whole `lensblur render` processes of a `side`^2 two-layer stack, with and
-/// without Mesa's shader cache. `dir` holds the input and output.
+/// `runs` (at least 5) whole `lensblur render` processes of a `side`^2 two-layer stack: with
+/// both caches, without Mesa's shader cache, without either. `dir` holds the input and output.
 pub fn run_end_to_end(exe: &Path, dir: &Path, side: usize, runs: usize) -> Result<Vec<EndToEndResult>> {
     let layers = 2;
     let (stack, lens) = layered_stack(side, side, layers, Focus::FullyDefocused, 16.0)?;
@@ -79,18 +81,21 @@ pub fn run_end_to_end(exe: &Path, dir: &Path, side: usize, runs: usize) -> Resul
     write_disparity_stack(&input, &stack)?;
     let args = render_args(&output, &lens);
     let mut results = Vec::new();
-    for cache in [true, false] {
-        let env: &[(&str, &str)] = if cache { &[] } else { &[("MESA_SHADER_CACHE_DISABLE", "true")] };
+    const MESA_OFF: (&str, &str) = ("MESA_SHADER_CACHE_DISABLE", "true");
+    const PIPELINE_OFF: (&str, &str) = ("LENSBLUR_PIPELINE_CACHE", "off");
+    let configs: [(&str, &[(&str, &str)]); 3] =
+        [("", &[]), ("-mesa-cache-off", &[MESA_OFF]), ("-both-caches-off", &[MESA_OFF, PIPELINE_OFF])];
+    for (suffix, env) in configs {
         let mut times = (0..runs.max(5)).map(|_| time_render_process(exe, &input, &args, &output, env)).collect::<Result<Vec<f64>>>()?;
         let first_seconds = times[0];
         let median_seconds = median(&mut times);
-        let suffix = if cache { "" } else { "-mesa-cache-off" };
         results.push(EndToEndResult {
             name: format!("e2e-{side}-{layers}l{suffix}"),
             side,
             layers,
             runs: times.len(),
-            driver_shader_cache: cache,
+            driver_shader_cache: !env.contains(&MESA_OFF),
+            pipeline_cache: !env.contains(&PIPELINE_OFF),
             median_seconds,
             min_seconds: times[0],
             max_seconds: times[times.len() - 1],

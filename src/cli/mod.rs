@@ -28,7 +28,8 @@ Examples:
   lensblur raytrace fence -o out/fence  ray-trace one scene: pinhole, true layers, defocus
   lensblur bench --quick --sheet b.png  score every method against ray-traced truth
   LENSBLUR_DEVICE=1 lensblur devices    pick a device by index or name substring
-  LENSBLUR_VALIDATION=1 lensblur ...    any Vulkan validation message becomes an error";
+  LENSBLUR_VALIDATION=1 lensblur ...    any Vulkan validation message becomes an error
+  LENSBLUR_PIPELINE_CACHE=off lensblur  do not keep compiled pipelines in ~/.cache/lensblur";
 
 #[derive(Parser)]
 #[command(name = "lensblur", version, about = "Physically based, occlusion-aware lens blur on Vulkan compute", after_help = EXAMPLES)]

@@ -4,6 +4,7 @@
 //! substring>`. One compute queue. The allocator lives inside the device and is dropped before
 //! `vkDestroyDevice`; the device waits idle first, so nothing dies under a running submission.
 use std::mem::ManuallyDrop;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use ash::vk;
@@ -11,22 +12,32 @@ use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
 use super::error::VkCall;
 use super::instance::Instance;
+use super::pipeline_cache::{self, CacheIdentity, PipelineCache};
 use crate::{Error, Result};
 
-/// How to open the GPU: validation on/off and which device.
+/// How to open the GPU: validation on/off, which device, where compiled pipelines are kept.
 #[derive(Clone, Debug, Default)]
 pub struct ContextOptions {
     pub validation: bool,
     /// A device index (as `lensblur devices` lists them) or a case-insensitive name substring.
     pub device: Option<String>,
+    /// Folder of the on-disk pipeline cache; `None` keeps compiled pipelines in memory only.
+    pub pipeline_cache: Option<PathBuf>,
 }
 
 impl ContextOptions {
-    /// `LENSBLUR_VALIDATION=1` and `LENSBLUR_DEVICE=<index|name>`.
+    /// `LENSBLUR_VALIDATION=1`, `LENSBLUR_DEVICE=<index|name>` and
+    /// `LENSBLUR_PIPELINE_CACHE=<folder|off>` (default `$XDG_CACHE_HOME/lensblur`, else
+    /// `~/.cache/lensblur`).
     pub fn from_env() -> Self {
         let validation = std::env::var("LENSBLUR_VALIDATION").is_ok_and(|v| !v.is_empty() && v != "0");
         let device = std::env::var("LENSBLUR_DEVICE").ok().filter(|v| !v.is_empty());
-        Self { validation, device }
+        let pipeline_cache = match std::env::var_os("LENSBLUR_PIPELINE_CACHE") {
+            Some(v) if v == "off" || v == "0" => None,
+            Some(v) if !v.is_empty() => Some(PathBuf::from(v)),
+            _ => pipeline_cache::default_dir(),
+        };
+        Self { validation, device, pipeline_cache }
     }
 }
 
@@ -164,6 +175,7 @@ pub(crate) struct Device {
     pub(crate) raw: ash::Device,
     debug_utils: Option<ash::ext::debug_utils::Device>,
     queue: Mutex<vk::Queue>,
+    pub(crate) pipeline_cache: PipelineCache,
     pub(crate) queue_family: u32,
     pub(crate) info: DeviceInfo,
     pub(crate) instance: Arc<Instance>,
@@ -200,6 +212,7 @@ impl Drop for Device {
         // blocks before the device is destroyed.
         unsafe {
             let _ = self.raw.device_wait_idle();
+            self.pipeline_cache.save_and_destroy(&self.raw);
             ManuallyDrop::drop(&mut self.allocator);
             self.raw.destroy_device(None);
         }
@@ -227,6 +240,17 @@ impl Context {
         let raw = unsafe { instance.raw.create_device(physical, &info, None) }.call("vkCreateDevice")?;
         // SAFETY: the family was requested with one queue above.
         let queue = unsafe { raw.get_device_queue(queue_family, 0) };
+        // SAFETY: `physical` belongs to this live instance.
+        let identity = CacheIdentity::of(&unsafe { instance.raw.get_physical_device_properties(physical) });
+        let cache_file = options.pipeline_cache.as_deref().map(|dir| identity.file_in(dir));
+        let mut pipeline_cache = match PipelineCache::open(&raw, identity, cache_file) {
+            Ok(c) => c,
+            Err(e) => {
+                // SAFETY: nothing was created on the device yet.
+                unsafe { raw.destroy_device(None) };
+                return Err(e);
+            }
+        };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.raw.clone(),
             device: raw.clone(),
@@ -238,7 +262,8 @@ impl Context {
         let allocator = match allocator {
             Ok(a) => a,
             Err(e) => {
-                // SAFETY: nothing was created on the device yet.
+                pipeline_cache.forget(&raw);
+                // SAFETY: only the (now destroyed) cache was created on the device.
                 unsafe { raw.destroy_device(None) };
                 return Err(e.into());
             }
@@ -249,6 +274,7 @@ impl Context {
             raw,
             debug_utils,
             queue: Mutex::new(queue),
+            pipeline_cache,
             queue_family,
             info: infos[index].clone(),
             instance,
@@ -282,6 +308,17 @@ impl Context {
         self.check_validation()?;
         drop(self);
         super::validation::check_unreported()
+    }
+
+    /// The file compiled pipelines are loaded from and saved to, if any.
+    pub fn pipeline_cache_file(&self) -> Option<&Path> {
+        self.device.pipeline_cache.file()
+    }
+
+    /// Bytes of pipeline-cache data read from disk and accepted when the device opened (0 when
+    /// there was no file, or it belonged to another device or driver build).
+    pub fn pipeline_cache_loaded_bytes(&self) -> usize {
+        self.device.pipeline_cache.loaded_bytes
     }
 
     /// Bytes currently allocated on the device by this context.

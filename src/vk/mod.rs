@@ -24,6 +24,7 @@ mod device;
 mod error;
 mod instance;
 mod pipeline;
+mod pipeline_cache;
 pub mod validation;
 
 pub use buffer::{Binding, Buffer};

@@ -82,8 +82,9 @@ impl ComputePipeline {
             .module(module)
             .name(c"main");
         let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(inner.layout);
-        // SAFETY: module and layout are live; the module may be destroyed once the pipeline exists.
-        let created = unsafe { device.raw.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) };
+        // SAFETY: module, layout and cache are live; the module may be destroyed once the pipeline exists.
+        let created = unsafe { device.raw.create_compute_pipelines(device.pipeline_cache.raw, &[info], None) };
+        device.pipeline_cache.mark_dirty();
         // SAFETY: no longer needed by anything after pipeline creation.
         unsafe { device.raw.destroy_shader_module(module, None) };
         inner.raw = created.map_err(|(_, r)| r).call("vkCreateComputePipelines")?[0];
