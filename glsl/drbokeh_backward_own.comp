@@ -50,6 +50,17 @@ void main() {
     int box_half = drbokeh_visibility_box_compat(dst.r);
     bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
 
+    // Taps that add exact zeros are skipped (the sums are the reference's in its order, less
+    // zeros): the pair terms here are all multiples of the scatter S(r_y, g) and of O's
+    // partials, so they need a receiver that can occlude (default model: in focus) and a tap
+    // inside the source's support (any leak only enters through dS/dr_y). Exact default model:
+    // D and dD/dr_x vanish beyond the receiver's own support, so an out-of-focus receiver visits
+    // only that disk; a leak keeps dD/dr_x over the whole square window.
+    bool occluding = compat || drbokeh_occludes(dst);
+    float limit2 = 1.0e30;
+    if (!occluding && pc.leaky_slope <= 0.0) {
+        limit2 = drbokeh_zero_beyond2(drbokeh_support(dst.r));
+    }
     vec3 d_own = vec3(0.0); // alpha, s, rel
     vec4 vis = vec4(0.0);   // sum D, sum alpha D, sum D', sum alpha D' (compat: box count)
     for (int oy = -h; oy <= h; ++oy) {
@@ -57,19 +68,22 @@ void main() {
         if (sy < 0 || sy >= pc.height) {
             continue;
         }
-        for (int ox = -h; ox <= h; ++ox) {
+        int half_width = drbokeh_clipped_half_width(h, oy, limit2);
+        for (int ox = -half_width; ox <= half_width; ++ox) {
             int sx = x.x + ox;
             if (sx < 0 || sx >= pc.width) {
                 continue;
             }
             int iy = drbokeh_read_index(pc.layer, ivec2(sx, sy));
             vec4 p = rgba[iy];
-            DrBokehPx src = drbokeh_px(disparity[iy], p.w);
             vec2 offset = vec2(float(-ox), float(-oy));
-            if (p.w > 0.0) {
-                float a = dot(adj, p);
-                DrBokehPairGrad pg = drbokeh_pair_grad(offset, src, dst, ox == 0 && oy == 0);
-                d_own += a * vec3(pg.alpha_x, pg.s_x, pg.rel_x);
+            if (occluding && p.w > 0.0) {
+                DrBokehPx src = drbokeh_px(disparity[iy], p.w);
+                if (float(ox * ox + oy * oy) < drbokeh_zero_beyond2(drbokeh_support_for(src.r))) {
+                    float a = dot(adj, p);
+                    DrBokehPairGrad pg = drbokeh_pair_grad(offset, src, dst, ox == 0 && oy == 0);
+                    d_own += a * vec3(pg.alpha_x, pg.s_x, pg.rel_x);
+                }
             }
             if (compat) {
                 if (abs(ox) <= box_half && abs(oy) <= box_half) {

@@ -70,12 +70,25 @@ void main() {
     float d_s = own_y.y;
     float d_rel = own_y.z;
     int reach = tile_reach[tile_base + (y.y / DRBOKEH_TILE) * pc.tiles_x + y.x / DRBOKEH_TILE];
+    bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
+    // Taps that add exact zeros are skipped (the sums are the reference's in its order, less
+    // zeros). Exact gradient: the pair terms vanish beyond the source's support (S and dS/dr_y
+    // are 0 there), and V(x)'s share beyond x's own support r_x + 1/2 <= h_x + 1 <= reach + 1
+    // (the compat box lies inside it too), so only the disk of radius reach + 1 is visited. A
+    // leak keeps dS/dr_y on every receiver whose square window holds y.
+    bool exact = pc.leaky_slope <= 0.0;
+    float loop_limit2 = exact ? float((reach + 1) * (reach + 1)) : 1.0e30;
+    float pair_limit2 = exact ? drbokeh_zero_beyond2(drbokeh_support_for(src.r)) : 1.0e30;
+    // Per-source terms of the occlusion-free pair gradient, once instead of once per tap.
+    float area = compat ? 1.0 : drbokeh_area(src.r);
+    float d_area = compat ? 0.0 : drbokeh_d_area(src.r);
     for (int oy = -reach; oy <= reach; ++oy) {
         int ry = y.y + oy;
         if (ry < 0 || ry >= pc.height) {
             continue;
         }
-        for (int ox = -reach; ox <= reach; ++ox) {
+        int half_width = drbokeh_clipped_half_width(reach, oy, loop_limit2);
+        for (int ox = -half_width; ox <= half_width; ++ox) {
             int rx = y.x + ox;
             if (rx < 0 || rx >= pc.width) {
                 continue;
@@ -87,15 +100,25 @@ void main() {
             int ix = drbokeh_read_index(pc.layer, ivec2(rx, ry));
             DrBokehPx dst = drbokeh_px(disparity[ix], rgba[ix].w);
             vec2 offset = vec2(float(ox), float(oy));
-            if (p.w > 0.0) {
+            float o2 = float(ox * ox + oy * oy);
+            if (p.w > 0.0 && o2 < pair_limit2) {
                 vec4 adj = adj_cw[ix];
-                DrBokehPairGrad pg = drbokeh_pair_grad(offset, src, dst, ox == 0 && oy == 0);
-                d_p += adj * pg.w;
                 float a = dot(adj, p);
-                d_s += a * pg.s_y;
-                d_rel += a * pg.rel_y;
+                if (!compat && !drbokeh_occludes(dst)) {
+                    vec2 pg = drbokeh_pair_grad_clear(offset, src, area, d_area);
+                    d_p += adj * pg.x;
+                    d_s += a * pg.y;
+                } else {
+                    DrBokehPairGrad pg = drbokeh_pair_grad(offset, src, dst, ox == 0 && oy == 0);
+                    d_p += adj * pg.w;
+                    d_s += a * pg.s_y;
+                    d_rel += a * pg.rel_y;
+                }
             }
-            d_p.w += own[ix].w * vis_share(offset, dst);
+            float own_share = own[ix].w;
+            if (own_share != 0.0 && (compat || o2 < drbokeh_zero_beyond2(drbokeh_support(dst.r)))) {
+                d_p.w += own_share * vis_share(offset, dst);
+            }
         }
     }
     int out_index = drbokeh_core_index(pc.layer, y);
