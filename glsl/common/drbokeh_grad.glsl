@@ -186,14 +186,22 @@ float drbokeh_zero_beyond2(float support) {
     return limit * limit;
 }
 
-// Half-width of row oy of a window of half-width h, clipped to offsets with ox^2 + oy^2 <
-// limit2 (plus a column of slack: extra taps add exact zeros); -1 when the row is empty.
+// Half-width of row oy of a window of half-width h, clipped to the offsets with
+// float(ox^2 + oy^2) < limit2 (the whole row for a huge limit2); -1 when the row is empty.
 int drbokeh_clipped_half_width(int h, int oy, float limit2) {
     float room = limit2 - float(oy * oy);
-    if (room <= 0.0) {
+    if (!(room > 0.0)) {
         return -1;
     }
-    return int(min(float(h), floor(sqrt(room)) + 1.0));
+    int m = int(min(float(h), floor(sqrt(room))));
+    // The estimate is off by a rounding at most: settle it with the exact test.
+    while (m >= 0 && float(m * m + oy * oy) >= limit2) {
+        m -= 1;
+    }
+    while (m < h && float((m + 1) * (m + 1) + oy * oy) < limit2) {
+        m += 1;
+    }
+    return m;
 }
 
 // Default-model visibility weight D = S(r_x, g) K of offset x - y, and dD/dr_x.

@@ -32,6 +32,10 @@ pub struct DrBokehGpuGrad {
     own: ComputePipeline,
     tile_reach: ComputePipeline,
     source: ComputePipeline,
+    /// Passes 2 and 4 compiled for the default model with a disk aperture and no kernel image
+    /// (see [`disk_path`]): lavapipe runs every branch, so the general code costs every tap.
+    own_disk: ComputePipeline,
+    source_disk: ComputePipeline,
     pub model: Model,
     pub options: BackwardOptions,
 }
@@ -42,6 +46,8 @@ struct BackwardBuffers {
     adj_cw: Buffer,
     adj_vis: Buffer,
     own: Buffer,
+    /// Pass 2's per-receiver (rel, alpha, dL/dV / sum D, window) for pass 4: one load a tap.
+    receiver: Buffer,
     tile_reach: Buffer,
     grad_rgba: Buffer,
     grad_disparity: Buffer,
@@ -54,9 +60,11 @@ impl DrBokehGpuGrad {
         Ok(Self {
             forward: DrBokehGpu::new(ctx)?,
             composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_COMPOSITE, 5, push)?,
-            own: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN, 8, push)?,
+            own: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN, 9, push)?,
             tile_reach: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_TILE_REACH, 2, push)?,
             source: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE, 11, push)?,
+            own_disk: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN_DISK, 9, push)?,
+            source_disk: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_DISK, 11, push)?,
             model,
             options,
         })
@@ -137,6 +145,7 @@ impl DrBokehGpuGrad {
             adj_cw: Buffer::zeroed(ctx, "drbokeh adj_cw", read_n * VEC4)?,
             adj_vis: Buffer::zeroed(ctx, "drbokeh adj_vis", read_n * 4)?,
             own: Buffer::zeroed(ctx, "drbokeh own", read_n * VEC4)?,
+            receiver: Buffer::zeroed(ctx, "drbokeh receiver", read_n * VEC4)?,
             tile_reach: Buffer::zeroed(ctx, "drbokeh tile_reach", layers * (params.tiles_x * params.tiles_y) as u64 * 4)?,
             grad_rgba: Buffer::zeroed(ctx, "drbokeh grad_rgba", core_n * VEC4)?,
             grad_disparity: Buffer::zeroed(ctx, "drbokeh grad_disparity", core_n * 4)?,
@@ -152,6 +161,7 @@ impl DrBokehGpuGrad {
         let leaky_slope = self.options.leaky_slope as f32;
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
+        let (own_pipeline, source_pipeline) = if disk_path(params) { (&self.own_disk, &self.source_disk) } else { (&self.own, &self.source) };
         let composite = [f.layer_cw.all(), f.layer_vis.all(), b.grad_output.all(), b.adj_cw.all(), b.adj_vis.all()];
         batch.dispatch(&self.composite, &composite, &push(0), groups)?;
         for layer in 0..params.layer_count {
@@ -164,13 +174,14 @@ impl DrBokehGpuGrad {
                 b.adj_cw.all(),
                 b.adj_vis.all(),
                 b.own.all(),
+                b.receiver.all(),
             ];
-            batch.dispatch(&self.own, &own, &push(layer), groups)?;
+            batch.dispatch(own_pipeline, &own, &push(layer), groups)?;
             batch.dispatch(&self.tile_reach, &[f.tile_window.all(), b.tile_reach.all()], &push(layer), tile_groups)?;
             let source = [
                 f.rgba.all(),
                 f.disparity.all(),
-                f.tile_window.all(),
+                b.receiver.all(),
                 f.area_lut.all(),
                 f.kernel.all(),
                 b.adj_cw.all(),
@@ -180,10 +191,18 @@ impl DrBokehGpuGrad {
                 b.k_partial.all(),
                 b.tile_reach.all(),
             ];
-            batch.dispatch(&self.source, &source, &push_sources(layer), source_groups)?;
+            batch.dispatch(source_pipeline, &source, &push_sources(layer), source_groups)?;
         }
         Ok(())
     }
+}
+
+/// Whether passes 2 and 4 take their disk path: the default model with a disk aperture and no
+/// kernel image (K = 1, Euclidean gauge; mirrors the forward's disk path and the headers of
+/// `glsl/drbokeh_backward_{own,source}_disk.comp`).
+fn disk_path(params: &Params) -> bool {
+    let [blades, _, _, kernel] = params.lens.aperture;
+    params.model == Model::DrBokeh && blades < 3.0 && (kernel < 0.5 || params.lens.kernel_size == 0)
 }
 
 /// The frame the tiles cut: inputs, search windows and their transpose (layer-major).
@@ -216,8 +235,9 @@ fn backward_footprint(params: &Params, max_window: i32, max_reach: i32) -> impl 
         let (core, receivers) = (side * side, receivers_side * receivers_side);
         let read = (receivers_side + 2 * max_window.max(0) as u64).pow(2);
         let layers = params.layer_count as u64;
-        // adj_cw, adj_vis, own per read pixel; grad_rgba, grad_disparity, k_partial per core pixel.
-        let (adjoint_bytes, gradient_bytes) = (VEC4 + 4 + VEC4, VEC4 + 4 + 4);
+        // adj_cw, adj_vis, own, receiver per read pixel; grad_rgba, grad_disparity, k_partial
+        // per core pixel.
+        let (adjoint_bytes, gradient_bytes) = (VEC4 + 4 + VEC4 + VEC4, VEC4 + 4 + 4);
         Footprint {
             largest_binding: layers * read * VEC4,
             total: layers * (read * (READ_BYTES_PER_PIXEL + adjoint_bytes) + receivers * CORE_BYTES_PER_PIXEL + core * gradient_bytes)
