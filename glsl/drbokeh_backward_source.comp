@@ -17,10 +17,11 @@
 //   7: grad_rgba       writeonly vec4[layer_count * core pixels]
 //   8: grad_disparity  writeonly float[layer_count * core pixels]
 //   9: k_partial       writeonly float[layer_count * core pixels]
-//  10: tile_reach      readonly  int[layer_count * tiles_x * tiles_y] whole image (drbokeh_backward_tile_reach)
+//  10: tile_reach      readonly  int[layer_count * tiles_x * tiles_y] whole image (pass 3, host:
+//                                backward_cpu.rs `tile_reach_cpu`)
 // Push constants: DrBokehPush (leaky_slope included).
 // Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer, after pass 2
-// and tile_reach (pass 3).
+// (pass 3's tile_reach is uploaded with the inputs).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "drbokeh_backward_source.glsl"

@@ -1,6 +1,7 @@
 //! GPU host code of the Dr.Bokeh backward pass: the four forward passes, then the three
-//! gather passes of `glsl/drbokeh_backward_*.comp` over the forward's intermediates, in one
-//! command batch per frame tile. The f64 reference of the same passes is
+//! gather passes of `glsl/drbokeh_backward_*.comp` (composite, own, source; pass 3, the tile
+//! reach, is computed on the host, which needs it to cut the tiles anyway, and uploaded) over
+//! the forward's intermediates, in one command batch per frame tile. The f64 reference of the same passes is
 //! [`super::backward_cpu`].
 //!
 //! A tile is a core C of *source* pixels, whose gradients it writes. They gather over the
@@ -30,7 +31,6 @@ pub struct DrBokehGpuGrad {
     forward: DrBokehGpu,
     composite: ComputePipeline,
     own: ComputePipeline,
-    tile_reach: ComputePipeline,
     source: ComputePipeline,
     /// Passes 2 and 4 compiled for the default model with a disk aperture and no kernel image
     /// (see [`disk_path`]): lavapipe runs every branch, so the general code costs every tap.
@@ -61,7 +61,6 @@ impl DrBokehGpuGrad {
             forward: DrBokehGpu::new(ctx)?,
             composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_COMPOSITE, 5, push)?,
             own: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN, 9, push)?,
-            tile_reach: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_TILE_REACH, 2, push)?,
             source: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE, 11, push)?,
             own_disk: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN_DISK, 9, push)?,
             source_disk: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_DISK, 11, push)?,
@@ -118,7 +117,7 @@ impl DrBokehGpuGrad {
             let receivers = frame.receivers(core);
             let read = receivers.grown(halo(params, frame.windows, receivers), params.width, params.height);
             let fwd = ForwardBuffers::new(ctx, frame.stack, params, frame.windows, receivers, read)?;
-            let bwd = self.buffers(params, frame.grad_output, core, receivers, read)?;
+            let bwd = self.buffers(params, frame.grad_output, frame.reach, core, receivers, read)?;
             stats.peak_device_bytes = stats.peak_device_bytes.max(ctx.allocated_bytes().saturating_sub(baseline));
             let mut batch = CommandBatch::new(ctx)?;
             self.forward.record(&mut batch, params, &fwd)?;
@@ -135,7 +134,7 @@ impl DrBokehGpuGrad {
         Ok((grads.finish(params), stats))
     }
 
-    fn buffers(&self, params: &Params, grad_output: &Image, core: Rect, receivers: Rect, read: Rect) -> Result<BackwardBuffers> {
+    fn buffers(&self, params: &Params, grad_output: &Image, reach: &[i32], core: Rect, receivers: Rect, read: Rect) -> Result<BackwardBuffers> {
         let ctx = self.context();
         let layers = params.layer_count as u64;
         let (read_n, core_n) = (layers * read.area() as u64, layers * core.area() as u64);
@@ -146,7 +145,7 @@ impl DrBokehGpuGrad {
             adj_vis: Buffer::zeroed(ctx, "drbokeh adj_vis", read_n * 4)?,
             own: Buffer::zeroed(ctx, "drbokeh own", read_n * VEC4)?,
             receiver: Buffer::zeroed(ctx, "drbokeh receiver", read_n * VEC4)?,
-            tile_reach: Buffer::zeroed(ctx, "drbokeh tile_reach", layers * (params.tiles_x * params.tiles_y) as u64 * 4)?,
+            tile_reach: Buffer::from_slice(ctx, "drbokeh tile_reach", reach)?,
             grad_rgba: Buffer::zeroed(ctx, "drbokeh grad_rgba", core_n * VEC4)?,
             grad_disparity: Buffer::zeroed(ctx, "drbokeh grad_disparity", core_n * 4)?,
             k_partial: Buffer::zeroed(ctx, "drbokeh k_partial", core_n * 4)?,
@@ -157,7 +156,6 @@ impl DrBokehGpuGrad {
     fn record(&self, batch: &mut CommandBatch, params: &Params, f: &ForwardBuffers, b: &BackwardBuffers, sources: Rect) -> Result<()> {
         let groups = self.own.groups_for([f.core.width() as u32, f.core.height() as u32, 1]);
         let source_groups = self.source.groups_for([sources.width() as u32, sources.height() as u32, 1]);
-        let tile_groups = self.tile_reach.groups_for([(params.tiles_x * params.tiles_y) as u32, 1, 1]);
         let leaky_slope = self.options.leaky_slope as f32;
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
@@ -177,7 +175,6 @@ impl DrBokehGpuGrad {
                 b.receiver.all(),
             ];
             batch.dispatch(own_pipeline, &own, &push(layer), groups)?;
-            batch.dispatch(&self.tile_reach, &[f.tile_window.all(), b.tile_reach.all()], &push(layer), tile_groups)?;
             let source = [
                 f.rgba.all(),
                 f.disparity.all(),
