@@ -155,11 +155,14 @@ impl DrBokehGpuGrad {
     /// Passes 1 and 2 over the receivers (the forward's core), pass 4 over the tile's `sources`.
     fn record(&self, batch: &mut CommandBatch, params: &Params, f: &ForwardBuffers, b: &BackwardBuffers, sources: Rect) -> Result<()> {
         let groups = self.own.groups_for([f.core.width() as u32, f.core.height() as u32, 1]);
-        let source_groups = self.source.groups_for([sources.width() as u32, sources.height() as u32, 1]);
+
         let leaky_slope = self.options.leaky_slope as f32;
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
         let (own_pipeline, source_pipeline) = if disk_path(params) { (&self.own_disk, &self.source_disk) } else { (&self.own, &self.source) };
+        // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
+        let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];
+        let source_groups = source_pipeline.groups_for([(sources.width() as u32).div_ceil(per_invocation), sources.height() as u32, 1]);
         let composite = [f.layer_cw.all(), f.layer_vis.all(), b.grad_output.all(), b.adj_cw.all(), b.adj_vis.all()];
         batch.dispatch(&self.composite, &composite, &push(0), groups)?;
         for layer in 0..params.layer_count {
