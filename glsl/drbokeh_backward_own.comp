@@ -17,6 +17,8 @@
 //                   entries: all pass 4 reads of a receiver, packed into one load per tap
 // Push constants: DrBokehPush (leaky_slope included).
 // Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer, after pass 1.
+// Body (also of the disk path drbokeh_backward_own_disk.comp) and the taps it skips (exact
+// zeros only): glsl/common/drbokeh_backward_own.glsl.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "drbokeh_backward_own.glsl"

@@ -1,8 +1,8 @@
 //! GPU host code of the Dr.Bokeh backward pass: the four forward passes, then the three
 //! gather passes of `glsl/drbokeh_backward_*.comp` (composite, own, source; pass 3, the tile
 //! reach, is computed on the host, which needs it to cut the tiles anyway, and uploaded) over
-//! the forward's intermediates, in one command batch per frame tile. The f64 reference of the same passes is
-//! [`super::backward_cpu`].
+//! the forward's intermediates, in one command batch per frame tile. The f64 reference of the
+//! same passes is [`super::backward_cpu`].
 //!
 //! A tile is a core C of *source* pixels, whose gradients it writes. They gather over the
 //! receivers O whose windows hold a source of C (C grown by the tile reach, pass 3); O's
@@ -155,7 +155,6 @@ impl DrBokehGpuGrad {
     /// Passes 1 and 2 over the receivers (the forward's core), pass 4 over the tile's `sources`.
     fn record(&self, batch: &mut CommandBatch, params: &Params, f: &ForwardBuffers, b: &BackwardBuffers, sources: Rect) -> Result<()> {
         let groups = self.own.groups_for([f.core.width() as u32, f.core.height() as u32, 1]);
-
         let leaky_slope = self.options.leaky_slope as f32;
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
