@@ -74,10 +74,6 @@ void main() {
     bool exact = pc.leaky_slope <= 0.0;
     float loop_limit2 = exact ? float((reach + 1) * (reach + 1)) : 1.0e30;
     float pair_limit2 = exact ? drbokeh_zero_beyond2(drbokeh_support_for(src.r)) : 1.0e30;
-    // Per-source terms of the occlusion-free pair gradient, once instead of once per tap.
-    float area = compat ? 1.0 : drbokeh_area(src.r);
-    float d_area = compat ? 0.0 : drbokeh_d_area(src.r);
-    float sign_y = drbokeh_sign(src.s);
     for (int oy = -reach; oy <= reach; ++oy) {
         int ry = y.y + oy;
         if (ry < 0 || ry >= pc.height) {
@@ -105,16 +101,10 @@ void main() {
             float a = dot(adj, p);
             float own_share = rcv.z;
             if (pair) {
-                if (!compat && !drbokeh_occludes(dst)) {
-                    vec2 pg = drbokeh_pair_grad_clear(offset, src, area, d_area);
-                    d_p += adj * pg.x;
-                    d_s += a * pg.y;
-                } else {
-                    DrBokehPairGrad pg = drbokeh_pair_grad(offset, src, dst, ox == 0 && oy == 0);
-                    d_p += adj * pg.w;
-                    d_s += a * pg.s_y;
-                    d_rel += a * pg.rel_y;
-                }
+                DrBokehPairGrad pg = drbokeh_pair_grad(offset, src, dst, ox == 0 && oy == 0);
+                d_p += adj * pg.w;
+                d_s += a * pg.s_y;
+                d_rel += a * pg.rel_y;
             }
             // V(x)'s share is 0 beyond x's own support r_x + 1/2.
             if (own_share != 0.0 && (compat || o2 < drbokeh_zero_beyond2(drbokeh_support(dst.r)))) {

@@ -160,17 +160,6 @@ DrBokehPairGrad drbokeh_pair_grad(vec2 offset, DrBokehPx src, DrBokehPx dst, boo
     return DrBokehPairGrad(base * o, d_r_y * drbokeh_sign(src.s) + base * d_o.x, 0.0, base * d_o.y + d_receiver, 0.0, base * d_o.w);
 }
 
-// drbokeh_pair_grad of the default model at a receiver that occludes nothing (r_x >= 1.5, so
-// O = 1 exactly and its partials are exact zeros): vec2(w, dw/ds_y), the same values without
-// the occlusion terms, with the source's area and d area / dr hoisted out of the tap loop.
-vec2 drbokeh_pair_grad_clear(vec2 offset, DrBokehPx src, float area, float d_area) {
-    vec3 lens = drbokeh_lens_d(offset, src.r, src.rel);
-    float s = drbokeh_scatter(src.r, lens.x);
-    float ds = drbokeh_leaky(drbokeh_d_scatter(src.r, lens.x));
-    float d_r_y = ((ds * lens.y + s * lens.z) - s * lens.y * d_area / area) / area;
-    return vec2(s * lens.y / area, d_r_y * drbokeh_sign(src.s));
-}
-
 // Default model: whether receiver x can occlude a source (O(y, x) < 1 or dO != 0 for some y).
 // At r_x >= 1.5 the in-focus factor 1 - smoothstep(0.5, 1.5, r_x) and its slope are exact 0.
 bool drbokeh_occludes(DrBokehPx dst) {
