@@ -9,97 +9,21 @@
 // core of passes 1 and 2, whose outputs are stored read-local) and their windows:
 //   0: rgba            readonly  vec4[layer_count * read pixels]
 //   1: disparity       readonly  float[layer_count * read pixels]
-//   2: tile_window     readonly  int[layer_count * tiles_x * tiles_y] whole image
+//   2: receiver        readonly  vec4[layer_count * read pixels]  (pass 2: rel_x, alpha_x, V / sum D, h_x)
 //   3: area_lut        readonly  float[area_count]
 //   4: kernel          readonly  float[max(1, kernel_size^2)]
 //   5: adj_cw          readonly  vec4[layer_count * read pixels]  (pass 1)
-//   6: own             readonly  vec4[layer_count * read pixels]  (pass 2)
+//   6: own             readonly  vec4[layer_count * read pixels]  (pass 2; the source's own entry only)
 //   7: grad_rgba       writeonly vec4[layer_count * core pixels]
 //   8: grad_disparity  writeonly float[layer_count * core pixels]
 //   9: k_partial       writeonly float[layer_count * core pixels]
-//  10: tile_reach      readonly  int[layer_count * tiles_x * tiles_y] whole image (drbokeh_backward_tile_reach)
+//  10: tile_reach      readonly  int[layer_count * tiles_x * tiles_y] whole image (pass 3, host:
+//                                backward_cpu.rs `tile_reach_cpu`)
 // Push constants: DrBokehPush (leaky_slope included).
 // Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer, after pass 2
-// and tile_reach (pass 3).
+// (pass 3's tile_reach is uploaded with the inputs). The disk path
+// (drbokeh_backward_source_disk.comp) has the same grid of 4x16 invocations of 4 sources each.
+// Body and the taps it skips (exact zeros only): glsl/common/drbokeh_backward_source.glsl.
 #version 450
 #extension GL_GOOGLE_include_directive : require
-#include "drbokeh_grad.glsl"
-
-layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
-
-layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
-layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
-layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
-layout(std430, set = 0, binding = 5) readonly buffer AdjCw { vec4 adj_cw[]; };
-layout(std430, set = 0, binding = 6) readonly buffer Own { vec4 own[]; };
-layout(std430, set = 0, binding = 7) writeonly buffer GradRgba { vec4 grad_rgba[]; };
-layout(std430, set = 0, binding = 8) writeonly buffer GradDisparity { float grad_disparity[]; };
-layout(std430, set = 0, binding = 9) writeonly buffer KPartial { float k_partial[]; };
-layout(std430, set = 0, binding = 10) readonly buffer TileReach { int tile_reach[]; };
-
-float drbokeh_area_lut(int index) {
-    return area_lut[index];
-}
-
-float aperture_kernel_texel(int index) {
-    return kernel_weights[index];
-}
-
-// dV(x)/dalpha_y times sum D (own[].w holds dL/dV / sum D).
-float vis_share(vec2 offset, DrBokehPx dst) {
-    if (pc.model == DRBOKEH_MODEL_COMPAT) {
-        float half_width = float(drbokeh_visibility_box_compat(dst.r));
-        return abs(offset.x) <= half_width && abs(offset.y) <= half_width ? 1.0 : 0.0;
-    }
-    return drbokeh_vis_weight(offset, dst).x;
-}
-
-void main() {
-    ivec2 y = drbokeh_core_pixel(gl_GlobalInvocationID);
-    if (y.x < 0) {
-        return;
-    }
-    int tile_base = pc.layer * pc.tiles_x * pc.tiles_y;
-    int iy = drbokeh_read_index(pc.layer, y);
-    vec4 p = rgba[iy];
-    DrBokehPx src = drbokeh_px(disparity[iy], p.w);
-    vec4 own_y = own[iy];
-    vec4 d_p = vec4(0.0, 0.0, 0.0, own_y.x);
-    float d_s = own_y.y;
-    float d_rel = own_y.z;
-    int reach = tile_reach[tile_base + (y.y / DRBOKEH_TILE) * pc.tiles_x + y.x / DRBOKEH_TILE];
-    for (int oy = -reach; oy <= reach; ++oy) {
-        int ry = y.y + oy;
-        if (ry < 0 || ry >= pc.height) {
-            continue;
-        }
-        for (int ox = -reach; ox <= reach; ++ox) {
-            int rx = y.x + ox;
-            if (rx < 0 || rx >= pc.width) {
-                continue;
-            }
-            int h = tile_window[tile_base + (ry / DRBOKEH_TILE) * pc.tiles_x + rx / DRBOKEH_TILE];
-            if (abs(ox) > h || abs(oy) > h) {
-                continue; // the receiver's window does not hold this source
-            }
-            int ix = drbokeh_read_index(pc.layer, ivec2(rx, ry));
-            DrBokehPx dst = drbokeh_px(disparity[ix], rgba[ix].w);
-            vec2 offset = vec2(float(ox), float(oy));
-            if (p.w > 0.0) {
-                vec4 adj = adj_cw[ix];
-                DrBokehPairGrad pg = drbokeh_pair_grad(offset, src, dst, ox == 0 && oy == 0);
-                d_p += adj * pg.w;
-                float a = dot(adj, p);
-                d_s += a * pg.s_y;
-                d_rel += a * pg.rel_y;
-            }
-            d_p.w += own[ix].w * vis_share(offset, dst);
-        }
-    }
-    int out_index = drbokeh_core_index(pc.layer, y);
-    grad_rgba[out_index] = d_p;
-    grad_disparity[out_index] = pc.k_px * d_s + d_rel;
-    k_partial[out_index] = src.rel * d_s;
-}
+#include "drbokeh_backward_source.glsl"

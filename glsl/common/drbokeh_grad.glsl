@@ -160,6 +160,39 @@ DrBokehPairGrad drbokeh_pair_grad(vec2 offset, DrBokehPx src, DrBokehPx dst, boo
     return DrBokehPairGrad(base * o, d_r_y * drbokeh_sign(src.s) + base * d_o.x, 0.0, base * d_o.y + d_receiver, 0.0, base * d_o.w);
 }
 
+// Default model: whether receiver x can occlude a source (O(y, x) < 1 or dO != 0 for some y).
+// At r_x >= 1.5 the in-focus factor 1 - smoothstep(0.5, 1.5, r_x) and its slope are exact 0.
+bool drbokeh_occludes(DrBokehPx dst) {
+    return dst.r < 1.5;
+}
+
+// Squared Euclidean offset length from which a step of support `support` (scatter, V) and its
+// slope are exact zeros: every aperture gauge is at least the Euclidean length, so such taps
+// have g >= support. The relative margin covers f32 rounding of the gauge (polygon cos
+// included); taps inside it that the reference would also visit just add exact zeros.
+float drbokeh_zero_beyond2(float support) {
+    float limit = support * (1.0 + 1.0 / 4096.0);
+    return limit * limit;
+}
+
+// Half-width of row oy of a window of half-width h, clipped to the offsets with
+// float(ox^2 + oy^2) < limit2 (the whole row for a huge limit2); -1 when the row is empty.
+int drbokeh_clipped_half_width(int h, int oy, float limit2) {
+    float room = limit2 - float(oy * oy);
+    if (!(room > 0.0)) {
+        return -1;
+    }
+    int m = int(min(float(h), floor(sqrt(room))));
+    // The estimate is off by a rounding at most: settle it with the exact test.
+    while (m >= 0 && float(m * m + oy * oy) >= limit2) {
+        m -= 1;
+    }
+    while (m < h && float((m + 1) * (m + 1) + oy * oy) < limit2) {
+        m += 1;
+    }
+    return m;
+}
+
 // Default-model visibility weight D = S(r_x, g) K of offset x - y, and dD/dr_x.
 vec2 drbokeh_vis_weight(vec2 offset, DrBokehPx dst) {
     vec3 lens = drbokeh_lens_d(offset, dst.r, dst.rel);

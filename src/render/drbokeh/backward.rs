@@ -10,7 +10,8 @@
 //!    that depend on x's inputs as the *receiver* — alpha_x and s_x in the occlusion O(y, x),
 //!    r_x in V_l(x) — and `dL/dV / sum D`, the normalised adjoint of V for pass 4.
 //! 3. `tile_reach` (per layer, per tile): the transpose of the tile windows — how far the
-//!    receivers whose windows hold a source of the tile can be.
+//!    receivers whose windows hold a source of the tile can be (on the host for both: the GPU
+//!    backward needs it to cut its frame tiles and uploads it).
 //! 4. `source` (per layer, per pixel y, over every x whose window holds y): y as a *source* —
 //!    premultiplied colour and alpha in C/W, r_y and s_y in the weight, alpha_y in V(x).
 //!

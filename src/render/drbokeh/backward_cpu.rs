@@ -1,7 +1,7 @@
 //! f64 CPU reference of the Dr.Bokeh backward passes, shaped like the shaders:
 //! `composite_pixel` is the body of `drbokeh_backward_composite.comp`, `own_pixel` of
-//! `drbokeh_backward_own.comp`, `tile_reach_cpu` of `drbokeh_backward_tile_reach.comp`,
-//! `source_pixel` of `drbokeh_backward_source.comp` (pass roles
+//! `drbokeh_backward_own.comp`, `source_pixel` of `drbokeh_backward_source.comp`;
+//! `tile_reach_cpu` is also what the GPU backward uploads (pass roles
 //! in [`super::backward`]). Each function owns the values it returns: gathers only.
 use rayon::prelude::*;
 
@@ -227,7 +227,7 @@ pub fn source_cpu(
 }
 
 /// Per tile, the half-width of the square of receivers whose windows may hold a source of
-/// the tile (mirrors `drbokeh_backward_tile_reach.comp`): a receiver in tile U holds sources
+/// the tile (the GPU backward's `tile_reach` buffer too): a receiver in tile U holds sources
 /// up to `h_U` px away, so `reach_T = max { h_U : gap(U, T) <= h_U }`.
 pub fn tile_reach_cpu(params: &Params, window: &[i32]) -> Vec<i32> {
     let (tiles_x, tiles_y) = (params.tiles_x as i64, params.tiles_y as i64);

@@ -1,7 +1,8 @@
 //! GPU host code of the Dr.Bokeh backward pass: the four forward passes, then the three
-//! gather passes of `glsl/drbokeh_backward_*.comp` over the forward's intermediates, in one
-//! command batch per frame tile. The f64 reference of the same passes is
-//! [`super::backward_cpu`].
+//! gather passes of `glsl/drbokeh_backward_*.comp` (composite, own, source; pass 3, the tile
+//! reach, is computed on the host, which needs it to cut the tiles anyway, and uploaded) over
+//! the forward's intermediates, in one command batch per frame tile. The f64 reference of the
+//! same passes is [`super::backward_cpu`].
 //!
 //! A tile is a core C of *source* pixels, whose gradients it writes. They gather over the
 //! receivers O whose windows hold a source of C (C grown by the tile reach, pass 3); O's
@@ -30,8 +31,11 @@ pub struct DrBokehGpuGrad {
     forward: DrBokehGpu,
     composite: ComputePipeline,
     own: ComputePipeline,
-    tile_reach: ComputePipeline,
     source: ComputePipeline,
+    /// Passes 2 and 4 compiled for the default model with a disk aperture and no kernel image
+    /// (see [`disk_path`]): lavapipe runs every branch, so the general code costs every tap.
+    own_disk: ComputePipeline,
+    source_disk: ComputePipeline,
     pub model: Model,
     pub options: BackwardOptions,
 }
@@ -42,6 +46,8 @@ struct BackwardBuffers {
     adj_cw: Buffer,
     adj_vis: Buffer,
     own: Buffer,
+    /// Pass 2's per-receiver (rel, alpha, dL/dV / sum D, window) for pass 4: one load a tap.
+    receiver: Buffer,
     tile_reach: Buffer,
     grad_rgba: Buffer,
     grad_disparity: Buffer,
@@ -54,9 +60,10 @@ impl DrBokehGpuGrad {
         Ok(Self {
             forward: DrBokehGpu::new(ctx)?,
             composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_COMPOSITE, 5, push)?,
-            own: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN, 8, push)?,
-            tile_reach: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_TILE_REACH, 2, push)?,
+            own: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN, 9, push)?,
             source: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE, 11, push)?,
+            own_disk: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN_DISK, 9, push)?,
+            source_disk: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_DISK, 11, push)?,
             model,
             options,
         })
@@ -110,7 +117,7 @@ impl DrBokehGpuGrad {
             let receivers = frame.receivers(core);
             let read = receivers.grown(halo(params, frame.windows, receivers), params.width, params.height);
             let fwd = ForwardBuffers::new(ctx, frame.stack, params, frame.windows, receivers, read)?;
-            let bwd = self.buffers(params, frame.grad_output, core, receivers, read)?;
+            let bwd = self.buffers(params, frame.grad_output, frame.reach, core, receivers, read)?;
             stats.peak_device_bytes = stats.peak_device_bytes.max(ctx.allocated_bytes().saturating_sub(baseline));
             let mut batch = CommandBatch::new(ctx)?;
             self.forward.record(&mut batch, params, &fwd)?;
@@ -127,7 +134,7 @@ impl DrBokehGpuGrad {
         Ok((grads.finish(params), stats))
     }
 
-    fn buffers(&self, params: &Params, grad_output: &Image, core: Rect, receivers: Rect, read: Rect) -> Result<BackwardBuffers> {
+    fn buffers(&self, params: &Params, grad_output: &Image, reach: &[i32], core: Rect, receivers: Rect, read: Rect) -> Result<BackwardBuffers> {
         let ctx = self.context();
         let layers = params.layer_count as u64;
         let (read_n, core_n) = (layers * read.area() as u64, layers * core.area() as u64);
@@ -137,7 +144,8 @@ impl DrBokehGpuGrad {
             adj_cw: Buffer::zeroed(ctx, "drbokeh adj_cw", read_n * VEC4)?,
             adj_vis: Buffer::zeroed(ctx, "drbokeh adj_vis", read_n * 4)?,
             own: Buffer::zeroed(ctx, "drbokeh own", read_n * VEC4)?,
-            tile_reach: Buffer::zeroed(ctx, "drbokeh tile_reach", layers * (params.tiles_x * params.tiles_y) as u64 * 4)?,
+            receiver: Buffer::zeroed(ctx, "drbokeh receiver", read_n * VEC4)?,
+            tile_reach: Buffer::from_slice(ctx, "drbokeh tile_reach", reach)?,
             grad_rgba: Buffer::zeroed(ctx, "drbokeh grad_rgba", core_n * VEC4)?,
             grad_disparity: Buffer::zeroed(ctx, "drbokeh grad_disparity", core_n * 4)?,
             k_partial: Buffer::zeroed(ctx, "drbokeh k_partial", core_n * 4)?,
@@ -147,11 +155,13 @@ impl DrBokehGpuGrad {
     /// Passes 1 and 2 over the receivers (the forward's core), pass 4 over the tile's `sources`.
     fn record(&self, batch: &mut CommandBatch, params: &Params, f: &ForwardBuffers, b: &BackwardBuffers, sources: Rect) -> Result<()> {
         let groups = self.own.groups_for([f.core.width() as u32, f.core.height() as u32, 1]);
-        let source_groups = self.source.groups_for([sources.width() as u32, sources.height() as u32, 1]);
-        let tile_groups = self.tile_reach.groups_for([(params.tiles_x * params.tiles_y) as u32, 1, 1]);
         let leaky_slope = self.options.leaky_slope as f32;
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
+        let (own_pipeline, source_pipeline) = if disk_path(params) { (&self.own_disk, &self.source_disk) } else { (&self.own, &self.source) };
+        // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
+        let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];
+        let source_groups = source_pipeline.groups_for([(sources.width() as u32).div_ceil(per_invocation), sources.height() as u32, 1]);
         let composite = [f.layer_cw.all(), f.layer_vis.all(), b.grad_output.all(), b.adj_cw.all(), b.adj_vis.all()];
         batch.dispatch(&self.composite, &composite, &push(0), groups)?;
         for layer in 0..params.layer_count {
@@ -164,13 +174,13 @@ impl DrBokehGpuGrad {
                 b.adj_cw.all(),
                 b.adj_vis.all(),
                 b.own.all(),
+                b.receiver.all(),
             ];
-            batch.dispatch(&self.own, &own, &push(layer), groups)?;
-            batch.dispatch(&self.tile_reach, &[f.tile_window.all(), b.tile_reach.all()], &push(layer), tile_groups)?;
+            batch.dispatch(own_pipeline, &own, &push(layer), groups)?;
             let source = [
                 f.rgba.all(),
                 f.disparity.all(),
-                f.tile_window.all(),
+                b.receiver.all(),
                 f.area_lut.all(),
                 f.kernel.all(),
                 b.adj_cw.all(),
@@ -180,10 +190,18 @@ impl DrBokehGpuGrad {
                 b.k_partial.all(),
                 b.tile_reach.all(),
             ];
-            batch.dispatch(&self.source, &source, &push_sources(layer), source_groups)?;
+            batch.dispatch(source_pipeline, &source, &push_sources(layer), source_groups)?;
         }
         Ok(())
     }
+}
+
+/// Whether passes 2 and 4 take their disk path: the default model with a disk aperture and no
+/// kernel image (K = 1, Euclidean gauge; mirrors the forward's disk path and the headers of
+/// `glsl/drbokeh_backward_{own,source}_disk.comp`).
+fn disk_path(params: &Params) -> bool {
+    let [blades, _, _, kernel] = params.lens.aperture;
+    params.model == Model::DrBokeh && blades < 3.0 && (kernel < 0.5 || params.lens.kernel_size == 0)
 }
 
 /// The frame the tiles cut: inputs, search windows and their transpose (layer-major).
@@ -216,8 +234,9 @@ fn backward_footprint(params: &Params, max_window: i32, max_reach: i32) -> impl 
         let (core, receivers) = (side * side, receivers_side * receivers_side);
         let read = (receivers_side + 2 * max_window.max(0) as u64).pow(2);
         let layers = params.layer_count as u64;
-        // adj_cw, adj_vis, own per read pixel; grad_rgba, grad_disparity, k_partial per core pixel.
-        let (adjoint_bytes, gradient_bytes) = (VEC4 + 4 + VEC4, VEC4 + 4 + 4);
+        // adj_cw, adj_vis, own, receiver per read pixel; grad_rgba, grad_disparity, k_partial
+        // per core pixel.
+        let (adjoint_bytes, gradient_bytes) = (VEC4 + 4 + VEC4 + VEC4, VEC4 + 4 + 4);
         Footprint {
             largest_binding: layers * read * VEC4,
             total: layers * (read * (READ_BYTES_PER_PIXEL + adjoint_bytes) + receivers * CORE_BYTES_PER_PIXEL + core * gradient_bytes)

@@ -1,0 +1,131 @@
+// Body of the Dr.Bokeh backward pass 2 (per receiver), compiled twice:
+// glsl/drbokeh_backward_own_disk.comp defines DRBOKEH_BACKWARD_DISK (default model, disk
+// aperture, no kernel image: V's weights with K = 1 and the Euclidean gauge) and
+// glsl/drbokeh_backward_own.comp does not (every model and aperture). Two pipelines rather
+// than a runtime branch: lavapipe runs every branch under lane masks. Bindings, push constants
+// and dispatch: see glsl/drbokeh_backward_own.comp.
+#ifndef LENSBLUR_DRBOKEH_BACKWARD_OWN_GLSL
+#define LENSBLUR_DRBOKEH_BACKWARD_OWN_GLSL
+
+#include "drbokeh_grad.glsl"
+
+layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
+
+layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
+layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
+layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
+layout(std430, set = 0, binding = 5) readonly buffer AdjCw { vec4 adj_cw[]; };
+layout(std430, set = 0, binding = 6) readonly buffer AdjVis { float adj_vis[]; };
+layout(std430, set = 0, binding = 7) writeonly buffer Own { vec4 own[]; };
+layout(std430, set = 0, binding = 8) writeonly buffer Receiver { vec4 receiver[]; };
+
+float drbokeh_area_lut(int index) {
+    return area_lut[index];
+}
+
+float aperture_kernel_texel(int index) {
+    return kernel_weights[index];
+}
+
+// Pass 2's pair terms of receiver x over its window: every one is a multiple of the scatter
+// S(r_y, g) and of O's partials (any leak only enters through dS/dr_y, which pass 4 owns), so
+// taps outside the source's support add exact zeros and are skipped. Returns (alpha, s, rel).
+vec3 receiver_pair_terms(ivec2 x, int h, DrBokehPx dst, vec4 adj) {
+    vec3 d_own = vec3(0.0);
+    for (int oy = -h; oy <= h; ++oy) {
+        int sy = x.y + oy;
+        if (sy < 0 || sy >= pc.height) {
+            continue;
+        }
+        for (int ox = -h; ox <= h; ++ox) {
+            int sx = x.x + ox;
+            if (sx < 0 || sx >= pc.width) {
+                continue;
+            }
+            int iy = drbokeh_read_index(pc.layer, ivec2(sx, sy));
+            vec4 p = rgba[iy];
+            DrBokehPx src = drbokeh_px(disparity[iy], p.w);
+            if (p.w > 0.0 && float(ox * ox + oy * oy) < drbokeh_zero_beyond2(drbokeh_support_for(src.r))) {
+                float a = dot(adj, p);
+                DrBokehPairGrad pg = drbokeh_pair_grad(vec2(float(-ox), float(-oy)), src, dst, ox == 0 && oy == 0);
+                d_own += a * vec3(pg.alpha_x, pg.s_x, pg.rel_x);
+            }
+        }
+    }
+    return d_own;
+}
+
+// V(x)'s sums over the window rows clipped to offsets below sqrt(limit2): sum D, sum alpha D,
+// sum D', sum alpha D' (D' = dD/dr_x), or the compat box count in .x.
+vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2) {
+    int box_half = drbokeh_visibility_box_compat(dst.r);
+    vec4 vis = vec4(0.0);
+    for (int oy = -h; oy <= h; ++oy) {
+        int sy = x.y + oy;
+        if (sy < 0 || sy >= pc.height) {
+            continue;
+        }
+        int half_width = drbokeh_clipped_half_width(h, oy, limit2);
+        for (int ox = -half_width; ox <= half_width; ++ox) {
+            int sx = x.x + ox;
+            if (sx < 0 || sx >= pc.width) {
+                continue;
+            }
+#ifdef DRBOKEH_BACKWARD_DISK
+            // drbokeh_vis_weight with K = 1, dK/dr = 0 and the Euclidean gauge.
+            float g = length(vec2(float(-ox), float(-oy)));
+            float alpha = rgba[drbokeh_read_index(pc.layer, ivec2(sx, sy))].w;
+            float d = drbokeh_scatter(dst.r, g);
+            float d_d = drbokeh_leaky(drbokeh_d_scatter(dst.r, g));
+            vis += vec4(d, alpha * d, d_d, alpha * d_d);
+#else
+            if (pc.model == DRBOKEH_MODEL_COMPAT) {
+                if (abs(ox) <= box_half && abs(oy) <= box_half) {
+                    vis.x += 1.0;
+                }
+            } else {
+                float alpha = rgba[drbokeh_read_index(pc.layer, ivec2(sx, sy))].w;
+                vec2 d = drbokeh_vis_weight(vec2(float(-ox), float(-oy)), dst);
+                vis += vec4(d.x, alpha * d.x, d.y, alpha * d.y);
+            }
+#endif
+        }
+    }
+    return vis;
+}
+
+void main() {
+    ivec2 x = drbokeh_core_pixel(gl_GlobalInvocationID);
+    if (x.x < 0) {
+        return;
+    }
+    int ix = drbokeh_read_index(pc.layer, x);
+    int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x.y / DRBOKEH_TILE) * pc.tiles_x + x.x / DRBOKEH_TILE];
+    DrBokehPx dst = drbokeh_px(disparity[ix], rgba[ix].w);
+    bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
+    // Taps that add exact zeros are skipped, by loop bounds (the sums are the reference's in
+    // its order, less zeros): the pair terms need a receiver that can occlude (default model:
+    // in focus, else O = 1 and its partials are 0), so the others run that loop zero times.
+    // Exact default model: D and dD/dr_x vanish beyond the receiver's own support, so V's sums
+    // visit only that disk; a leak keeps dD/dr_x over the whole square window.
+    int pair_half = compat || drbokeh_occludes(dst) ? h : -1;
+    vec3 d_own = receiver_pair_terms(x, pair_half, dst, adj_cw[ix]);
+    float limit2 = !compat && pc.leaky_slope <= 0.0 ? drbokeh_zero_beyond2(drbokeh_support(dst.r)) : 1.0e30;
+    vec4 vis = receiver_visibility_sums(x, h, dst, limit2);
+    float d_vis = adj_vis[ix];
+    float vis_norm = 0.0;
+    if (vis.x > 0.0) {
+        if (!compat) {
+            // V = sum alpha D / sum D: dV/dr_x = (sum alpha D' sum D - sum alpha D sum D') / (sum D)^2.
+            float d_v_dr = (vis.w * vis.x - vis.y * vis.z) / (vis.x * vis.x);
+            d_own.y += d_vis * d_v_dr * drbokeh_sign(dst.s);
+        }
+        vis_norm = d_vis / vis.x;
+    }
+    own[ix] = vec4(d_own, vis_norm);
+    receiver[ix] = vec4(dst.rel, dst.alpha, vis_norm, float(h));
+}
+
+#endif

@@ -1,0 +1,216 @@
+// Body of the Dr.Bokeh backward pass 4 (per source), compiled twice:
+// glsl/drbokeh_backward_source_disk.comp defines DRBOKEH_BACKWARD_DISK (default model, disk
+// aperture, no kernel image: K = 1 and one Euclidean gauge per tap) and
+// glsl/drbokeh_backward_source.comp does not (every model and aperture). Two pipelines rather
+// than a runtime branch: lavapipe runs every branch under lane masks, so a tap pays for all
+// the code in the loop body, taken or not. Bindings, push constants and dispatch: see
+// glsl/drbokeh_backward_source.comp.
+#ifndef LENSBLUR_DRBOKEH_BACKWARD_SOURCE_GLSL
+#define LENSBLUR_DRBOKEH_BACKWARD_SOURCE_GLSL
+
+#include "drbokeh_grad.glsl"
+
+
+#ifdef DRBOKEH_BACKWARD_DISK
+// Sources per invocation, horizontally adjacent (a divisor of the 16 px tile, so they share
+// the tile's reach): each receiver load serves RUN sources. The host derives RUN from
+// local_size_x (16 / local_size_x).
+const int RUN = 4;
+layout(local_size_x = 4, local_size_y = 16, local_size_z = 1) in;
+#else
+layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
+#endif
+
+layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Receiver { vec4 receiver[]; };
+layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
+layout(std430, set = 0, binding = 5) readonly buffer AdjCw { vec4 adj_cw[]; };
+layout(std430, set = 0, binding = 6) readonly buffer Own { vec4 own[]; };
+layout(std430, set = 0, binding = 7) writeonly buffer GradRgba { vec4 grad_rgba[]; };
+layout(std430, set = 0, binding = 8) writeonly buffer GradDisparity { float grad_disparity[]; };
+layout(std430, set = 0, binding = 9) writeonly buffer KPartial { float k_partial[]; };
+layout(std430, set = 0, binding = 10) readonly buffer TileReach { int tile_reach[]; };
+
+float drbokeh_area_lut(int index) {
+    return area_lut[index];
+}
+
+float aperture_kernel_texel(int index) {
+    return kernel_weights[index];
+}
+
+// dV(x)/dalpha_y times sum D (own[].w holds dL/dV / sum D).
+float vis_share(vec2 offset, DrBokehPx dst) {
+    if (pc.model == DRBOKEH_MODEL_COMPAT) {
+        float half_width = float(drbokeh_visibility_box_compat(dst.r));
+        return abs(offset.x) <= half_width && abs(offset.y) <= half_width ? 1.0 : 0.0;
+    }
+    return drbokeh_vis_weight(offset, dst).x;
+}
+
+#ifndef DRBOKEH_BACKWARD_DISK
+void main() {
+    ivec2 y = drbokeh_core_pixel(gl_GlobalInvocationID);
+    if (y.x < 0) {
+        return;
+    }
+    int tile_base = pc.layer * pc.tiles_x * pc.tiles_y;
+    int iy = drbokeh_read_index(pc.layer, y);
+    vec4 p = rgba[iy];
+    DrBokehPx src = drbokeh_px(disparity[iy], p.w);
+    vec4 own_y = own[iy];
+    vec4 d_p = vec4(0.0, 0.0, 0.0, own_y.x);
+    float d_s = own_y.y;
+    float d_rel = own_y.z;
+    int reach = tile_reach[tile_base + (y.y / DRBOKEH_TILE) * pc.tiles_x + y.x / DRBOKEH_TILE];
+    bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
+    // Taps that add exact zeros are skipped (the sums are the reference's in its order, less
+    // zeros). Exact gradient: the pair terms vanish beyond the source's support (S and dS/dr_y
+    // are 0 there), and V(x)'s share beyond x's own support r_x + 1/2 <= h_x + 1 <= reach + 1
+    // (the compat box lies inside it too), so only the disk of radius reach + 1 is visited. A
+    // leak keeps dS/dr_y on every receiver whose square window holds y.
+    bool exact = pc.leaky_slope <= 0.0;
+    float loop_limit2 = exact ? float((reach + 1) * (reach + 1)) : 1.0e30;
+    float pair_limit2 = exact ? drbokeh_zero_beyond2(drbokeh_support_for(src.r)) : 1.0e30;
+    for (int oy = -reach; oy <= reach; ++oy) {
+        int ry = y.y + oy;
+        if (ry < 0 || ry >= pc.height) {
+            continue;
+        }
+        int half_width = drbokeh_clipped_half_width(reach, oy, loop_limit2);
+        for (int ox = -half_width; ox <= half_width; ++ox) {
+            int rx = y.x + ox;
+            if (rx < 0 || rx >= pc.width) {
+                continue;
+            }
+            // One load per receiver: its window, inputs and V adjoint (pass 2's `receiver`).
+            int ix = drbokeh_read_index(pc.layer, ivec2(rx, ry));
+            vec4 rcv = receiver[ix];
+            int h = int(rcv.w);
+            if (abs(ox) > h || abs(oy) > h) {
+                continue; // the receiver's window does not hold this source
+            }
+            float s_x = pc.k_px * rcv.x; // as drbokeh_px
+            DrBokehPx dst = DrBokehPx(rcv.x, s_x, abs(s_x), rcv.y);
+            vec2 offset = vec2(float(ox), float(oy));
+            float o2 = float(ox * ox + oy * oy);
+            bool pair = p.w > 0.0 && o2 < pair_limit2;
+            vec4 adj = adj_cw[ix];
+            float a = dot(adj, p);
+            float own_share = rcv.z;
+            if (pair) {
+                DrBokehPairGrad pg = drbokeh_pair_grad(offset, src, dst, ox == 0 && oy == 0);
+                d_p += adj * pg.w;
+                d_s += a * pg.s_y;
+                d_rel += a * pg.rel_y;
+            }
+            // V(x)'s share is 0 beyond x's own support r_x + 1/2.
+            if (own_share != 0.0 && (compat || o2 < drbokeh_zero_beyond2(drbokeh_support(dst.r)))) {
+                d_p.w += own_share * vis_share(offset, dst);
+            }
+        }
+    }
+    int out_index = drbokeh_core_index(pc.layer, y);
+    grad_rgba[out_index] = d_p;
+    grad_disparity[out_index] = pc.k_px * d_s + d_rel;
+    k_partial[out_index] = src.rel * d_s;
+}
+
+#else
+// Disk path: drbokeh_pair_grad and drbokeh_vis_weight with K = 1, dK/dr = 0 and the one
+// Euclidean gauge |x - y| (the mirror of aperture_coords keeps the length), for RUN
+// horizontally adjacent sources y0 + (k, 0): each receiver is loaded once for all of them, and
+// each source still sums its receivers in the order of one source per invocation.
+void main() {
+    ivec2 local = ivec2(RUN * gl_GlobalInvocationID.x, gl_GlobalInvocationID.y);
+    if (local.x >= pc.core.z || local.y >= pc.core.w) {
+        return;
+    }
+    ivec2 y0 = pc.core.xy + local;
+    // Sources past the core (only at the image's right edge) repeat the last one, unwritten.
+    int last = min(RUN, pc.core.z - local.x) - 1;
+    int tile_base = pc.layer * pc.tiles_x * pc.tiles_y;
+    int reach = tile_reach[tile_base + (y0.y / DRBOKEH_TILE) * pc.tiles_x + y0.x / DRBOKEH_TILE];
+    // Loop bounds and skipped zeros as in the general main above.
+    bool exact = pc.leaky_slope <= 0.0;
+    float loop_limit2 = exact ? float((reach + 1) * (reach + 1)) : 1.0e30;
+    vec4 p[RUN];
+    DrBokehPx src[RUN];
+    float pair_limit2[RUN];
+    float area[RUN];
+    float d_area[RUN];
+    float sign_y[RUN];
+    vec4 d_p[RUN];
+    float d_s[RUN];
+    for (int k = 0; k < RUN; ++k) {
+        int iy = drbokeh_read_index(pc.layer, y0 + ivec2(min(k, last), 0));
+        p[k] = rgba[iy];
+        src[k] = drbokeh_px(disparity[iy], p[k].w);
+        pair_limit2[k] = exact ? drbokeh_zero_beyond2(drbokeh_support(src[k].r)) : 1.0e30;
+        area[k] = drbokeh_area(src[k].r);
+        d_area[k] = drbokeh_d_area(src[k].r);
+        sign_y[k] = drbokeh_sign(src[k].s);
+        vec4 own_y = own[iy];
+        d_p[k] = vec4(0.0, 0.0, 0.0, own_y.x);
+        d_s[k] = own_y.y; // d_rel stays own_y.z: the default model has no rel_y term
+    }
+    for (int oy = -reach; oy <= reach; ++oy) {
+        int ry = y0.y + oy;
+        if (ry < 0 || ry >= pc.height) {
+            continue;
+        }
+        int half_width = drbokeh_clipped_half_width(reach, oy, loop_limit2);
+        // Receivers y0 + (o, oy), o in [-half_width, half_width + RUN - 1] clipped to the
+        // image: source k sees the offset (o - k, oy).
+        int o0 = max(-half_width, -y0.x);
+        int o1 = min(half_width + RUN - 1, pc.width - 1 - y0.x);
+        for (int o = o0; o <= o1; ++o) {
+            int ix = drbokeh_read_index(pc.layer, ivec2(y0.x + o, ry));
+            vec4 rcv = receiver[ix];
+            int h = int(rcv.w);
+            if (abs(oy) > h) {
+                continue; // the receiver's window holds no source of this row
+            }
+            float s_x = pc.k_px * rcv.x; // as drbokeh_px
+            DrBokehPx dst = DrBokehPx(rcv.x, s_x, abs(s_x), rcv.y);
+            vec4 adj = adj_cw[ix];
+            float own_share = rcv.z;
+            float vis_limit2 = drbokeh_zero_beyond2(drbokeh_support(dst.r));
+            for (int k = 0; k < RUN; ++k) {
+                int ox = o - k;
+                if (ox < -half_width || ox > half_width || abs(ox) > h) {
+                    continue; // outside source k's row or the receiver's window
+                }
+                vec2 offset = vec2(float(ox), float(oy));
+                float o2 = float(ox * ox + oy * oy);
+                float g = length(offset);
+                float s = drbokeh_scatter(src[k].r, g);
+                float ds = drbokeh_leaky(drbokeh_d_scatter(src[k].r, g));
+                bool is_self = ox == 0 && oy == 0;
+                float occ = drbokeh_occlusion(src[k].s, dst.s, dst.r, dst.alpha, is_self);
+                vec4 d_o = drbokeh_d_occlusion(src[k].s, dst.s, dst.r, dst.alpha, is_self);
+                float base = s / area[k];
+                float d_r_y = (ds - s * d_area[k] / area[k]) * occ / area[k];
+                if (p[k].w > 0.0 && o2 < pair_limit2[k]) {
+                    d_p[k] += adj * (base * occ);
+                    d_s[k] += dot(adj, p[k]) * (d_r_y * sign_y[k] + base * d_o.x);
+                }
+                if (own_share != 0.0 && o2 < vis_limit2) {
+                    d_p[k].w += own_share * drbokeh_scatter(dst.r, g);
+                }
+            }
+        }
+    }
+    for (int k = 0; k <= last; ++k) {
+        int iy = drbokeh_read_index(pc.layer, y0 + ivec2(k, 0));
+        int out_index = drbokeh_core_index(pc.layer, y0 + ivec2(k, 0));
+        grad_rgba[out_index] = d_p[k];
+        grad_disparity[out_index] = pc.k_px * d_s[k] + own[iy].z;
+        k_partial[out_index] = src[k].rel * d_s[k];
+    }
+}
+#endif
+
+#endif
