@@ -3,21 +3,11 @@
 //! the CPU-only benchmark on a machine without Vulkan.
 mod common;
 use std::path::Path;
-use std::process::{Command, Output};
 
 use lensblur::stack::{read_stack, ReadOptions};
 
-fn lensblur(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_lensblur"));
-    command.args(args).env("LENSBLUR_VALIDATION", "1").env_remove("LENSBLUR_DEVICE");
-    for (key, value) in env {
-        command.env(key, value);
-    }
-    command.output().unwrap()
-}
-
 fn run_ok(args: &[&str], env: &[(&str, &str)]) -> (String, String) {
-    let output = lensblur(args, env);
+    let output = common::lensblur(args, env);
     let (stdout, stderr) = (String::from_utf8_lossy(&output.stdout).into_owned(), String::from_utf8_lossy(&output.stderr).into_owned());
     assert!(output.status.success(), "{args:?} failed: {stderr}");
     (stdout, stderr)
@@ -26,9 +16,6 @@ fn run_ok(args: &[&str], env: &[(&str, &str)]) -> (String, String) {
 fn path(p: &Path) -> &str {
     p.to_str().unwrap()
 }
-
-/// No ICD for the Vulkan loader to find: what a machine without a GPU driver looks like.
-const NO_VULKAN: [(&str, &str); 2] = [("VK_ICD_FILENAMES", "/nonexistent/icd.json"), ("VK_DRIVER_FILES", "/nonexistent/icd.json")];
 
 #[test]
 fn raytrace_writes_the_pinhole_image_true_layers_defocus_and_camera() {
@@ -76,12 +63,12 @@ fn bench_prints_the_table_writes_json_and_sheet_and_runs_without_vulkan() {
     assert!(sheet.width() > 4 * 128 && sheet.height() > 2 * 96, "sheet {}x{}", sheet.width(), sheet.height());
 
     // Without Vulkan (the ground truth now comes from the cache): the CPU methods only.
-    let (table, warning) = run_ok(&common, &NO_VULKAN);
+    let (table, warning) = run_ok(&common, &common::NO_VULKAN);
     assert!(warning.contains("no Vulkan device") && warning.contains("oracle, gather-cpu, scatter-cpu"), "{warning}");
     assert!(table.contains("oracle ") && table.contains("gather-cpu ") && !table.contains("drbokeh"), "{table}");
     let mut args = common.to_vec();
     args.extend(["--methods", "drbokeh"]);
-    let output = lensblur(&args, &NO_VULKAN);
+    let output = common::lensblur(&args, &common::NO_VULKAN);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success() && !stderr.contains("panicked"), "{stderr}");
     assert!(stderr.contains("method 'drbokeh' needs a Vulkan device"), "{stderr}");
