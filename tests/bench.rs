@@ -112,7 +112,7 @@ fn methods_are_selected_by_name_and_unknown_names_are_refused() {
 #[test]
 fn every_renderer_is_registered_with_the_input_it_may_read() {
     let ctx = common::gpu();
-    let methods = all_methods(&ctx).expect("every pipeline builds");
+    let methods = all_methods(Some(&ctx)).expect("every pipeline builds");
     let listed: Vec<(&str, InputKind)> = methods.iter().map(|m| (m.name, m.input)).collect();
     let (single, layers) = (InputKind::SingleImage, InputKind::Layers);
     let expected = [
@@ -136,7 +136,7 @@ fn every_renderer_is_registered_with_the_input_it_may_read() {
 fn gpu_baselines_score_as_their_cpu_references() {
     let ctx = common::gpu();
     let names: Vec<String> = ["gather", "scatter", "gather-cpu", "scatter-cpu"].map(String::from).to_vec();
-    let methods = select_methods(all_methods(&ctx).expect("pipelines build"), &names).expect("registered");
+    let methods = select_methods(all_methods(Some(&ctx)).expect("pipelines build"), &names).expect("registered");
     let report = run(&scenes(), &methods).expect("benchmark runs");
     let psnr = |name: &str| report.methods.iter().find(|m| m.name == name).map(|m| m.mean.psnr).expect("ran");
     for base in ["gather", "scatter"] {

@@ -3,7 +3,6 @@
 //! a warning, and a device that cannot be opened is a clear error that writes nothing.
 mod common;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use lensblur::camera::PhysicalCamera;
 use lensblur::image::Image;
@@ -39,20 +38,11 @@ fn write_input(dir: &Path) -> PathBuf {
     path
 }
 
-fn lensblur(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_lensblur"));
-    command.args(args).env("LENSBLUR_VALIDATION", "1").env_remove("LENSBLUR_DEVICE");
-    for (key, value) in env {
-        command.env(key, value);
-    }
-    command.output().unwrap()
-}
-
 /// Runs `lensblur render INPUT -o OUT EXTRA...`, which must succeed; returns its stderr.
 fn run_ok(input: &Path, out: &Path, extra: &[&str], env: &[(&str, &str)]) -> String {
     let mut args = vec!["render", input.to_str().unwrap(), "-o", out.to_str().unwrap()];
     args.extend_from_slice(extra);
-    let output = lensblur(&args, env);
+    let output = common::lensblur(&args, env);
     let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
     assert!(output.status.success(), "{args:?} failed: {stderr}");
     stderr
@@ -116,7 +106,7 @@ fn an_unknown_lensblur_device_is_a_clear_error_and_writes_nothing() {
     let dir = common::temp_dir("cli-device", "unknown");
     let input = write_input(&dir);
     let out = dir.join("out.exr");
-    let output = lensblur(&["render", input.to_str().unwrap(), "-o", out.to_str().unwrap()], &[("LENSBLUR_DEVICE", "nonesuch-gpu")]);
+    let output = common::lensblur(&["render", input.to_str().unwrap(), "-o", out.to_str().unwrap()], &[("LENSBLUR_DEVICE", "nonesuch-gpu")]);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success() && !stderr.contains("panicked"), "{stderr}");
     for needle in ["LENSBLUR_DEVICE=nonesuch-gpu matches no Vulkan device", "lensblur devices", "--device cpu"] {
@@ -125,19 +115,16 @@ fn an_unknown_lensblur_device_is_a_clear_error_and_writes_nothing() {
     assert!(!out.exists());
 }
 
-/// No ICD for the Vulkan loader to find: what a machine without a GPU driver looks like.
-const NO_VULKAN: [(&str, &str); 2] = [("VK_ICD_FILENAMES", "/nonexistent/icd.json"), ("VK_DRIVER_FILES", "/nonexistent/icd.json")];
-
 #[test]
 fn without_vulkan_auto_falls_back_to_the_cpu_and_gpu_refuses() {
     let dir = common::temp_dir("cli-device", "novulkan");
     let input = write_input(&dir);
-    let (fallback, warning) = render(&input, &dir.join("auto.exr"), &[], &NO_VULKAN);
+    let (fallback, warning) = render(&input, &dir.join("auto.exr"), &[], &common::NO_VULKAN);
     assert!(warning.contains("no usable Vulkan device") && warning.contains("on the CPU"), "{warning}");
     let (cpu, _) = render(&input, &dir.join("cpu.exr"), &["--device", "cpu"], &[]);
     assert_eq!(fallback.pixels, cpu.pixels, "the fallback is the CPU path");
     let out = dir.join("gpu.exr");
-    let output = lensblur(&["render", input.to_str().unwrap(), "-o", out.to_str().unwrap(), "--device", "gpu"], &NO_VULKAN);
+    let output = common::lensblur(&["render", input.to_str().unwrap(), "-o", out.to_str().unwrap(), "--device", "gpu"], &common::NO_VULKAN);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success() && !stderr.contains("panicked"), "{stderr}");
     assert!(stderr.contains("opening the Vulkan device") && stderr.contains("--device cpu"), "{stderr}");

@@ -119,8 +119,10 @@ pub fn gpu_methods(ctx: &crate::vk::Context) -> Result<Vec<Method>> {
 }
 
 /// Every method: the oracle, the Vulkan renderers on `ctx`, then the CPU baselines' references.
-pub fn all_methods(ctx: &crate::vk::Context) -> Result<Vec<Method>> {
+/// Without a device, only the CPU references.
+pub fn all_methods(ctx: Option<&crate::vk::Context>) -> Result<Vec<Method>> {
     let mut cpu = cpu_methods();
+    let Some(ctx) = ctx else { return Ok(cpu) };
     let references = cpu.split_off(1);
     let mut methods = cpu;
     methods.extend(gpu_methods(ctx)?);

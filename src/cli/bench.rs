@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use lensblur::bench::{all_methods, contact_sheet, run_with_progress, scenes, select_methods, write_png, HEAT_MAX};
+use lensblur::bench::{all_methods, contact_sheet, cpu_methods, run_with_progress, scenes, select_methods, write_png, HEAT_MAX};
 use lensblur::vk::Context as GpuContext;
 
 #[derive(clap::Args)]
@@ -51,8 +51,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.perf {
         return super::bench_perf::run_suite(args.quick, args.json.as_deref(), &args.perf_flags);
     }
-    let gpu = GpuContext::from_env().context("opening the Vulkan device")?;
-    let methods = select_methods(all_methods(&gpu)?, &args.methods)?;
+    let gpu = open_device_or_warn(&args.methods)?;
+    let methods = select_methods(all_methods(gpu.as_ref())?, &args.methods)?;
     let tracing = bar("ray tracing {msg}", "rows")?;
     let truths = scenes::ground_truths(&args.scenes, args.quick, Some(tracing.clone()), (!args.no_cache).then_some(args.cache.as_path())).context("ray tracing the scenes")?;
     tracing.finish_and_clear();
@@ -68,7 +68,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         write_png(&contact_sheet(&truths, &report)?, path)?;
         eprintln!("wrote {} (error scale: 0 to {HEAT_MAX} in display values)", path.display());
     }
+    drop(methods);
+    if let Some(gpu) = gpu {
+        gpu.finish()?;
+    }
     Ok(())
+}
+
+/// The Vulkan device, or None (with a warning) when none opens and every requested method
+/// has a CPU reference: the CPU references alone still rank against the ground truth.
+fn open_device_or_warn(requested: &[String]) -> anyhow::Result<Option<GpuContext>> {
+    let error = match GpuContext::from_env() {
+        Ok(ctx) => return Ok(Some(ctx)),
+        Err(error) => error,
+    };
+    let cpu: Vec<&str> = cpu_methods().iter().map(|m| m.name).collect();
+    if let Some(name) = requested.iter().find(|n| !cpu.contains(&n.as_str())) {
+        return Err(anyhow::Error::new(error)
+            .context(format!("method '{name}' needs a Vulkan device (without one, only {} run)", cpu.join(", "))));
+    }
+    eprintln!("lensblur: warning: no Vulkan device ({error}); running only the CPU methods: {}", cpu.join(", "));
+    Ok(None)
 }
 
 fn bar(prefix: &str, unit: &str) -> anyhow::Result<ProgressBar> {

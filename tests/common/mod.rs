@@ -1,6 +1,7 @@
 //! Shared test setup. GPU tests never skip: without a Vulkan device they fail loudly.
 #![allow(dead_code)]
 use std::path::PathBuf;
+use std::process::{Command, Output};
 
 use lensblur::image::Image;
 use lensblur::vk::{Context, ContextOptions};
@@ -50,3 +51,17 @@ pub fn temp_dir(suite: &str, test: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
+
+/// Runs the `lensblur` binary with validation on, the default device choice and `env` added.
+pub fn lensblur(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_lensblur"));
+    command.args(args).env("LENSBLUR_VALIDATION", "1").env_remove("LENSBLUR_DEVICE");
+    for (key, value) in env {
+        command.env(key, value);
+    }
+    command.output().unwrap()
+}
+
+/// No ICD for the Vulkan loader to find: what a machine without a GPU driver looks like.
+pub const NO_VULKAN: [(&str, &str); 2] =
+    [("VK_ICD_FILENAMES", "/nonexistent/icd.json"), ("VK_DRIVER_FILES", "/nonexistent/icd.json")];
