@@ -109,7 +109,7 @@ impl Method {
                     None => render_vdslr_cpu(&image, &disparity, lens, &VdslrParams::tuned()),
                 }
             }
-            (Method::Oracle, _) => Ok(super::oracle::render_oracle(stack, &lens.coc)),
+            (Method::Oracle, _) => Ok(super::oracle::render_oracle(stack, lens)),
             (Method::Gather, ctx) => {
                 let (image, disparity) = single();
                 match ctx {
