@@ -9,6 +9,7 @@ use lensblur::camera::{Aperture, CocModel};
 use lensblur::character::{debug, kernels, render_cats_eye, render_chromatic, Bloom, BlurRemap, CatsEye, Character};
 use lensblur::image::Image;
 use lensblur::render::drbokeh::{DrBokehGpu, Model};
+use lensblur::render::vdslr::FocusField;
 use lensblur::render::Lens;
 use lensblur::stack::{write_stack, Layer, LayerStack, StackWriteOptions};
 
@@ -129,7 +130,7 @@ fn layer_assignment_coc_sign_and_focus_peaking_describe_the_scene() {
     let lens = Lens { coc: CocModel::new(10.0, 0.5).unwrap(), aperture: Aperture::Disk };
     let layers = debug::layer_assignment(&stack);
     assert_eq!((layers[8 * w + 4], layers[8 * w + 24]), (Some(0), Some(1)));
-    let coc = debug::coc_map(&stack, &lens);
+    let coc = debug::coc_map(&stack, &lens, &FocusField::Plane).unwrap();
     assert!(coc[8 * w + 4] > 0.0 && coc[8 * w + 24] < 0.0, "near is positive, far negative");
     let colours = debug::coc_image(w, h, &coc);
     assert!(colours.get(4, 8)[0] > colours.get(4, 8)[2] && colours.get(24, 8)[2] > colours.get(24, 8)[0], "near warm, far cool");

@@ -23,10 +23,11 @@ pub use vignette::{render_cats_eye, CatsEye};
 
 use crate::image::Image;
 use crate::render::drbokeh::RenderOptions;
-use crate::render::{Lens, Method};
+use crate::render::vdslr::FocusField;
+use crate::render::{Lens, Method, MethodSettings};
 use crate::stack::LayerStack;
 use crate::vk::Context;
-use crate::Result;
+use crate::{Error, Result};
 
 /// Every control; `Character::default()` changes nothing.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -79,8 +80,44 @@ impl Character {
         }
     }
 
-    /// Prepares and renders with `method`; returns the image and the stack and lens rendered
-    /// (what the debug views describe).
+    /// Refuses the controls that assume one focal plane through the frame centre when the
+    /// method renders another focus field (Virtual DSLR's tilt-shift or several planes).
+    pub fn check_focus_field(&self, focus: &FocusField) -> Result<()> {
+        let conflicts: Vec<&str> = match focus {
+            FocusField::Plane => Vec::new(),
+            // The tilted field moves with the chromatic focus shift as a whole (exact), but
+            // a focus pick and the blur remap act on the centre's plane only, and cat's-eye
+            // renders crops, which would move the tilt's pivot (the crop's centre).
+            FocusField::Tilt { .. } => [
+                (self.focus_at.is_some(), "--focus-at"),
+                (!self.remap.is_identity(), "--near-blur/--far-blur/--max-blur"),
+                (self.cats_eye.is_some(), "--cats-eye"),
+            ]
+            .into_iter()
+            .filter_map(|(on, name)| on.then_some(name))
+            .collect(),
+            // Several planes ignore the lens's single focus, which these controls move.
+            FocusField::Planes(_) => [
+                (self.focus_at.is_some(), "--focus-at"),
+                (!self.remap.is_identity(), "--near-blur/--far-blur/--max-blur"),
+                (self.chromatic.is_some(), "--chromatic"),
+            ]
+            .into_iter()
+            .filter_map(|(on, name)| on.then_some(name))
+            .collect(),
+        };
+        if conflicts.is_empty() {
+            return Ok(());
+        }
+        let field = if matches!(focus, FocusField::Tilt { .. }) { "--tilt-shift" } else { "--focal-planes" };
+        Err(Error::param(format!(
+            "{} cannot be combined with {field}: they act on one focal plane through the frame centre; drop one of them",
+            conflicts.join(", ")
+        )))
+    }
+
+    /// Prepares and renders with `method` and its `settings`; returns the image and the stack
+    /// and lens rendered (what the debug views describe).
     pub fn render<'a>(
         &self,
         method: Method,
@@ -88,9 +125,11 @@ impl Character {
         stack: &'a LayerStack,
         lens: &Lens,
         options: &RenderOptions,
+        settings: &MethodSettings,
     ) -> Result<(Image, Cow<'a, LayerStack>, Lens)> {
+        self.check_focus_field(settings.focus(method))?;
         let (prepared, lens) = self.prepare(stack, lens)?;
-        let render = |s: &LayerStack, l: &Lens| method.render_with(ctx, s, l, options);
+        let render = |s: &LayerStack, l: &Lens| method.render_with(ctx, s, l, options, settings);
         let image = self.render_prepared(&render, &prepared, &lens)?;
         Ok((image, prepared, lens))
     }

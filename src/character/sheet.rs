@@ -8,7 +8,7 @@ use crate::bench::font::{draw_text, GLYPH_H};
 use crate::camera::{Aperture, CocModel};
 use crate::image::Image;
 use crate::render::drbokeh::RenderOptions;
-use crate::render::{Lens, Method};
+use crate::render::{Lens, Method, MethodSettings};
 use crate::stack::ldr::linear_to_srgb;
 use crate::stack::{Layer, LayerStack};
 use crate::vk::Context;
@@ -60,7 +60,7 @@ pub fn character_sheet(ctx: &Context) -> Result<RgbImage> {
     let rows = (cases.len() as u32).div_ceil(columns);
     let mut sheet = RgbImage::from_pixel(PAD + columns * (cell_w + PAD), rows * (LABEL_H + cell_h + PAD) + PAD, Rgb([40, 40, 40]));
     for (i, (label, character, lens)) in cases.iter().enumerate() {
-        let (image, ..) = character.render(Method::DrBokeh, Some(ctx), &stack, lens, &RenderOptions::default())?;
+        let (image, ..) = character.render(Method::DrBokeh, Some(ctx), &stack, lens, &RenderOptions::default(), &MethodSettings::default())?;
         let (col, row) = (i as u32 % columns, i as u32 / columns);
         let (x0, y0) = (PAD + col * (cell_w + PAD), PAD + row * (LABEL_H + cell_h + PAD));
         draw_text(&mut sheet, x0, y0 + PAD, label, 2, cell_w, Rgb([235, 235, 235]));
