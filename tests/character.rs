@@ -402,3 +402,53 @@ fn every_method_honours_kernel_apertures_and_cats_eye() {
         assert!(radial / tangential < 0.7, "{method}: corner bokeh {radial} vs {tangential}");
     }
 }
+
+/// Bloom on LDR input: a clipped highlight (straight value 1.0) on an out-of-focus wall
+/// spreads into a dim, flat bokeh ball; with `--bloom 0.8:4` the same ball carries 4 times
+/// the light, while an in-focus card below the threshold is untouched.
+#[test]
+fn bloom_makes_a_clipped_highlight_a_bright_bokeh_ball_and_leaves_darker_pixels_alone() {
+    let ctx = gpu();
+    let renderer = DrBokehGpu::new(&ctx).unwrap();
+    let (w, h) = (64, 48);
+    // Black wall (disparity 0, CoC 8 px) with a 3x3 clipped highlight at (44, 24); an in-focus
+    // grey card (0.5 < 0.8) on the left.
+    let wall = Image::from_fn(w, h, |x, y| if (43..46).contains(&x) && (23..26).contains(&y) { [1.0; 4] } else { [0.0, 0.0, 0.0, 1.0] });
+    let card = Image::from_fn(w, h, |x, y| if x < 20 && (10..38).contains(&y) { [0.5, 0.4, 0.3, 1.0] } else { [0.0; 4] });
+    let stack = LayerStack::new(w, h, vec![
+        Layer { name: "card".into(), rgba: card.clone(), disparity: vec![0.5; w * h] },
+        Layer { name: "wall".into(), rgba: wall, disparity: vec![0.0; w * h] },
+    ]).unwrap();
+    let lens = lens(8.0, Aperture::Disk);
+    let render_with = |bloom: Option<Bloom>| {
+        let character = Character { bloom, ..Character::default() };
+        let (s, l) = character.prepare(&stack, &lens).unwrap();
+        character.render_prepared(&|s: &LayerStack, l: &Lens| render(&renderer, s, l), &s, &l).unwrap()
+    };
+    let (plain, bloomed) = (render_with(None), render_with(Some(Bloom::parse("0.8:4").unwrap())));
+    let ball = |image: &Image, radius: f32| {
+        let inside = |x: usize, y: usize| (x as f32 - 44.0).powi(2) + (y as f32 - 24.0).powi(2) < radius * radius;
+        let values: Vec<f32> = (0..w * h).filter(|&i| inside(i % w, i / w)).map(|i| image.pixels[i][0]).collect();
+        values
+    };
+    // Without bloom: 9 px of light over a 201 px disk, a dim ball (~0.045) with a flat top: the
+    // 3x3 source convolved with the r = 8 disk is constant within 5 px of its centre, up to the
+    // anti-aliased rim's coverage (measured spread 1e-6).
+    let top = ball(&plain, 5.0);
+    let mean = top.iter().sum::<f32>() / top.len() as f32;
+    assert!(mean < 0.06, "dim without bloom: {mean}");
+    assert!(top.iter().all(|v| (v - mean).abs() < 0.05 * mean), "flat top without bloom: mean {mean}");
+    // With bloom: each highlight pixel is at the clip, 1.0 = threshold + knee (the top of the
+    // Hermite ramp), so its factor is exactly the gain; the render is linear in colour (same
+    // alpha and depth), so the whole ball carries 4x the light. 1e-3: f32 sums of ~200 taps.
+    let (sum_plain, sum_bloom) = (ball(&plain, 11.0).iter().sum::<f32>(), ball(&bloomed, 11.0).iter().sum::<f32>());
+    assert!((sum_bloom / sum_plain - 4.0).abs() < 4e-3, "ball brighter by {} (gain 4)", sum_bloom / sum_plain);
+    // Below the threshold (and beyond the ball's reach) nothing changes, bit for bit.
+    for y in 12..36 {
+        for x in 0..16 {
+            assert_eq!(bloomed.get(x, y), plain.get(x, y), "card pixel ({x}, {y})");
+        }
+    }
+    drop(renderer);
+    finish(ctx);
+}
