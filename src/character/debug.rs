@@ -86,11 +86,7 @@ pub fn write_debug_views(dir: &Path, stack: &LayerStack, lens: &Lens, focus: &Fo
         Ok(())
     };
     save("coc.png".into(), &coc_image(w, h, &coc_map(stack, lens, focus)?))?;
-    let layers = layer_assignment(stack);
-    save("layers.png".into(), &Image::from_fn(w, h, |x, y| match layers[y * w + x] {
-        Some(l) => { let c = PALETTE[l % PALETTE.len()]; [c[0], c[1], c[2], 1.0] }
-        None => [0.0, 0.0, 0.0, 1.0],
-    }))?;
+    save("layers.png".into(), &layers_image(stack))?;
     save("focus_peaking.png".into(), &peaking_overlay(rendered))?;
     for (l, v) in visibility(stack, lens)?.iter().enumerate() {
         save(format!("visibility_{l}_{}.png", sanitise(&stack.layers[l].name)), v)?;
@@ -98,8 +94,17 @@ pub fn write_debug_views(dir: &Path, stack: &LayerStack, lens: &Lens, focus: &Fo
     Ok(written)
 }
 
+/// The layer assignment, one palette colour per layer (black: empty).
+pub fn layers_image(stack: &LayerStack) -> Image {
+    let (w, layers) = (stack.width, layer_assignment(stack));
+    Image::from_fn(w, stack.height, |x, y| match layers[y * w + x] {
+        Some(l) => { let c = PALETTE[l % PALETTE.len()]; [c[0], c[1], c[2], 1.0] }
+        None => [0.0, 0.0, 0.0, 1.0],
+    })
+}
+
 /// The render darkened to grey, with peaking pixels marked.
-fn peaking_overlay(rendered: &Image) -> Image {
+pub fn peaking_overlay(rendered: &Image) -> Image {
     let peaks = focus_peaking(rendered);
     let mut out = Image::from_fn(rendered.width, rendered.height, |x, y| {
         let p = rendered.get(x, y);
