@@ -43,6 +43,13 @@ fn moments(image: &Image, x0: usize, y0: usize, x1: usize, y1: usize) -> (f64, f
     })
 }
 
+/// Variances of channel 0 in the 16x16 window at `(x0, y0)` along the main diagonal (radial
+/// for a light near the top-left corner) and across it (tangential).
+fn diagonal_variances(image: &Image, x0: usize, y0: usize) -> (f64, f64) {
+    let (xx, yy, xy) = moments(image, x0, y0, x0 + 16, y0 + 16);
+    ((xx + yy) / 2.0 + xy, (xx + yy) / 2.0 - xy)
+}
+
 /// Radius of a uniform disk with the same second moment: E[x^2 + y^2] = R^2 / 2.
 fn measured_radius(image: &Image) -> f64 {
     let (xx, yy, _) = moments(image, 0, 0, image.width, image.height);
@@ -225,11 +232,7 @@ fn cats_eye_bokeh_is_round_at_the_centre_and_lens_shaped_at_a_corner() {
     let stack = point_lights(80, 80, &[(40, 40), (8, 8)]);
     let eye = CatsEye { strength: 1.0, grid: 3 };
     let image = render_cats_eye(&|s: &LayerStack, l: &Lens| render(&renderer, s, l), &stack, &lens(6.0, Aperture::Disk), &eye).unwrap();
-    let axes = |x0, y0| {
-        let (xx, yy, xy) = moments(&image, x0, y0, x0 + 16, y0 + 16);
-        // Variance along the diagonal (radial for the corner) and across it (tangential).
-        ((xx + yy) / 2.0 + xy, (xx + yy) / 2.0 - xy)
-    };
+    let axes = |x0, y0| diagonal_variances(&image, x0, y0);
     let (radial, tangential) = axes(32, 32);
     assert!((radial / tangential - 1.0).abs() < 0.05, "centre is round: {radial} vs {tangential}");
     let (radial, tangential) = axes(0, 0);
@@ -386,11 +389,7 @@ fn every_method_honours_kernel_apertures_and_cats_eye() {
         // room for the soft rims of the gathers, about a pixel wide).
         assert!(centre < 0.05 * annulus, "{method}: centre {centre}, annulus {annulus}");
         let eye = cli_render(&eye_scene, &format!("eye-{method}"), &flags("12", &["--cats-eye", "1.0"]));
-        let axes = |x0, y0| {
-            let (xx, yy, xy) = moments(&eye, x0, y0, x0 + 16, y0 + 16);
-            // Variance along the diagonal (radial for the corner light) and across it.
-            ((xx + yy) / 2.0 + xy, (xx + yy) / 2.0 - xy)
-        };
+        let axes = |x0, y0| diagonal_variances(&eye, x0, y0);
         let (radial, tangential) = axes(32, 32);
         // At the centre the clipping disk is not shifted: round (measured within 1.3%, the
         // ray-traced methods' sampling noise).

@@ -83,33 +83,26 @@ impl Character {
     /// Refuses the controls that assume one focal plane through the frame centre when the
     /// method renders another focus field (Virtual DSLR's tilt-shift or several planes).
     pub fn check_focus_field(&self, focus: &FocusField) -> Result<()> {
-        let conflicts: Vec<&str> = match focus {
-            FocusField::Plane => Vec::new(),
-            // The tilted field moves with the chromatic focus shift as a whole (exact), but
-            // a focus pick and the blur remap act on the centre's plane only, and cat's-eye
-            // renders crops, which would move the tilt's pivot (the crop's centre).
-            FocusField::Tilt { .. } => [
-                (self.focus_at.is_some(), "--focus-at"),
-                (!self.remap.is_identity(), "--near-blur/--far-blur/--max-blur"),
-                (self.cats_eye.is_some(), "--cats-eye"),
-            ]
-            .into_iter()
-            .filter_map(|(on, name)| on.then_some(name))
-            .collect(),
-            // Several planes ignore the lens's single focus, which these controls move.
-            FocusField::Planes(_) => [
-                (self.focus_at.is_some(), "--focus-at"),
-                (!self.remap.is_identity(), "--near-blur/--far-blur/--max-blur"),
-                (self.chromatic.is_some(), "--chromatic"),
-            ]
-            .into_iter()
-            .filter_map(|(on, name)| on.then_some(name))
-            .collect(),
+        let (tilt, planes) = match focus {
+            FocusField::Plane => return Ok(()),
+            FocusField::Tilt { .. } => (true, false),
+            FocusField::Planes(_) => (false, true),
         };
+        // A focus pick and the blur remap act on the centre's plane only. The chromatic focus
+        // shift moves a tilted field as a whole (exact), but several planes ignore the lens's
+        // single focus it moves. Cat's-eye renders crops, which would move a tilt's pivot (the
+        // crop's centre); planes are absolute and do not mind.
+        let controls = [
+            (self.focus_at.is_some(), "--focus-at", true),
+            (!self.remap.is_identity(), "--near-blur/--far-blur/--max-blur", true),
+            (self.chromatic.is_some(), "--chromatic", planes),
+            (self.cats_eye.is_some(), "--cats-eye", tilt),
+        ];
+        let conflicts: Vec<&str> = controls.iter().filter(|(on, _, conflicts)| *on && *conflicts).map(|c| c.1).collect();
         if conflicts.is_empty() {
             return Ok(());
         }
-        let field = if matches!(focus, FocusField::Tilt { .. }) { "--tilt-shift" } else { "--focal-planes" };
+        let field = if tilt { "--tilt-shift" } else { "--focal-planes" };
         Err(Error::param(format!(
             "{} cannot be combined with {field}: they act on one focal plane through the frame centre; drop one of them",
             conflicts.join(", ")
