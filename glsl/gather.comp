@@ -1,11 +1,13 @@
 // Single-image gather baseline (Blender Defocus-like): each output pixel averages the
-// neighbours inside min(own CoC, neighbour's CoC), with a 1 px anti-aliased rim.
+// neighbours inside min(own CoC, neighbour's CoC), with a 1 px anti-aliased rim, weighted by
+// the aperture's kernel image (if any) scaled to its own CoC.
 // CPU reference: src/render/gather/mod.rs `gather_pixel` (same taps, same order).
 //
 // Bindings (set 0):
 //   0: source    vec4[width * height]   premultiplied linear RGBA
 //   1: disparity float[width * height]
 //   2: result    vec4[width * height]
+//   3: kernel    float[max(1, kernel_size^2)]   aperture kernel image (Aperture::kernel_texels)
 // Push constants: GatherPush (src/render/gather/gpu.rs).
 // Dispatch: (ceil(width / 8), ceil(height / 8), 1).
 #version 450
@@ -18,6 +20,7 @@ layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 layout(std430, set = 0, binding = 0) readonly buffer Source { vec4 source[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
 layout(std430, set = 0, binding = 2) writeonly buffer Result { vec4 result[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Kernel { float kernel_weights[]; };
 
 layout(push_constant) uniform Push {
     int width;
@@ -25,15 +28,14 @@ layout(push_constant) uniform Push {
     float k;
     float focus;
     float edge_width;
-    float pad0;
+    int kernel_size;
     float pad1;
     float pad2;
     vec4 aperture;
 } pc;
 
-// Kernel images act as disks in this baseline: the gauge never samples them.
 float aperture_kernel_texel(int index) {
-    return 1.0;
+    return kernel_weights[index];
 }
 
 float coc_radius(float d) {
@@ -59,11 +61,15 @@ void main() {
             float reach_both = min(r_x, coc_radius(disparity[s]));
             float k = clamp((reach_both - distance) / pc.edge_width + 0.5, 0.0, 1.0);
             if (k > 0.0) {
+                k *= aperture_kernel_weight(offset, r_x, pc.aperture, pc.kernel_size);
+            }
+            if (k > 0.0) {
                 sum += k * source[s];
                 weight += k;
             }
         }
     }
-    // The centre tap always has k >= 0.5, so the weight is positive.
-    result[centre] = sum / weight;
+    // The centre tap has k >= 0.5, but a kernel image can block it (a ring's obstruction): a
+    // pixel no tap reaches through the aperture keeps its own colour.
+    result[centre] = weight > 0.0 ? sum / weight : source[centre];
 }

@@ -1,13 +1,15 @@
 // Single-image scatter baseline (BokehMe's classical renderer), written as a gather so no
 // atomics are needed: each output pixel sums, over every source within the largest CoC, the
 // weight that source's soft disk gives it, (0.5 + 0.5 tanh(4 (r_y - |x - y|))) / (r_y^2 + 0.2),
-// and normalises by the summed weight.
+// and normalises by the summed weight. The aperture's kernel image (if any), scaled to the
+// source's CoC, multiplies the weight.
 // CPU reference: src/render/scatter/mod.rs `scatter_pixel` (same taps, same order).
 //
 // Bindings (set 0):
 //   0: source    vec4[width * height]   premultiplied linear RGBA
 //   1: disparity float[width * height]
 //   2: result    vec4[width * height]
+//   3: kernel    float[max(1, kernel_size^2)]   aperture kernel image (Aperture::kernel_texels)
 // Push constants: ScatterPush (src/render/scatter/gpu.rs).
 // Dispatch: (ceil(width / 8), ceil(height / 8), 1).
 #version 450
@@ -20,12 +22,13 @@ layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 layout(std430, set = 0, binding = 0) readonly buffer Source { vec4 source[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
 layout(std430, set = 0, binding = 2) writeonly buffer Result { vec4 result[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Kernel { float kernel_weights[]; };
 
 layout(push_constant) uniform Push {
     int width;
     int height;
     int reach;
-    int pad0;
+    int kernel_size;
     float k;
     float focus;
     float edge_sharpness;
@@ -33,9 +36,8 @@ layout(push_constant) uniform Push {
     vec4 aperture;
 } pc;
 
-// Kernel images act as disks in this baseline: the gauge never samples them.
 float aperture_kernel_texel(int index) {
-    return 1.0;
+    return kernel_weights[index];
 }
 
 // tanh's argument is clamped to +-9, where f32 tanh is already exactly +-1: some GLSL
@@ -57,11 +59,15 @@ void main() {
             int s = sy * pc.width + sx;
             float rel_y = disparity[s] - pc.focus;
             vec2 offset = aperture_coords(vec2(float(x.x - sx), float(x.y - sy)), rel_y);
-            float k = scatter_weight(abs(pc.k * rel_y), aperture_gauge(offset, pc.aperture));
+            float r_y = abs(pc.k * rel_y);
+            float k = scatter_weight(r_y, aperture_gauge(offset, pc.aperture))
+                * aperture_kernel_weight(offset, r_y, pc.aperture, pc.kernel_size);
             sum += k * source[s];
             weight += k;
         }
     }
-    // The pixel's own tap weighs at least 0.5 / (r^2 + 0.2) > 0.
-    result[x.y * pc.width + x.x] = sum / weight;
+    // The pixel's own tap weighs at least 0.5 / (r^2 + 0.2) > 0 unless a kernel image blocks
+    // it (a ring's obstruction): a pixel no source reaches keeps its own colour.
+    int centre = x.y * pc.width + x.x;
+    result[centre] = weight > 0.0 ? sum / weight : source[centre];
 }

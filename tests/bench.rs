@@ -4,10 +4,11 @@
 mod common;
 
 use lensblur::bench::{all_methods, contact_sheet, cpu_methods, run, select_methods, write_png, InputKind};
-use lensblur::camera::{CocModel, PhysicalCamera};
+use lensblur::camera::{Aperture, CocModel, PhysicalCamera};
 use lensblur::image::Image;
 use lensblur::raytrace::GroundTruth;
 use lensblur::render::oracle::render_oracle;
+use lensblur::render::Lens;
 use lensblur::stack::{Layer, LayerStack};
 
 const W: usize = 96;
@@ -30,7 +31,7 @@ fn synthetic_truth(name: &str, fstop: f32, back_z: f32) -> GroundTruth {
     let layers = LayerStack::new(W, H, layers).expect("consistent layers");
     let pinhole = Image::from_fn(W, H, |x, y| if inside(x, y) { front.get(x, y) } else { back.get(x, y) });
     let pinhole_depth = (0..W * H).map(|i| if inside(i % W, i / W) { 0.4 } else { back_z }).collect();
-    let defocused = render_oracle(&layers, &coc);
+    let defocused = render_oracle(&layers, &Lens { coc, aperture: Aperture::Disk });
     GroundTruth { name: name.into(), camera, coc, pinhole, pinhole_depth, layers, defocused }
 }
 

@@ -11,6 +11,7 @@ use std::process::Command;
 
 use lensblur::image::Image;
 use lensblur::metrics::compare;
+use lensblur::render::Method;
 use plugin_common::{fresh_dir, plugins_dir, read_rgba};
 use serde_json::Value;
 
@@ -112,6 +113,18 @@ fn operator_behaves_like_a_blender_tool(run: &Run) {
     assert_eq!(c["file_layers"], serde_json::json!(["L_mid", "L_back"]), "EXR path + exclude");
     let tool_error = c["tool_error"].as_str().unwrap();
     assert!(tool_error.contains("not an OpenEXR file"), "the tool's message: {tool_error}");
+    // `lensblur render` failing: the report carries its message, with the fix.
+    let render_error = c["render_error"].as_str().unwrap();
+    assert!(
+        render_error.contains("LENSBLUR_DEVICE=no-such-gpu matches no Vulkan device")
+            && render_error.contains("see `lensblur devices`"),
+        "the tool's message: {render_error}"
+    );
+    // No focus object: the camera's focus distance is used as it is (f32 round trip: 1e-6).
+    let plain = c["plain_focus_distance"].as_f64().unwrap();
+    assert!((plain - 3.25).abs() < 1e-6, "plain focus distance {plain}");
+    let tool_methods: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+    assert_eq!(c["methods"], serde_json::json!(tool_methods), "the add-on offers every method of the tool");
     assert!(c["glob_error"].as_str().unwrap().contains("available: L_front, L_mid, L_back"));
 }
 

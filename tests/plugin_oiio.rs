@@ -159,3 +159,75 @@ fn oiio_script_reports_a_layer_without_depth_and_cleans_up() {
     assert!(!dir.join("out.exr").exists());
     assert_tmp_is_empty(&dir);
 }
+
+/// `--preview` with `--output-layer`: the preview is made from the named layer's colour
+/// channels, found by name in the result (NAME.R or NAME.Combined.R), not from plain R,G,B
+/// (which the result does not have).
+#[test]
+fn oiio_script_previews_the_output_layer() {
+    let dir = fresh_dir("plugin-oiio-layer-preview");
+    make_layers(&dir);
+    let mut args = vec!["-q", "-o", "out.exr", "--preview", "out.png", "bg.exr", "front=fg.exr", "--"];
+    args.extend(CAMERA);
+    args.extend(["--output-layer", "Defocus"]);
+    let run = script(&dir, &args);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert_tmp_is_empty(&dir);
+    let names = channel_names(&dir.join("out.exr"));
+    assert!(names.iter().all(|n| n.starts_with("Defocus.")), "only the named layer: {names:?}");
+    // The in-focus box is exactly FRONT: its preview pixel is FRONT in 8-bit sRGB (+-1 level of
+    // rounding), so the preview came from the colour channels, in the right order.
+    let preview = image::open(dir.join("out.png")).unwrap().to_rgb8();
+    let (x0, y0, w, h) = BOX;
+    let got = preview.get_pixel((x0 + w / 2) as u32, (y0 + h / 2) as u32).0;
+    let want = FRONT.map(|c| (lensblur::stack::ldr::linear_to_srgb(c) * 255.0).round() as i32);
+    assert!((0..3).all(|c| (got[c] as i32 - want[c]).abs() <= 1), "preview {got:?} vs {want:?}");
+}
+
+/// Two layers of one name (given twice, or two files with one base name) are refused before
+/// anything is assembled, naming both files.
+#[test]
+fn oiio_script_refuses_duplicate_layer_names() {
+    let dir = fresh_dir("plugin-oiio-duplicates");
+    make_layers(&dir);
+    std::fs::create_dir_all(dir.join("other")).unwrap();
+    std::fs::copy(dir.join("bg.exr"), dir.join("other/bg.exr")).unwrap();
+    for layers in [["a=fg.exr", "a=bg.exr"], ["bg.exr", "other/bg.exr"]] {
+        let mut args = vec!["-o", "out.exr", layers[0], layers[1], "--"];
+        args.extend(CAMERA);
+        let run = script(&dir, &args);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{layers:?} accepted");
+        let file = layers[1].split('=').next_back().unwrap();
+        assert!(stderr.contains(&format!("is used by {} and {file}", layers[0].split('=').next_back().unwrap())), "{stderr}");
+        assert!(!dir.join("out.exr").exists());
+        assert_tmp_is_empty(&dir);
+    }
+}
+
+/// `--depth-channel NAME`: per-layer files whose depth is called `depth` render exactly as
+/// with Z (the in-focus box untouched, the wall blurred); without the flag the script names
+/// the missing Z channel.
+#[test]
+fn oiio_script_reads_the_depth_channel_it_is_told() {
+    let dir = fresh_dir("plugin-oiio-depth-channel");
+    make_layers(&dir);
+    for name in ["fg", "bg"] {
+        let (from, to) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}_d.exr")));
+        oiiotool(&[from.to_str().unwrap(), "--chnames", "R,G,B,A,depth", "-o", to.to_str().unwrap()]);
+    }
+    let mut args = vec!["-q", "-o", "out.exr", "--depth-channel", "depth", "bg=bg_d.exr", "front=fg_d.exr", "--"];
+    args.extend(CAMERA);
+    let run = script(&dir, &args);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let out = read_rgba(&dir.join("out.exr"));
+    in_focus_box_is_untouched(&out);
+    wall_is_blurred(&out, &read_rgba(&dir.join("bg.exr")));
+
+    let mut args = vec!["-o", "z.exr", "bg=bg_d.exr", "--"];
+    args.extend(CAMERA);
+    let run = script(&dir, &args);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && stderr.contains("bg_d.exr: no Z channel"), "{stderr}");
+    assert_tmp_is_empty(&dir);
+}

@@ -69,4 +69,21 @@ float aperture_kernel_sample(vec2 uv, int size) {
     return top * (1.0 - ty) + bottom * ty;
 }
 
+// CoC radii (pixels) over which kernel-image weights fade in (`KERNEL_FADE_PX`).
+const float APERTURE_KERNEL_FADE_START_PX = 0.5;
+const float APERTURE_KERNEL_FADE_END_PX = 1.5;
+
+// Kernel-image weight of the offset p (aperture coordinates, pixels) from a source whose CoC
+// has radius r: the image spans the soft disk of radius r + 1/2 and fades in over 0.5..1.5 px
+// of CoC (a sub-pixel kernel integrates to a point). 1 without a kernel (disks, polygons).
+// Mirrors `Aperture::kernel_weight`.
+float aperture_kernel_weight(vec2 p, float r, vec4 aperture, int kernel_size) {
+    if (aperture.w < 0.5 || kernel_size == 0) {
+        return 1.0;
+    }
+    float sample_weight = aperture_kernel_sample(p / (r + 0.5), kernel_size);
+    float blend = smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r);
+    return 1.0 + (sample_weight - 1.0) * blend;
+}
+
 #endif

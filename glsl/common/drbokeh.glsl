@@ -14,8 +14,8 @@ const int DRBOKEH_TILE = 16;
 const int DRBOKEH_MODEL_DRBOKEH = 0;
 const int DRBOKEH_MODEL_COMPAT = 1;
 const float DRBOKEH_COMPAT_TAIL_PX = 4.0;
-const float DRBOKEH_KERNEL_FADE_START_PX = 0.5;
-const float DRBOKEH_KERNEL_FADE_END_PX = 1.5;
+const float DRBOKEH_KERNEL_FADE_START_PX = APERTURE_KERNEL_FADE_START_PX;
+const float DRBOKEH_KERNEL_FADE_END_PX = APERTURE_KERNEL_FADE_END_PX;
 
 layout(push_constant) uniform DrBokehPush {
     int width;            // 0
@@ -153,13 +153,7 @@ float drbokeh_area_for(float r) {
 // integrate to a point); the kernel covers the soft disk of radius r + 1/2.
 vec2 drbokeh_lens(vec2 offset, float r, float rel) {
     vec2 p = aperture_coords(offset, rel);
-    float g = aperture_gauge(p, pc.aperture);
-    if (pc.aperture.w < 0.5 || pc.kernel_size == 0) {
-        return vec2(g, 1.0);
-    }
-    float sample_weight = aperture_kernel_sample(p / (r + 0.5), pc.kernel_size);
-    float blend = smoothstep(DRBOKEH_KERNEL_FADE_START_PX, DRBOKEH_KERNEL_FADE_END_PX, r);
-    return vec2(g, 1.0 + (sample_weight - 1.0) * blend);
+    return vec2(aperture_gauge(p, pc.aperture), aperture_kernel_weight(p, r, pc.aperture, pc.kernel_size));
 }
 
 #endif

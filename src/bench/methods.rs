@@ -62,7 +62,7 @@ impl Method {
 /// `scatter-cpu`: the references of the Vulkan `gather` and `scatter`, cheap enough to keep).
 pub fn cpu_methods() -> Vec<Method> {
     vec![
-        Method::new("oracle", InputKind::Layers, |case| Ok(render_oracle(&case.truth.layers, &case.lens.coc))),
+        Method::new("oracle", InputKind::Layers, |case| Ok(render_oracle(&case.truth.layers, case.lens))),
         Method::new("gather-cpu", InputKind::SingleImage, |case| {
             let (image, disparity) = case.single_image()?;
             Ok(render_gather_cpu(image, disparity, case.lens))

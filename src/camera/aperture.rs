@@ -36,6 +36,10 @@ pub struct KernelImage {
     pub weights: Vec<f32>,
 }
 
+/// CoC radii (pixels) over which kernel-image weights fade in: below the first the kernel is
+/// sub-pixel and acts as a point, above the second it is sampled as it is.
+pub const KERNEL_FADE_PX: [f32; 2] = [0.5, 1.5];
+
 /// The aperture as a shader reads it (push constants): `[blades (0 = disk), rotation (rad),
 /// roundness, kernel (1 = sample the kernel buffer)]`.
 pub type ApertureGpu = [f32; 4];
@@ -165,6 +169,34 @@ impl Aperture {
         }
     }
 
+    /// Weight of the kernel image at the offset `(u, v)` (aperture coordinates, pixels) from a
+    /// source whose CoC has radius `r` pixels: the image spans the soft disk of radius
+    /// `r + 1/2` and fades in over [`KERNEL_FADE_PX`] of CoC, since a kernel smaller than a
+    /// pixel cannot be resolved and integrates to a point. 1 for disks and polygons (their
+    /// shape is the gauge). Mirrors `aperture_kernel_weight` in `glsl/common/aperture.glsl`.
+    #[inline]
+    pub fn kernel_weight(&self, u: f32, v: f32, r: f32) -> f32 {
+        match self {
+            Aperture::Kernel(kernel) => {
+                let scale = 1.0 / (r + 0.5);
+                let [start, end] = KERNEL_FADE_PX;
+                let t = ((r - start) / (end - start)).clamp(0.0, 1.0);
+                let blend = t * t * (3.0 - 2.0 * t);
+                1.0 + (kernel.sample(u * scale, v * scale) - 1.0) * blend
+            }
+            _ => 1.0,
+        }
+    }
+
+    /// The kernel image as a shader's kernel buffer: `(side, texels)`, side 0 and one dummy
+    /// texel without a kernel (Vulkan buffers cannot be empty).
+    pub fn kernel_texels(&self) -> (usize, Vec<f32>) {
+        match self {
+            Aperture::Kernel(kernel) => (kernel.size, kernel.weights.clone()),
+            _ => (0, vec![0.0]),
+        }
+    }
+
     pub fn gpu_params(&self) -> ApertureGpu {
         match *self {
             Aperture::Disk => [0.0, 0.0, 1.0, 0.0],
@@ -229,7 +261,12 @@ impl KernelImage {
             return Err(Error::param("kernel image is black (or not finite): the aperture would pass no light"));
         }
         weights.iter_mut().for_each(|w| *w = (*w / peak).max(0.0));
-        Ok(Self { size, weights })
+        let kernel = Self { size, weights };
+        // Renderers sample the kernel over the CoC disk only: light in the corners never passes.
+        if kernel.mean_over_disk() <= 0.0 {
+            return Err(Error::param("kernel image is black inside its inscribed circle: the aperture would pass no light"));
+        }
+        Ok(kernel)
     }
 
     /// Bilinear sample at `(u, v)` in `[-1, 1]^2`; zero outside.
@@ -328,6 +365,25 @@ mod tests {
         let a = Aperture::polygon(6, 10.0, 0.0).unwrap();
         let b = Aperture::polygon(6, 70.0, 0.0).unwrap();
         assert!((a.gauge(0.6, -0.3) - b.gauge(0.6, -0.3)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn kernel_images_must_pass_light_inside_the_disk() {
+        // Light only in the corners of the square never reaches a renderer (it samples the
+        // inscribed disk): refused when the kernel is made, not discovered as 0/0 later.
+        let corners: Vec<f32> = (0..64).map(|i| if i == 0 || i == 63 { 1.0 } else { 0.0 }).collect();
+        assert!(KernelImage::from_weights(8, corners).is_err());
+        assert!(KernelImage::from_weights(8, vec![1.0; 64]).is_ok());
+    }
+
+    #[test]
+    fn kernel_weight_fades_in_above_a_pixel_of_coc_and_is_one_without_a_kernel() {
+        let ring = Aperture::parse("ring:0.6").unwrap();
+        // Sub-pixel CoC: the kernel cannot be resolved, the weight is a point's (1).
+        assert_eq!(ring.kernel_weight(0.0, 0.0, 0.4), 1.0);
+        assert_eq!(ring.kernel_weight(0.0, 0.0, 10.0), 0.0, "the obstruction at full size");
+        assert!(ring.kernel_weight(8.0, 0.0, 10.0) > 0.99, "the annulus at full size");
+        assert_eq!(Aperture::polygon(6, 0.0, 0.0).unwrap().kernel_weight(0.0, 0.0, 10.0), 1.0);
     }
 
     #[test]

@@ -6,7 +6,7 @@
 mod aperture;
 pub(crate) mod hints;
 
-pub use aperture::{Aperture, ApertureGpu, KernelImage};
+pub use aperture::{Aperture, ApertureGpu, KernelImage, KERNEL_FADE_PX};
 pub use hints::CameraHints;
 
 use crate::{Error, Result};

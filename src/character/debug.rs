@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 
 use crate::image::Image;
 use crate::render::drbokeh::{render_cpu_terms, Model, Window};
+use crate::render::vdslr::{relative_disparity, FocusField};
 use crate::render::Lens;
 use crate::stack::{write_png_preview, LayerStack};
 use crate::Result;
@@ -22,9 +23,11 @@ const PALETTE: [[f32; 3]; 8] = [
     [0.8, 0.1, 0.8], [0.1, 0.8, 0.8], [0.9, 0.5, 0.1], [0.6, 0.6, 0.6],
 ];
 
-/// Signed CoC per pixel (flattened disparity; positive = nearer than focus).
-pub fn coc_map(stack: &LayerStack, lens: &Lens) -> Vec<f32> {
-    stack.flatten().1.iter().map(|&d| lens.coc.signed_radius(d)).collect()
+/// Signed CoC per pixel (flattened disparity; positive = nearer than focus), relative to the
+/// focus field rendered (a tilted plane or several planes for Virtual DSLR).
+pub fn coc_map(stack: &LayerStack, lens: &Lens, focus: &FocusField) -> Result<Vec<f32>> {
+    let relative = relative_disparity(&stack.flatten().1, stack.width, stack.height, lens, focus)?;
+    Ok(relative.iter().map(|&r| lens.coc.k_px * r).collect())
 }
 
 /// The CoC map coloured: near warm, far cool, brightness sqrt(|r| / largest |r|), focus black.
@@ -71,8 +74,8 @@ pub fn focus_peaking(image: &Image) -> Vec<bool> {
 }
 
 /// Writes every debug view into `dir` (created if missing); returns the files written.
-/// `stack` and `lens` are what was rendered (after any remap, focus pick or bloom).
-pub fn write_debug_views(dir: &Path, stack: &LayerStack, lens: &Lens, rendered: &Image) -> Result<Vec<PathBuf>> {
+/// `stack`, `lens` and `focus` are what was rendered (after any remap, focus pick or bloom).
+pub fn write_debug_views(dir: &Path, stack: &LayerStack, lens: &Lens, focus: &FocusField, rendered: &Image) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| crate::Error::input(dir, format!("cannot create the debug folder: {e}")))?;
     let (w, h) = (stack.width, stack.height);
     let mut written = Vec::new();
@@ -82,12 +85,8 @@ pub fn write_debug_views(dir: &Path, stack: &LayerStack, lens: &Lens, rendered: 
         written.push(path);
         Ok(())
     };
-    save("coc.png".into(), &coc_image(w, h, &coc_map(stack, lens)))?;
-    let layers = layer_assignment(stack);
-    save("layers.png".into(), &Image::from_fn(w, h, |x, y| match layers[y * w + x] {
-        Some(l) => { let c = PALETTE[l % PALETTE.len()]; [c[0], c[1], c[2], 1.0] }
-        None => [0.0, 0.0, 0.0, 1.0],
-    }))?;
+    save("coc.png".into(), &coc_image(w, h, &coc_map(stack, lens, focus)?))?;
+    save("layers.png".into(), &layers_image(stack))?;
     save("focus_peaking.png".into(), &peaking_overlay(rendered))?;
     for (l, v) in visibility(stack, lens)?.iter().enumerate() {
         save(format!("visibility_{l}_{}.png", sanitise(&stack.layers[l].name)), v)?;
@@ -95,8 +94,17 @@ pub fn write_debug_views(dir: &Path, stack: &LayerStack, lens: &Lens, rendered: 
     Ok(written)
 }
 
+/// The layer assignment, one palette colour per layer (black: empty).
+pub fn layers_image(stack: &LayerStack) -> Image {
+    let (w, layers) = (stack.width, layer_assignment(stack));
+    Image::from_fn(w, stack.height, |x, y| match layers[y * w + x] {
+        Some(l) => { let c = PALETTE[l % PALETTE.len()]; [c[0], c[1], c[2], 1.0] }
+        None => [0.0, 0.0, 0.0, 1.0],
+    })
+}
+
 /// The render darkened to grey, with peaking pixels marked.
-fn peaking_overlay(rendered: &Image) -> Image {
+pub fn peaking_overlay(rendered: &Image) -> Image {
     let peaks = focus_peaking(rendered);
     let mut out = Image::from_fn(rendered.width, rendered.height, |x, y| {
         let p = rendered.get(x, y);

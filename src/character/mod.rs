@@ -23,10 +23,11 @@ pub use vignette::{render_cats_eye, CatsEye};
 
 use crate::image::Image;
 use crate::render::drbokeh::RenderOptions;
-use crate::render::{Lens, Method};
+use crate::render::vdslr::FocusField;
+use crate::render::{Lens, Method, MethodSettings};
 use crate::stack::LayerStack;
 use crate::vk::Context;
-use crate::Result;
+use crate::{Error, Result};
 
 /// Every control; `Character::default()` changes nothing.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -79,8 +80,37 @@ impl Character {
         }
     }
 
-    /// Prepares and renders with `method`; returns the image and the stack and lens rendered
-    /// (what the debug views describe).
+    /// Refuses the controls that assume one focal plane through the frame centre when the
+    /// method renders another focus field (Virtual DSLR's tilt-shift or several planes).
+    pub fn check_focus_field(&self, focus: &FocusField) -> Result<()> {
+        let (tilt, planes) = match focus {
+            FocusField::Plane => return Ok(()),
+            FocusField::Tilt { .. } => (true, false),
+            FocusField::Planes(_) => (false, true),
+        };
+        // A focus pick and the blur remap act on the centre's plane only. The chromatic focus
+        // shift moves a tilted field as a whole (exact), but several planes ignore the lens's
+        // single focus it moves. Cat's-eye renders crops, which would move a tilt's pivot (the
+        // crop's centre); planes are absolute and do not mind.
+        let controls = [
+            (self.focus_at.is_some(), "--focus-at", true),
+            (!self.remap.is_identity(), "--near-blur/--far-blur/--max-blur", true),
+            (self.chromatic.is_some(), "--chromatic", planes),
+            (self.cats_eye.is_some(), "--cats-eye", tilt),
+        ];
+        let conflicts: Vec<&str> = controls.iter().filter(|(on, _, conflicts)| *on && *conflicts).map(|c| c.1).collect();
+        if conflicts.is_empty() {
+            return Ok(());
+        }
+        let field = if tilt { "--tilt-shift" } else { "--focal-planes" };
+        Err(Error::param(format!(
+            "{} cannot be combined with {field}: they act on one focal plane through the frame centre; drop one of them",
+            conflicts.join(", ")
+        )))
+    }
+
+    /// Prepares and renders with `method` and its `settings`; returns the image and the stack
+    /// and lens rendered (what the debug views describe).
     pub fn render<'a>(
         &self,
         method: Method,
@@ -88,9 +118,11 @@ impl Character {
         stack: &'a LayerStack,
         lens: &Lens,
         options: &RenderOptions,
+        settings: &MethodSettings,
     ) -> Result<(Image, Cow<'a, LayerStack>, Lens)> {
+        self.check_focus_field(settings.focus(method))?;
         let (prepared, lens) = self.prepare(stack, lens)?;
-        let render = |s: &LayerStack, l: &Lens| method.render_with(ctx, s, l, options);
+        let render = |s: &LayerStack, l: &Lens| method.render_with(ctx, s, l, options, settings);
         let image = self.render_prepared(&render, &prepared, &lens)?;
         Ok((image, prepared, lens))
     }

@@ -6,7 +6,7 @@ use anyhow::Context as _;
 use lensblur::character::{chromatic, focus, Bloom, BlurRemap, CatsEye, Character};
 use lensblur::image::Image;
 use lensblur::render::drbokeh::RenderOptions;
-use lensblur::render::{Lens, Method};
+use lensblur::render::{Lens, Method, MethodSettings};
 use lensblur::stack::LayerStack;
 use lensblur::vk::Context;
 
@@ -53,10 +53,19 @@ impl CharacterArgs {
 
     /// Renders with every control applied and writes the debug views if asked; returns the
     /// image and the lens actually used (after `--focus-at`), which is what the report states.
-    pub fn render(&self, method: Method, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens, options: &RenderOptions) -> anyhow::Result<(Image, Lens)> {
-        let (image, prepared, lens) = self.resolve()?.render(method, ctx, stack, lens, options)?;
+    pub fn render(
+        &self,
+        method: Method,
+        ctx: Option<&Context>,
+        stack: &LayerStack,
+        lens: &Lens,
+        options: &RenderOptions,
+        settings: &MethodSettings,
+    ) -> anyhow::Result<(Image, Lens)> {
+        let (image, prepared, lens) = self.resolve()?.render(method, ctx, stack, lens, options, settings)?;
         if let Some(dir) = &self.debug_out {
-            lensblur::character::write_debug_views(dir, &prepared, &lens, &image).context("--debug-out")?;
+            lensblur::character::write_debug_views(dir, &prepared, &lens, settings.focus(method), &image)
+                .context("--debug-out")?;
         }
         Ok((image, lens))
     }

@@ -15,6 +15,7 @@ mod fit_depth;
 mod grad;
 mod info;
 mod input_args;
+mod method_args;
 mod raytrace;
 mod render;
 

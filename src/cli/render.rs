@@ -15,6 +15,7 @@ use lensblur::vk::Context;
 use super::camera_args::CameraArgs;
 use super::character_args::CharacterArgs;
 use super::input_args::{check_output_path, InputArgs, LoadedInput};
+use super::method_args::MethodArgs;
 
 const EXAMPLES: &str = "\
 Examples:
@@ -22,6 +23,8 @@ Examples:
   lensblur render shot.exr -o blurred.exr --layers 'fg*,bg' --aperture polygon:6:rotation=15
   lensblur render shot.exr -o comp.exr --output-layer Defocus --keep-channels --half
   lensblur render photo.jpg --depth depth.png -o out.jpg --blur 40 --focus-disparity 0.7
+  lensblur render shot.exr -o tilt.exr --method vdslr --tilt-shift 0,-8 --samples 512
+  lensblur render shot.exr -o two.exr --method vdslr --focal-length 50 --fstop 2 --focal-planes 1.5,6
   lensblur render example-out/layers.exr -o out.exr --json      (camera read from the header)
 
 Input: Blender multilayer EXR (<ViewLayer>.Combined.RGBA + <ViewLayer>.Depth.Z), OpenEXR/OIIO/Nuke
@@ -43,6 +46,8 @@ pub struct Args {
     pub camera: CameraArgs,
     #[command(flatten)]
     pub character: CharacterArgs,
+    #[command(flatten)]
+    pub method_args: MethodArgs,
     /// Rendering method: drbokeh, drbokeh-compat, multiview, vdslr, oracle, gather, scatter.
     #[arg(long, default_value = "drbokeh", help_heading = "Output")]
     pub method: Method,
@@ -112,11 +117,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(preview) = &args.preview {
         check_output_path(preview, &[&args.input, &args.output])?;
     }
+    args.method_args.check(args.method)?;
+    let mut camera = args.camera.clone();
+    args.method_args.apply_to_camera(&mut camera)?;
     let spinner = spinner(&args);
     spinner.set_message(format!("reading {}", args.input.display()));
-    let loaded = args
-        .input_args
-        .load(&args.input, &args.camera, args.method.input())?;
+    let loaded = args.input_args.load(&args.input, &camera, args.method.input())?;
+    let (lens, stack) = (&loaded.camera.lens, &loaded.stack);
+    let physical = loaded.camera.physical.is_some();
+    let settings = args.method_args.resolve(args.method, lens, physical, stack.width, stack.height)?;
+    args.character.resolve()?.check_focus_field(settings.focus(args.method))?;
     let ctx = open_device(args.device, args.method)?;
     spinner.set_message(format!(
         "rendering {} layer(s) with {}",
@@ -133,7 +143,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let options = RenderOptions { tile: args.tile, progress: Some(&progress) };
     let (image, lens) = args
         .character
-        .render(args.method, ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options)
+        .render(args.method, ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options, &settings)
         .with_context(|| format!("rendering {} with {}", args.input.display(), args.method))?;
     let render_time = start.elapsed();
     spinner.set_message(format!("writing {}", args.output.display()));

@@ -8,6 +8,7 @@
 //! the rest renormalised, so a constant image stays constant up to its borders.
 use rayon::prelude::*;
 
+use crate::camera::Aperture;
 use crate::image::Image;
 use crate::shaders;
 use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
@@ -26,6 +27,35 @@ pub struct DiskKernel {
 impl DiskKernel {
     /// Anti-aliased disk of `radius` pixels; a radius below half a pixel is (nearly) identity.
     pub fn new(radius: f32) -> Self {
+        // The centre sub-samples lie 0.09 px from the centre, inside the smallest radius used
+        // (1/8 px): the disk always covers something, and the identity is only a formality.
+        Self::covering(radius, |px, py, r| if px * px + py * py <= r * r { 1.0 } else { 0.0 })
+            .unwrap_or(Self { half_extent: 0, weights: vec![1.0] })
+    }
+
+    /// The anti-aliased image of `aperture` at CoC `radius` for a plane of signed relative
+    /// disparity `relative_disparity`: mirrored when nearer than focus
+    /// ([`Aperture::to_aperture_coords`]), polygons through their gauge, kernel images by
+    /// [`Aperture::kernel_weight`] over the disk, as every renderer reads them. A disk is
+    /// [`Self::new`], bit for bit.
+    pub fn shaped(radius: f32, aperture: &Aperture, relative_disparity: f32) -> Self {
+        if *aperture == Aperture::Disk {
+            return Self::new(radius);
+        }
+        // A kernel image whose light falls between every sub-sample at this radius passes
+        // nothing: the disk is the nearest shape that still conserves the layer's energy.
+        Self::covering(radius, |px, py, r| {
+            // Tap offset (source - output) -> the PSF offset (output - source).
+            let (u, v) = Aperture::to_aperture_coords(-px, -py, relative_disparity);
+            if aperture.gauge(u, v) <= r { aperture.kernel_weight(u, v, r) } else { 0.0 }
+        })
+        .unwrap_or_else(|| Self::new(radius))
+    }
+
+    /// A kernel whose taps weigh the mean of `weight(px, py, r)` over 8x8 sub-samples of their
+    /// pixel square (`px, py`: sub-sample position relative to the centre tap), normalised;
+    /// `None` when every weight is 0.
+    fn covering(radius: f32, weight: impl Fn(f32, f32, f32) -> f32) -> Option<Self> {
         let radius = radius.max(0.0);
         let half_extent = (radius + 0.5).ceil() as usize;
         let side = 2 * half_extent + 1;
@@ -36,21 +66,22 @@ impl DiskKernel {
         for (i, w) in weights.iter_mut().enumerate() {
             let dx = (i % side) as f32 - half_extent as f32;
             let dy = (i / side) as f32 - half_extent as f32;
-            let mut inside = 0usize;
+            let mut inside = 0.0f32;
             for sy in 0..n {
                 for sx in 0..n {
                     let px = dx - 0.5 + (sx as f32 + 0.5) / n as f32;
                     let py = dy - 0.5 + (sy as f32 + 0.5) / n as f32;
-                    if px * px + py * py <= effective * effective {
-                        inside += 1;
-                    }
+                    inside += weight(px, py, effective);
                 }
             }
-            *w = inside as f32;
+            *w = inside;
         }
         let total: f32 = weights.iter().sum();
+        if total <= 0.0 {
+            return None;
+        }
         weights.iter_mut().for_each(|w| *w /= total);
-        Self { half_extent, weights }
+        Some(Self { half_extent, weights })
     }
 
     pub fn side(&self) -> usize {
@@ -151,6 +182,30 @@ mod tests {
             assert!((area - expected).abs() < 0.02 * expected + 1.0, "r={r}: {area} vs {expected}");
             assert!(nonzero <= ((2.0 * r + 3.0) * (2.0 * r + 3.0)), "r={r}");
         }
+    }
+
+    #[test]
+    fn shaped_kernels_draw_the_aperture_mirrored_for_near_planes() {
+        let at = |k: &DiskKernel, dx: i64, dy: i64| {
+            let half = k.half_extent as i64;
+            k.weights[((dy + half) * k.side() as i64 + dx + half) as usize]
+        };
+        // Ring 0.6 at r = 10: the centre tap is obstructed, a tap at 8 px is lit.
+        let ring = DiskKernel::shaped(10.0, &Aperture::parse("ring:0.6").unwrap(), -0.5);
+        assert!(at(&ring, 0, 0) == 0.0 && at(&ring, 8, 0) > 0.0);
+        // A triangle with a vertex toward -u (rotation 0: the first edge's normal points +u):
+        // a far plane draws it upright, a near one mirrored through the centre.
+        let triangle = Aperture::polygon(3, 0.0, 0.0).unwrap();
+        let (far, near) = (DiskKernel::shaped(10.0, &triangle, -0.5), DiskKernel::shaped(10.0, &triangle, 0.5));
+        // Taps at (+-7, 0) relative to the output are sources whose PSF offset is (-+7, 0):
+        // the far PSF reaches 10 px toward -u (vertex) and 5 px toward +u (edge).
+        assert!(at(&far, 7, 0) > 0.0 && at(&far, -7, 0) == 0.0, "far: upright");
+        assert!(at(&near, -7, 0) > 0.0 && at(&near, 7, 0) == 0.0, "near: mirrored");
+        for k in [&ring, &far, &near] {
+            // Normalised (the layer's energy is kept): f32 sum of a few hundred weights.
+            assert!((k.weights.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+        }
+        assert_eq!(DiskKernel::shaped(6.3, &Aperture::Disk, 0.5), DiskKernel::new(6.3), "a disk is the disk kernel");
     }
 
     #[test]

@@ -6,7 +6,7 @@ use crate::render::drbokeh::{render_cpu, DrBokehGpu, Model, RenderOptions};
 use crate::render::gather::{render_gather_cpu, Gather};
 use crate::render::scatter::{render_scatter_cpu, Scatter};
 use crate::render::multiview::{render_multiview_cpu, Multiview, MultiviewParams};
-use crate::render::vdslr::{render_vdslr_cpu, Vdslr, VdslrParams};
+use crate::render::vdslr::{render_vdslr_cpu, FocusField, Vdslr, VdslrParams};
 use crate::render::Lens;
 use crate::stack::LayerStack;
 use crate::vk::Context;
@@ -85,31 +85,40 @@ impl Method {
         )
     }
 
-    /// Renders `stack` (front to back) through `lens`. Vulkan methods run on `ctx`; without
-    /// one they run their CPU reference (same formulas, f64 for Dr.Bokeh; slow, for machines
-    /// without a usable Vulkan device).
+    /// Renders `stack` (front to back) through `lens` with the default settings. Vulkan
+    /// methods run on `ctx`; without one they run their CPU reference (same formulas, f64 for
+    /// Dr.Bokeh; slow, for machines without a usable Vulkan device).
     pub fn render(self, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens) -> Result<Image> {
-        self.render_with(ctx, stack, lens, &RenderOptions::default())
+        self.render_with(ctx, stack, lens, &RenderOptions::default(), &MethodSettings::default())
     }
 
-    /// [`Self::render`] with frame tiling and progress (honoured by the tiled methods: drbokeh).
-    pub fn render_with(self, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens, options: &RenderOptions) -> Result<Image> {
+    /// [`Self::render`] with frame tiling and progress (honoured by the tiled methods: drbokeh)
+    /// and the settings of the methods that have any.
+    pub fn render_with(
+        self,
+        ctx: Option<&Context>,
+        stack: &LayerStack,
+        lens: &Lens,
+        options: &RenderOptions,
+        settings: &MethodSettings,
+    ) -> Result<Image> {
         let single = || stack.flatten();
+        let (vdslr, multiview) = (&settings.vdslr, &settings.multiview);
         match (self, ctx) {
             (Method::DrBokeh | Method::DrBokehCompat, Some(ctx)) => {
                 Ok(DrBokehGpu::new(ctx)?.render_with(stack, lens, self.drbokeh_model(), options)?.0)
             }
             (Method::DrBokeh | Method::DrBokehCompat, None) => render_cpu(stack, lens, self.drbokeh_model()),
-            (Method::Multiview, Some(ctx)) => Multiview::new(ctx)?.run(stack, lens, &MultiviewParams::tuned()),
-            (Method::Multiview, None) => render_multiview_cpu(stack, lens, &MultiviewParams::tuned()),
+            (Method::Multiview, Some(ctx)) => Multiview::new(ctx)?.run(stack, lens, multiview),
+            (Method::Multiview, None) => render_multiview_cpu(stack, lens, multiview),
             (Method::Vdslr, ctx) => {
                 let (image, disparity) = single();
                 match ctx {
-                    Some(ctx) => Vdslr::new(ctx)?.run(&image, &disparity, lens, &VdslrParams::tuned()),
-                    None => render_vdslr_cpu(&image, &disparity, lens, &VdslrParams::tuned()),
+                    Some(ctx) => Vdslr::new(ctx)?.run(&image, &disparity, lens, vdslr),
+                    None => render_vdslr_cpu(&image, &disparity, lens, vdslr),
                 }
             }
-            (Method::Oracle, _) => Ok(super::oracle::render_oracle(stack, &lens.coc)),
+            (Method::Oracle, _) => Ok(super::oracle::render_oracle(stack, lens)),
             (Method::Gather, ctx) => {
                 let (image, disparity) = single();
                 match ctx {
@@ -124,6 +133,30 @@ impl Method {
                     None => Ok(render_scatter_cpu(&image, &disparity, lens)),
                 }
             }
+        }
+    }
+}
+
+/// Settings of the methods that take any (the lens-sampling renderers); the rest have none.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MethodSettings {
+    pub vdslr: VdslrParams,
+    pub multiview: MultiviewParams,
+}
+
+impl Default for MethodSettings {
+    /// What `--method` and the benchmark use: each method's tuned parameters.
+    fn default() -> Self {
+        Self { vdslr: VdslrParams::tuned(), multiview: MultiviewParams::tuned() }
+    }
+}
+
+impl MethodSettings {
+    /// The focus field `method` renders with: only Virtual DSLR edits its disparity map.
+    pub fn focus(&self, method: Method) -> &FocusField {
+        match method {
+            Method::Vdslr => &self.vdslr.focus,
+            _ => &FocusField::Plane,
         }
     }
 }

@@ -1,21 +1,23 @@
 //! The layered oracle: the best a layered method can do when every layer is a fronto-parallel
-//! plane. Each TRUE layer is blurred with the exact disk of its own constant CoC and the
+//! plane. Each TRUE layer is blurred with the exact image of the aperture (disk, polygon or
+//! kernel image; mirrored for layers nearer than focus) at its own constant CoC, and the
 //! results are composited back to front with premultiplied "over". It needs the hidden content
 //! that only a ray tracer (or a render-layer pipeline) has, so it bounds what Dr.Bokeh-style
 //! methods can reach and is the reference the benchmark ranks the others against.
-use crate::camera::CocModel;
 use crate::image::Image;
 use crate::render::disk::{disk_blur_cpu, DiskKernel};
+use crate::render::Lens;
 use crate::stack::{Layer, LayerStack};
 
-/// Renders `stack` (front to back, premultiplied) through `coc` with one disk per layer.
-pub fn render_oracle(stack: &LayerStack, coc: &CocModel) -> Image {
+/// Renders `stack` (front to back, premultiplied) through `lens`, one aperture image per layer.
+pub fn render_oracle(stack: &LayerStack, lens: &Lens) -> Image {
     let mut out = Image::new(stack.width, stack.height);
     for layer in stack.layers.iter().rev() {
         let Some(disparity) = mean_disparity(layer) else {
             continue; // a fully transparent layer contributes nothing
         };
-        let blurred = disk_blur_cpu(&layer.rgba, &DiskKernel::new(coc.radius(disparity)));
+        let kernel = DiskKernel::shaped(lens.coc.radius(disparity), &lens.aperture, lens.coc.relative_disparity(disparity));
+        let blurred = disk_blur_cpu(&layer.rgba, &kernel);
         composite_over(&blurred, &mut out);
     }
     out
@@ -45,6 +47,7 @@ fn composite_over(front: &Image, back: &mut Image) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera::{Aperture, CocModel};
 
     fn layer(name: &str, rgba: Image, disparity: f32) -> Layer {
         let n = rgba.pixels.len();
@@ -61,7 +64,7 @@ mod tests {
         let img = checker(31, 23);
         let stack = LayerStack::new(31, 23, vec![layer("bg", img.clone(), 0.2)]).unwrap();
         // Over black with alpha 1 everywhere is the identity: the same floats, bit for bit.
-        assert_eq!(render_oracle(&stack, &coc), disk_blur_cpu(&img, &DiskKernel::new(coc.radius(0.2))));
+        assert_eq!(render_oracle(&stack, &Lens { coc, aperture: Aperture::Disk }), disk_blur_cpu(&img, &DiskKernel::new(coc.radius(0.2))));
     }
 
     #[test]
@@ -70,7 +73,7 @@ mod tests {
         let back = checker(31, 23);
         let front = Image::filled(31, 23, [0.0; 4]);
         let stack = LayerStack::new(31, 23, vec![layer("fg", front, 0.9), layer("bg", back.clone(), 0.2)]).unwrap();
-        assert_eq!(render_oracle(&stack, &coc), disk_blur_cpu(&back, &DiskKernel::new(coc.radius(0.2))));
+        assert_eq!(render_oracle(&stack, &Lens { coc, aperture: Aperture::Disk }), disk_blur_cpu(&back, &DiskKernel::new(coc.radius(0.2))));
     }
 
     #[test]
@@ -81,7 +84,7 @@ mod tests {
         let front = Image::from_fn(41, 41, |x, y| if (10..31).contains(&x) && (10..31).contains(&y) { [1.0, 0.0, 0.0, 1.0] } else { [0.0; 4] });
         let back = Image::filled(41, 41, [0.0, 0.0, 1.0, 1.0]);
         let stack = LayerStack::new(41, 41, vec![layer("fg", front, 0.4), layer("bg", back, 0.0)]).unwrap();
-        let out = render_oracle(&stack, &coc);
+        let out = render_oracle(&stack, &Lens { coc, aperture: Aperture::Disk });
         let centre = out.get(20, 20);
         assert!((centre[0] - 1.0).abs() < 1e-5 && centre[2].abs() < 1e-5, "{centre:?}");
         // Pixel 9 lies 0.5 px outside the edge: it sees the part of its r = 4 disk beyond a

@@ -174,6 +174,23 @@ def run_addon(scene):
     checks["rerun_node_image"] = node.image.name
     checks["images"] = sorted(i.name for i in bpy.data.images)
 
+    # A plain focus distance, no focus object: the distance setting is the focus.
+    dof = scene.camera.data.dof
+    target, dof.focus_object, dof.focus_distance = dof.focus_object, None, 3.25
+    bpy.ops.lensblur.defocus(layers="L_mid,L_back")
+    report = json.loads(bpy.data.images["lensblur_result"]["lensblur_report"])
+    checks["plain_focus_distance"] = report["camera"]["focus_distance"]
+    dof.focus_object = target
+
+    rna = bpy.ops.lensblur.defocus.get_rna_type()
+    checks["methods"] = [item.identifier for item in rna.properties["method"].enum_items]
+    # `lensblur render` itself fails (after the stack was written): a device name that
+    # matches nothing. Its message comes back as the report.
+    os.environ["LENSBLUR_DEVICE"] = "no-such-gpu"
+    try:
+        checks["render_error"] = expect_error("lensblur failed", layers="L_mid")
+    finally:
+        del os.environ["LENSBLUR_DEVICE"]
     checks["glob_error"] = expect_error("no view layer matches 'L_side*'", layers="L_side*")
     checks["exclude_error"] = expect_error("no view layer left", exclude="L_*")
     not_exr = os.path.join(out, "not-an.exr")

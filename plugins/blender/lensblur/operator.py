@@ -2,6 +2,7 @@
 import json
 import os
 import tempfile
+import traceback
 
 import bpy
 
@@ -34,6 +35,12 @@ class LENSBLUR_OT_defocus(bpy.types.Operator):
             image, report, warnings = self.defocus(context)
         except LensblurError as e:
             self.report({"ERROR"}, str(e))
+            return {"CANCELLED"}
+        except (RuntimeError, OSError) as e:
+            # Blender's own calls (image loading, file output) fail with these: a report
+            # says what failed, the console keeps the traceback for a bug report.
+            traceback.print_exc()
+            self.report({"ERROR"}, f"lensblur: {type(e).__name__}: {e}")
             return {"CANCELLED"}
         for warning in warnings:
             self.report({"WARNING"}, warning)

@@ -22,13 +22,23 @@ def load_result(out_path, save_path, report_json):
             shutil.copyfile(out_path, target)
         except OSError as e:
             raise LensblurError(f"cannot save the result to {target}: {e}") from e
-        image = bpy.data.images.load(target, check_existing=False)
+        image = load_image(target)
         image.filepath = save_path  # keep a relative '//' path relative
     else:
-        image = bpy.data.images.load(out_path, check_existing=False)
-        image.pack()
+        image = load_image(out_path)
+        try:
+            image.pack()
+        except RuntimeError as e:
+            raise LensblurError(f"cannot pack the result into the .blend: {e}") from e
     image["lensblur_report"] = report_json
     return replace_datablock(image)
+
+
+def load_image(path):
+    try:
+        return bpy.data.images.load(path, check_existing=False)
+    except RuntimeError as e:
+        raise LensblurError(f"Blender cannot load the result {path}: {e}") from e
 
 
 def replace_datablock(image):

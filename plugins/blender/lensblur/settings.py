@@ -1,11 +1,15 @@
 """Per-scene settings the panel edits; the operator's properties mirror them."""
 import bpy
 
+# Every `lensblur render --method` (tests/plugin_blender.rs checks the list against the tool).
 METHODS = [
     ("drbokeh", "Dr.Bokeh", "Layered occlusion-aware gather (Vulkan); the default"),
+    ("drbokeh-compat", "Dr.Bokeh (released code)", "Dr.Bokeh with the formulas of its released code (Vulkan)"),
     ("multiview", "Multiview", "Lens rays through the layers (Lee et al. 2009, Vulkan)"),
+    ("vdslr", "Virtual DSLR", "Pseudo ray tracing of the flattened image + depth (Yang et al. 2016, Vulkan)"),
     ("oracle", "Per-layer blur", "Blur each layer and composite it over (CPU)"),
-    ("gather", "Gather", "Single-image gather baseline, like the Defocus node (CPU)"),
+    ("gather", "Gather", "Single-image gather baseline, like the Defocus node (Vulkan)"),
+    ("scatter", "Scatter", "Single-image scatter baseline (BokehMe's classical renderer, Vulkan)"),
 ]
 
 LAYERS_HELP = (

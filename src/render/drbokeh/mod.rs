@@ -52,8 +52,8 @@ pub const TILE: usize = 16;
 /// released soft step is below `0.1 e^-12 ~ 6e-7` of its plateau value.
 pub const COMPAT_TAIL_PX: f64 = 4.0;
 /// CoC range over which kernel-image weights fade in (below it the kernel is sub-pixel).
-pub const KERNEL_FADE_START_PX: f64 = 0.5;
-pub const KERNEL_FADE_END_PX: f64 = 1.5;
+pub const KERNEL_FADE_START_PX: f64 = crate::camera::KERNEL_FADE_PX[0] as f64;
+pub const KERNEL_FADE_END_PX: f64 = crate::camera::KERNEL_FADE_PX[1] as f64;
 /// Step of the area table in pixels of CoC radius, and the radius it covers.
 pub const AREA_STEP_PX: f64 = 1.0 / 16.0;
 pub const AREA_TABLE_RADIUS_PX: f64 = 16.0;

@@ -16,7 +16,9 @@ struct GatherPush {
     k: f32,
     focus: f32,
     edge_width: f32,
-    pad: [f32; 3],
+    /// Side of the kernel image (0: none).
+    kernel_size: i32,
+    pad: [f32; 2],
     aperture: [f32; 4],
 }
 const _: () = assert!(std::mem::size_of::<GatherPush>() == 48);
@@ -29,23 +31,25 @@ pub struct Gather {
 
 impl Gather {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::new(ctx, &shaders::GATHER, 3, std::mem::size_of::<GatherPush>())?;
+        let pipeline = ComputePipeline::new(ctx, &shaders::GATHER, 4, std::mem::size_of::<GatherPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
     /// Renders `image` (linear, premultiplied) with per-pixel `disparity` through `lens`.
     pub fn run(&self, image: &Image, disparity: &[f32], lens: &Lens) -> Result<Image> {
         check_input(image, disparity)?;
+        let (kernel_size, kernel) = lens.aperture.kernel_texels();
         let push = GatherPush {
             width: image.width as i32,
             height: image.height as i32,
             k: lens.coc.k_px,
             focus: lens.coc.focus_disparity,
             edge_width: EDGE_WIDTH,
-            pad: [0.0; 3],
+            kernel_size: kernel_size as i32,
+            pad: [0.0; 2],
             aperture: lens.aperture.gpu_params(),
         };
-        dispatch_image_pass(&self.ctx, &self.pipeline, "gather", image, disparity, &push)
+        dispatch_image_pass(&self.ctx, &self.pipeline, "gather", image, disparity, &kernel, &push)
     }
 }
 
@@ -65,22 +69,24 @@ pub(crate) fn check_input(image: &Image, disparity: &[f32]) -> Result<()> {
     Ok(())
 }
 
-/// One dispatch over the image of a pass reading (image, disparity) and writing an image:
-/// the shape both single-image baselines share.
+/// One dispatch over the image of a pass reading (image, disparity, aperture kernel texels) and
+/// writing an image: the shape both single-image baselines share.
 pub(crate) fn dispatch_image_pass<P: bytemuck::Pod>(
     ctx: &Context,
     pipeline: &ComputePipeline,
     name: &str,
     image: &Image,
     disparity: &[f32],
+    kernel: &[f32],
     push: &P,
 ) -> Result<Image> {
     let source = Buffer::from_slice(ctx, &format!("{name} image"), &image.pixels)?;
     let depth = Buffer::from_slice(ctx, &format!("{name} disparity"), disparity)?;
+    let kernel = Buffer::from_slice(ctx, &format!("{name} kernel"), kernel)?;
     let result = Buffer::zeroed(ctx, &format!("{name} result"), std::mem::size_of_val(image.pixels.as_slice()) as u64)?;
     let groups = pipeline.groups_for([image.width as u32, image.height as u32, 1]);
     let mut batch = CommandBatch::new(ctx)?;
-    batch.dispatch(pipeline, &[source.all(), depth.all(), result.all()], push, groups)?;
+    batch.dispatch(pipeline, &[source.all(), depth.all(), result.all(), kernel.all()], push, groups)?;
     batch.submit_and_wait()?;
     let pixels: Vec<[f32; 4]> = result.read(ctx)?;
     Ok(Image { width: image.width, height: image.height, pixels })

@@ -5,7 +5,8 @@
 //! foreground cannot spill over a sharp background either: the failure layers exist to fix.
 //!
 //! CPU reference written shader-shaped: one output pixel per iteration, an explicit tap loop.
-//! Polygon apertures enter through the aperture gauge; kernel images act as disks.
+//! Polygon apertures enter through the aperture gauge; a kernel image weighs each tap at its
+//! offset scaled to the centre's CoC (the shape a Bokeh Blur node draws).
 //! GPU path: `glsl/gather.comp` ([`Gather`]).
 pub(crate) mod gpu;
 
@@ -49,7 +50,10 @@ fn gather_pixel(image: &Image, disparity: &[f32], radius: &[f32], lens: &Lens, x
             let (u, v) = Aperture::to_aperture_coords((x - sx) as f32, (y - sy) as f32, rel_x);
             let distance = lens.aperture.gauge(u, v);
             let reach_both = r_x.min(radius[source]);
-            let k = ((reach_both - distance) / EDGE_WIDTH + 0.5).clamp(0.0, 1.0);
+            let mut k = ((reach_both - distance) / EDGE_WIDTH + 0.5).clamp(0.0, 1.0);
+            if k > 0.0 {
+                k *= lens.aperture.kernel_weight(u, v, r_x);
+            }
             if k > 0.0 {
                 let p = image.pixels[source];
                 for c in 0..4 {
@@ -59,8 +63,13 @@ fn gather_pixel(image: &Image, disparity: &[f32], radius: &[f32], lens: &Lens, x
             }
         }
     }
-    // The centre tap always has k >= 0.5, so the weight is positive.
-    sum.map(|s| s / weight)
+    // The centre tap has k >= 0.5, but a kernel image can block it (a ring's obstruction): a
+    // pixel no tap reaches through the aperture keeps its own colour.
+    if weight > 0.0 {
+        sum.map(|s| s / weight)
+    } else {
+        image.pixels[centre]
+    }
 }
 
 #[cfg(test)]

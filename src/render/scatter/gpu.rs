@@ -16,7 +16,8 @@ struct ScatterPush {
     height: i32,
     /// Window half-size: the largest CoC of the image plus the rim margin.
     reach: i32,
-    pad: i32,
+    /// Side of the kernel image (0: none).
+    kernel_size: i32,
     k: f32,
     focus: f32,
     edge_sharpness: f32,
@@ -33,25 +34,26 @@ pub struct Scatter {
 
 impl Scatter {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::new(ctx, &shaders::SCATTER, 3, std::mem::size_of::<ScatterPush>())?;
+        let pipeline = ComputePipeline::new(ctx, &shaders::SCATTER, 4, std::mem::size_of::<ScatterPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
     /// Renders `image` (linear, premultiplied) with per-pixel `disparity` through `lens`.
     pub fn run(&self, image: &Image, disparity: &[f32], lens: &Lens) -> Result<Image> {
         check_input(image, disparity)?;
+        let (kernel_size, kernel) = lens.aperture.kernel_texels();
         let largest = disparity.iter().map(|&d| lens.coc.radius(d)).fold(0.0f32, f32::max);
         let push = ScatterPush {
             width: image.width as i32,
             height: image.height as i32,
             reach: largest.ceil() as i32 + WINDOW_MARGIN as i32,
-            pad: 0,
+            kernel_size: kernel_size as i32,
             k: lens.coc.k_px,
             focus: lens.coc.focus_disparity,
             edge_sharpness: EDGE_SHARPNESS,
             area_epsilon: AREA_EPSILON,
             aperture: lens.aperture.gpu_params(),
         };
-        dispatch_image_pass(&self.ctx, &self.pipeline, "scatter", image, disparity, &push)
+        dispatch_image_pass(&self.ctx, &self.pipeline, "scatter", image, disparity, &kernel, &push)
     }
 }

@@ -7,7 +7,8 @@
 //!
 //! Written as a gather over sources (one output pixel per iteration, explicit tap loop over the
 //! largest CoC), the form a compute shader uses to avoid atomics. Sources are mirrored for
-//! polygon apertures as a lens does; kernel images act as disks.
+//! polygon apertures as a lens does; a kernel image, scaled to the source's CoC, multiplies
+//! the weight (the area term stays BokehMe's `r^2`, as for polygons).
 //! GPU path: `glsl/scatter.comp` ([`Scatter`]).
 mod gpu;
 
@@ -58,7 +59,8 @@ fn scatter_pixel(image: &Image, disparity: &[f32], radius: &[f32], lens: &Lens, 
             let source = image.index(sx as usize, sy as usize);
             let rel_y = lens.coc.relative_disparity(disparity[source]);
             let (u, v) = Aperture::to_aperture_coords((x - sx) as f32, (y - sy) as f32, rel_y);
-            let k = scatter_weight(radius[source], lens.aperture.gauge(u, v));
+            let r_y = radius[source];
+            let k = scatter_weight(r_y, lens.aperture.gauge(u, v)) * lens.aperture.kernel_weight(u, v, r_y);
             let p = image.pixels[source];
             for c in 0..4 {
                 sum[c] += k * p[c];
@@ -66,8 +68,13 @@ fn scatter_pixel(image: &Image, disparity: &[f32], radius: &[f32], lens: &Lens, 
             weight += k;
         }
     }
-    // The pixel's own tap weighs at least 0.5 / (r^2 + 0.2) > 0.
-    sum.map(|s| s / weight)
+    // The pixel's own tap weighs at least 0.5 / (r^2 + 0.2) > 0 unless a kernel image blocks
+    // it (a ring's obstruction): a pixel no source reaches keeps its own colour.
+    if weight > 0.0 {
+        sum.map(|s| s / weight)
+    } else {
+        image.pixels[image.index(x as usize, y as usize)]
+    }
 }
 
 #[cfg(test)]
