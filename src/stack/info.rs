@@ -52,6 +52,12 @@ pub struct LayerInfo {
     pub stored_depth_range: Option<(f32, f32)>,
     /// Disparity after conversion and fill (what the renderer sees).
     pub disparity_range: (f32, f32),
+    /// Per display-window pixel, the fill weight of the stored depth sample: 0 where it was
+    /// not read and the depth came from the neighbours (see
+    /// [`known_depth_weight`](super::exr_read::known_depth_weight)); empty for layers made by
+    /// auto-layering.
+    #[serde(skip)]
+    pub depth_weights: Vec<f32>,
 }
 
 /// A channel the renderer does not touch, resampled onto the display window so it can be
