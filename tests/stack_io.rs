@@ -242,6 +242,52 @@ fn blender_file_output_value_depth() {
     assert!(file.info.single_image, "one layer means single-image input");
 }
 
+/// One single-part file of `channels` at W x H.
+fn write_single_part(path: &Path, channels: Vec<(String, FlatSamples)>) {
+    write_parts(path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
+}
+
+#[test]
+fn file_output_node_depth_slots_pair_with_colour_slots_by_name() {
+    // One File Output node writing a stack: colour slots `fg`, `bg_Image`, depth slots
+    // `fgDepth` and `bg_Z` (value sockets, so `.V`).
+    let dir = common::temp_dir("stack-io", "slots");
+    let path = dir.join("slots.exr");
+    let n = W * H;
+    let mut channels = layer_channels(0, ["fg.R", "fg.G", "fg.B", "fg.A", "fgDepth.V"], |_| 2.0, opaque, n);
+    channels.extend(layer_channels(
+        1,
+        ["bg_Image.R", "bg_Image.G", "bg_Image.B", "bg_Image.A", "bg_Z.V"],
+        |_| 8.0,
+        opaque,
+        n,
+    ));
+    write_single_part(&path, channels.clone());
+    let file = read_stack(&path, &ReadOptions::default()).unwrap();
+    let names: Vec<&str> = file.stack.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["fg", "bg_Image"]);
+    assert_layer(&file.stack.layers[0], 0, 0.5);
+    assert_layer(&file.stack.layers[1], 1, 0.125);
+    assert!(file.info.layers.iter().all(|l| l.convention == Convention::BlenderFileOutput));
+    assert_eq!(file.info.layers[1].channels.depth.as_deref(), Some("bg_Z.V"));
+    assert!(!file.info.single_image && file.info.extra_channels.is_empty(), "{:?}", file.info.extra_channels);
+
+    // A second depth slot for `fg`: which one is meant cannot be known, so the file is refused
+    // (by default and when fg is asked for), naming both slots; bg alone still reads.
+    channels.push(("fg_Z.V".to_string(), float((0..n).map(|_| 3.0))));
+    write_single_part(&path, channels);
+    for layers in [None, Some(vec!["fg".to_string()])] {
+        let options = ReadOptions { layers, ..ReadOptions::default() };
+        let message = read_stack(&path, &options).unwrap_err().to_string();
+        assert!(
+            message.contains("layer 'fg'") && message.contains("'fgDepth'") && message.contains("'fg_Z'"),
+            "{message}"
+        );
+    }
+    let options = ReadOptions { layers: Some(vec!["bg*".to_string()]), ..ReadOptions::default() };
+    assert_eq!(read_stack(&path, &options).unwrap().stack.layers.len(), 1);
+}
+
 #[test]
 fn oiio_long_names_and_inverse_z() {
     let dir = common::temp_dir("stack-io", "long");

@@ -268,6 +268,9 @@ fn describe(candidates: &[&Candidate]) -> String {
 
 fn missing_message(candidate: &Candidate) -> Option<String> {
     let ch = &candidate.group.channels;
+    if let Some(ambiguity) = &candidate.group.ambiguity {
+        return Some(format!("layer '{}' has no unambiguous depth channel: {ambiguity}", candidate.name));
+    }
     let mut missing = Vec::new();
     if ch.red.is_none() || ch.green.is_none() || ch.blue.is_none() {
         missing.push("colour (R, G, B)");
@@ -287,6 +290,10 @@ fn missing_message(candidate: &Candidate) -> Option<String> {
 
 fn select<'c>(path: &Path, candidates: &'c [Candidate], patterns: Option<&[String]>) -> Result<Vec<&'c Candidate>> {
     let Some(patterns) = patterns else {
+        // Leaving an ambiguous layer out would render an incomplete stack without a word.
+        if let Some(message) = candidates.iter().filter(|c| c.group.ambiguity.is_some()).find_map(missing_message) {
+            return Err(Error::input(path, format!("{message}; or choose the layers with --layers")));
+        }
         let complete: Vec<&Candidate> = candidates.iter().filter(|c| c.group.channels.is_complete()).collect();
         if complete.is_empty() {
             let all: Vec<&Candidate> = candidates.iter().collect();

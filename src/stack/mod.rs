@@ -8,6 +8,7 @@ pub mod autolayer;
 pub mod exr_read;
 pub mod exr_write;
 pub mod exr_replace;
+pub mod file_output_slots;
 pub mod fill;
 pub mod info;
 pub mod ldr;
