@@ -3,10 +3,8 @@
 mod common;
 use std::path::Path;
 
-use exr::prelude::{
-    f16, AnyChannel, AnyChannels, Encoding, FlatSamples, ImageAttributes, IntegerBounds,
-    LayerAttributes, Vec2, WritableImage,
-};
+use common::{float, half, write_parts, Part};
+use exr::prelude::FlatSamples;
 use lensblur::image::Image;
 use lensblur::stack::naming::Convention;
 use lensblur::stack::{
@@ -17,48 +15,6 @@ use lensblur::stack::{
 const W: usize = 8;
 const H: usize = 6;
 
-
-fn half(values: impl IntoIterator<Item = f32>) -> FlatSamples {
-    FlatSamples::F16(values.into_iter().map(f16::from_f32).collect())
-}
-
-fn float(values: impl IntoIterator<Item = f32>) -> FlatSamples {
-    FlatSamples::F32(values.into_iter().collect())
-}
-
-/// One EXR part: name, data window origin and size, channels (any order; sorted here).
-struct Part {
-    name: Option<&'static str>,
-    origin: (i32, i32),
-    size: (usize, usize),
-    channels: Vec<(String, FlatSamples)>,
-}
-
-fn write_parts(path: &Path, display: (usize, usize), parts: Vec<Part>) {
-    let layers: Vec<_> = parts
-        .into_iter()
-        .map(|p| {
-            let mut attributes = p.name.map(LayerAttributes::named).unwrap_or_default();
-            attributes.layer_position = Vec2(p.origin.0, p.origin.1);
-            let channels: Vec<_> = p
-                .channels
-                .into_iter()
-                .map(|(n, s)| AnyChannel::new(n.as_str(), s))
-                .collect();
-            exr::prelude::Layer::new(
-                p.size,
-                attributes,
-                Encoding::SMALL_LOSSLESS,
-                AnyChannels::sort(channels.into()),
-            )
-        })
-        .collect();
-    let attributes = ImageAttributes::new(IntegerBounds::new((0, 0), display));
-    exr::prelude::Image::from_layers(attributes, layers)
-        .write()
-        .to_file(path)
-        .unwrap();
-}
 
 /// Colour of layer `l` at pixel i (distinct per layer and pixel, exact in half precision).
 fn colour(l: usize, i: usize, c: usize) -> f32 {
@@ -637,7 +593,7 @@ fn sample_stack() -> LayerStack {
 #[test]
 fn written_stacks_read_back_identically_in_every_naming_and_depth_kind() {
     let dir = common::temp_dir("stack-io", "stack_rt");
-    for naming in [StackNaming::BlenderMultilayer, StackNaming::LayerDotChannel] {
+    for naming in [StackNaming::BlenderMultilayer, StackNaming::LayerDotChannel, StackNaming::MultiPart] {
         for kind in [DepthKind::Z, DepthKind::InverseZ, DepthKind::Disparity] {
             let path = dir.join(format!("{naming:?}-{kind:?}.exr"));
             let stack = sample_stack();
@@ -673,12 +629,8 @@ fn written_stacks_read_back_identically_in_every_naming_and_depth_kind() {
                     }
                 }
             }
-            let expected = if naming == StackNaming::BlenderMultilayer {
-                Convention::BlenderMultilayer
-            } else {
-                Convention::LayerDotChannel
-            };
-            assert!(back.info.layers.iter().all(|l| l.convention == expected));
+            // Read back in the convention it was written in, which writes back the same way.
+            assert!(back.info.layers.iter().all(|l| StackNaming::for_convention(l.convention) == naming));
         }
     }
 }
@@ -703,6 +655,7 @@ fn written_images_carry_names_precision_and_pass_through_channels() {
         sample_type: SampleType::Half,
         extra_channels: vec![extra],
         camera: Some(camera),
+        ..WriteOptions::default()
     };
     let path = dir.join("out.exr");
     write_image(&path, &image, &options).unwrap();

@@ -89,7 +89,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (grads, stats) = renderer.backward_with(&loaded.stack, &loaded.camera.lens, &grad_output, &tiling)?;
     drop(renderer);
     let channels = gradient_channels(info, &loaded, &grads);
-    write_named_channels(&args.output, loaded.stack.width, loaded.stack.height, channels)
+    let origin = (info.display_window.x, info.display_window.y);
+    write_named_channels(&args.output, (loaded.stack.width, loaded.stack.height), origin, channels)
         .with_context(|| format!("writing {}", args.output.display()))?;
     ctx.finish()?;
     let camera = camera_gradients(&loaded, &grads);

@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use super::naming::{Convention, LayerChannels};
-use super::{DepthKind, LayerStack};
+use super::{DepthKind, LayerStack, StackNaming};
 
 /// A pixel rectangle in EXR coordinates (data or display window).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -85,6 +85,14 @@ pub struct StackInfo {
     pub extra_channels: Vec<ExtraChannel>,
     /// Things the reader repaired (e.g. NaN/Inf replaced under `replace_nonfinite`).
     pub warnings: Vec<String>,
+}
+
+impl StackInfo {
+    /// How a result named after a layer is written for this input: in the convention of its
+    /// (front) layer, see [`StackNaming::for_convention`].
+    pub fn output_naming(&self) -> StackNaming {
+        self.layers.first().map_or(StackNaming::default(), |l| StackNaming::for_convention(l.convention))
+    }
 }
 
 /// A stack as read from a file, with everything needed to write results back.
