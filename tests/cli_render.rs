@@ -389,6 +389,53 @@ fn output_layer_follows_the_input_convention_on_the_input_display_window() {
 }
 
 #[test]
+fn one_layer_picked_out_of_a_stack_is_not_auto_layered() {
+    let dir = common::temp_dir("cli-render", "pick");
+    let input = write_input(&dir, Some(CAMERA));
+    let out = dir.join("out.exr");
+    let json = ok(lensblur(&[
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--layers",
+        "subject",
+        "--method",
+        "oracle",
+        "--json",
+    ]));
+    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(report["auto_layered"], false, "{report}");
+    let names: Vec<&str> = report["layers"].as_array().unwrap().iter().map(|l| l["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["subject"]);
+}
+
+#[test]
+fn keep_channels_with_a_png_input_is_refused() {
+    let dir = common::temp_dir("cli-render", "keep-ldr");
+    let (photo, depth, out) = (dir.join("photo.png"), dir.join("depth.png"), dir.join("out.exr"));
+    image::RgbImage::from_pixel(8, 6, image::Rgb([200, 100, 50])).save(&photo).unwrap();
+    image::GrayImage::from_pixel(8, 6, image::Luma([128])).save(&depth).unwrap();
+    let failed = lensblur(&[
+        "render",
+        photo.to_str().unwrap(),
+        "--depth",
+        depth.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--keep-channels",
+        "--blur",
+        "4",
+        "--focus-disparity",
+        "0.5",
+    ]);
+    assert!(!failed.status.success());
+    let message = String::from_utf8_lossy(&failed.stderr);
+    assert!(message.contains("--keep-channels") && message.contains("photo.png"), "{message}");
+    assert!(!out.exists(), "no output after a refusal");
+}
+
+#[test]
 fn ldr_input_with_depth_image_renders_to_jpeg() {
     let dir = common::temp_dir("cli-render", "ldr");
     let (w, h) = (32u32, 24u32);

@@ -245,6 +245,24 @@ fn file_output_node_depth_slots_pair_with_colour_slots_by_name() {
 }
 
 #[test]
+fn only_a_file_holding_one_image_is_a_single_image() {
+    // Two layers and the flat composite (`R,G,B,A,Z`, layer `All`).
+    let dir = common::temp_dir("stack-io", "single");
+    let path = dir.join("stack.exr");
+    let n = W * H;
+    let mut channels = layer_channels(0, as_refs(&names("fg.", false, "Z")), |_| 2.0, opaque, n);
+    channels.extend(layer_channels(1, as_refs(&names("bg.", false, "Z")), |_| 8.0, opaque, n));
+    channels.extend(layer_channels(2, ["R", "G", "B", "A", "Z"], |_| 2.0, opaque, n));
+    write_single_part(&path, channels);
+    for (layers, single) in [(None, false), (Some("fg"), false), (Some("fg,bg"), false), (Some("All"), true)] {
+        let layers = layers.map(|l| l.split(',').map(String::from).collect());
+        let options = ReadOptions { layers: layers.clone(), ..ReadOptions::default() };
+        let file = read_stack(&path, &options).unwrap();
+        assert_eq!(file.info.single_image, single, "--layers {layers:?}");
+    }
+}
+
+#[test]
 fn oiio_long_names_and_inverse_z() {
     let dir = common::temp_dir("stack-io", "long");
     let path = dir.join("nuke.exr");

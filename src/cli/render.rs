@@ -26,9 +26,11 @@ Examples:
   lensblur render example-out/layers.exr -o out.exr --json      (camera read from the header)
 
 Input: Blender multilayer EXR (<ViewLayer>.Combined.RGBA + <ViewLayer>.Depth.Z), OpenEXR/OIIO/Nuke
-layer.R,G,B,A,Z, multi-part (one layer per part), plain R,G,B,A,Z; or PNG/JPEG + --depth. A single
-image is split into layers automatically for layered methods. Output: EXR (plain R,G,B,A, linear,
-premultiplied) or, for .png/.jpg, 8-bit sRGB. Files appear atomically; the input is never overwritten.";
+layer.R,G,B,A,Z, multi-part (one layer per part), plain R,G,B,A,Z; or PNG/JPEG + --depth. A file
+holding one image is split into layers automatically for layered methods (one layer picked out of a
+stack with --layers is not). Output: EXR (plain R,G,B,A, linear, premultiplied, on the input's display
+window; --output-layer names it in the input's convention) or, for .png/.jpg, 8-bit sRGB. Files
+appear atomically; the input is never overwritten.";
 
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
@@ -113,6 +115,13 @@ struct Timings {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let total = Instant::now();
     check_output_path(&args.output, &[&args.input])?;
+    if args.keep_channels && is_ldr_path(&args.input) {
+        anyhow::bail!(
+            "--keep-channels copies the other channels of an EXR input; {} is a PNG/JPEG and has none \
+             (drop the flag)",
+            args.input.display()
+        );
+    }
     if let Some(preview) = &args.preview {
         check_output_path(preview, &[&args.input, &args.output])?;
     }

@@ -66,7 +66,7 @@ pub fn read_stack(path: &Path, options: &ReadOptions) -> Result<StackFile> {
         layers.push(layer);
         infos.push(info);
     }
-    let single_image = selected.len() == 1;
+    let single_image = holds_one_image(&candidates, &selected);
     let used: HashSet<(usize, String)> =
         selected.iter().flat_map(|c| rendered_names(c).into_iter().map(move |n| (c.part, n))).collect();
     let mut stack = LayerStack::new(display.width, display.height, layers)?;
@@ -243,7 +243,7 @@ fn candidates(image: &ExrImage) -> Vec<Candidate> {
                 (Some(p), "") => p,
                 (Some(p), l) if l == p => p,
                 (Some(p), l) => format!("{p}.{l}"),
-                (None, "") => "All".to_string(),
+                (None, "") => FLAT_IMAGE_LAYER.to_string(),
                 (None, l) => l.to_string(),
             };
             if multi_part {
@@ -256,6 +256,16 @@ fn candidates(image: &ExrImage) -> Vec<Candidate> {
         }
     }
     out
+}
+
+/// The name of an unprefixed single-part group (`R,G,B,A,Z`): the file's flat image.
+const FLAT_IMAGE_LAYER: &str = "All";
+
+/// Whether the selection is one flat image to auto-layer: the only complete layer of the file,
+/// or its flat `All` image chosen by name. One layer picked out of a stack is just that layer.
+fn holds_one_image(candidates: &[Candidate], selected: &[&Candidate]) -> bool {
+    let complete = candidates.iter().filter(|c| c.group.channels.is_complete()).count();
+    matches!(selected, [only] if complete == 1 || only.name == FLAT_IMAGE_LAYER)
 }
 
 fn describe(candidates: &[&Candidate]) -> String {
@@ -308,7 +318,7 @@ fn select<'c>(path: &Path, candidates: &'c [Candidate], patterns: Option<&[Strin
         }
         // A flattened `All` beside real layers is the composite, not a layer of the stack.
         if complete.len() > 1 {
-            return Ok(complete.into_iter().filter(|c| !c.name.eq_ignore_ascii_case("all")).collect());
+            return Ok(complete.into_iter().filter(|c| !c.name.eq_ignore_ascii_case(FLAT_IMAGE_LAYER)).collect());
         }
         return Ok(complete);
     };
