@@ -9,6 +9,7 @@ use lensblur::camera::{Aperture, CocModel, PhysicalCamera};
 use lensblur::image::Image;
 use lensblur::render::drbokeh::{DrBokehGpu, Model};
 use lensblur::render::Lens;
+use exr::prelude::FlatSamples;
 use lensblur::stack::{
     write_image, write_stack, ExtraChannel, Layer, LayerStack, SampleType, StackWriteOptions,
     WriteOptions,
@@ -305,6 +306,133 @@ fn output_naming_half_pass_through_and_preview() {
         values, matte,
         "pass-through channels are copied bit for bit"
     );
+}
+
+/// Display window origin of the convention inputs: not (0, 0), so losing it shows.
+const ORIGIN: (i32, i32) = (-3, 5);
+
+/// The channels of `layer`: colour `{colour}R..A`, planar depth `depth`.
+fn layer_samples(layer: &Layer, colour: &str, depth: &str) -> Vec<(String, FlatSamples)> {
+    let mut out: Vec<(String, FlatSamples)> = ["R", "G", "B", "A"]
+        .iter()
+        .enumerate()
+        .map(|(c, name)| (format!("{colour}{name}"), common::float(layer.rgba.pixels.iter().map(|p| p[c]))))
+        .collect();
+    out.push((depth.to_string(), common::float(layer.disparity.iter().map(|d| 1.0 / d))));
+    out
+}
+
+/// `two_layer_stack` (or, for `plain`, its wall alone) in one naming convention, on a
+/// display window at ORIGIN.
+fn write_convention_input(path: &Path, convention: &str) {
+    let stack = two_layer_stack();
+    let size = (stack.width, stack.height);
+    let part = |name: Option<&'static str>, channels| common::Part { name, origin: ORIGIN, size, channels };
+    let [subject, wall] = &stack.layers[..] else { unreachable!("two layers") };
+    let parts = match convention {
+        "blender" => {
+            let mut channels = layer_samples(subject, "subject.Combined.", "subject.Depth.Z");
+            channels.extend(layer_samples(wall, "wall.Combined.", "wall.Depth.Z"));
+            vec![part(None, channels)]
+        }
+        "layer-dot" => {
+            let mut channels = layer_samples(subject, "subject.", "subject.Z");
+            channels.extend(layer_samples(wall, "wall.", "wall.Z"));
+            vec![part(None, channels)]
+        }
+        "multi-part" => {
+            vec![part(Some("subject"), layer_samples(subject, "", "Z")), part(Some("wall"), layer_samples(wall, "", "Z"))]
+        }
+        _ => vec![part(None, layer_samples(wall, "", "Z"))],
+    };
+    common::write_parts_with(path, (ORIGIN, size), exr::prelude::LayerAttributes::default(), parts);
+}
+
+#[test]
+fn output_layer_follows_the_input_convention_on_the_input_display_window() {
+    let dir = common::temp_dir("cli-render", "convention");
+    let expected = [
+        ("blender", None, "dof.Combined."),
+        ("layer-dot", None, "dof."),
+        ("multi-part", Some("dof"), ""),
+        ("plain", None, "dof.Combined."),
+    ];
+    let mut rendered = Vec::new();
+    for (convention, part, prefix) in expected {
+        let input = dir.join(format!("{convention}.exr"));
+        write_convention_input(&input, convention);
+        let (named, plain) = (dir.join(format!("{convention}-dof.exr")), dir.join(format!("{convention}-plain.exr")));
+        for (out, layer) in [(&named, Some("dof")), (&plain, None)] {
+            let mut args = vec!["render", input.to_str().unwrap(), "-o", out.to_str().unwrap(), "--method", "oracle"];
+            args.extend(["--blur", "20", "--focus-disparity", "0.25"]);
+            args.extend(layer.iter().flat_map(|l| ["--output-layer", *l]));
+            ok(lensblur(&args));
+            let meta = exr::meta::MetaData::read_from_file(out, false).unwrap();
+            let [header] = &meta.headers[..] else { panic!("{convention}: one part expected") };
+            let window = header.shared_attributes.display_window;
+            assert_eq!((window.position.x(), window.position.y()), ORIGIN, "{convention}: display window origin kept");
+            assert_eq!((window.size.x(), window.size.y()), (48, 40), "{convention}");
+            assert_eq!(header.own_attributes.layer_position, window.position, "{convention}: data = display window");
+            let (want_part, want_prefix) = if layer.is_some() { (part, prefix) } else { (None, "") };
+            assert_eq!(header.own_attributes.layer_name.as_ref().map(|t| t.to_string()).as_deref(), want_part, "{convention}");
+            let mut names: Vec<String> = header.channels.list.iter().map(|c| c.name.to_string()).collect();
+            names.sort();
+            assert_eq!(names, ["A", "B", "G", "R"].map(|c| format!("{want_prefix}{c}")), "{convention} --output-layer {layer:?}");
+        }
+        let image = read_image(&named, prefix);
+        assert_eq!(image, read_image(&plain, ""), "{convention}: the name changes nothing else");
+        rendered.push(image);
+    }
+    // The three stacks are the same layers in different names: the same render.
+    assert_eq!(rendered[0], rendered[1]);
+    assert_eq!(rendered[0], rendered[2]);
+}
+
+#[test]
+fn one_layer_picked_out_of_a_stack_is_not_auto_layered() {
+    let dir = common::temp_dir("cli-render", "pick");
+    let input = write_input(&dir, Some(CAMERA));
+    let out = dir.join("out.exr");
+    let json = ok(lensblur(&[
+        "render",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--layers",
+        "subject",
+        "--method",
+        "oracle",
+        "--json",
+    ]));
+    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(report["auto_layered"], false, "{report}");
+    let names: Vec<&str> = report["layers"].as_array().unwrap().iter().map(|l| l["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["subject"]);
+}
+
+#[test]
+fn keep_channels_with_a_png_input_is_refused() {
+    let dir = common::temp_dir("cli-render", "keep-ldr");
+    let (photo, depth, out) = (dir.join("photo.png"), dir.join("depth.png"), dir.join("out.exr"));
+    image::RgbImage::from_pixel(8, 6, image::Rgb([200, 100, 50])).save(&photo).unwrap();
+    image::GrayImage::from_pixel(8, 6, image::Luma([128])).save(&depth).unwrap();
+    let failed = lensblur(&[
+        "render",
+        photo.to_str().unwrap(),
+        "--depth",
+        depth.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--keep-channels",
+        "--blur",
+        "4",
+        "--focus-disparity",
+        "0.5",
+    ]);
+    assert!(!failed.status.success());
+    let message = String::from_utf8_lossy(&failed.stderr);
+    assert!(message.contains("--keep-channels") && message.contains("photo.png"), "{message}");
+    assert!(!out.exists(), "no output after a refusal");
 }
 
 #[test]

@@ -58,7 +58,7 @@ fn render_scene(dir: &Path) {
 }
 
 #[test]
-fn blender_multilayer_render_with_two_view_layers_is_read_correctly() {
+fn blender_multilayer_render_and_file_output_nodes_are_read_correctly() {
     let dir = common::temp_dir("blender", "render");
     render_scene(&dir);
     let file = read_stack(&dir.join("render.exr"), &ReadOptions::default()).unwrap();
@@ -117,6 +117,23 @@ fn blender_multilayer_render_with_two_view_layers_is_read_correctly() {
         assert!((0..4).all(|k| (a[k] - b[k]).abs() < 1e-3), "{a:?} vs {b:?}");
     }
     assert!(layer.disparity.iter().all(|&d| (d - 0.2).abs() < 1e-4));
+
+    // One File Output node writing both layers with per-layer slots: colour `fg` + depth
+    // `fgDepth`, colour `bg_Image` + depth `bg_Z` (Blender names the channels `fgDepth.V`...).
+    let slots = read_stack(&dir.join("stack_0001.exr"), &ReadOptions::default()).unwrap();
+    let names: Vec<&str> = slots.stack.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["fg", "bg_Image"], "front to back");
+    let depth: Vec<Option<&str>> = slots.info.layers.iter().map(|l| l.channels.depth.as_deref()).collect();
+    assert_eq!(depth, [Some("fgDepth.V"), Some("bg_Z.V")]);
+    assert!(slots.info.layers.iter().all(|l| l.convention == Convention::BlenderFileOutput));
+    assert!(!slots.info.single_image);
+    for (layer, rendered, disparity) in [(&slots.stack.layers[0], front, 0.2), (&slots.stack.layers[1], back, 0.1)] {
+        // Same view layers as the multilayer render (float here, half there): half rounding.
+        for (a, b) in layer.rgba.pixels.iter().zip(&rendered.rgba.pixels) {
+            assert!((0..4).all(|k| (a[k] - b[k]).abs() < 1e-3), "{}: {a:?} vs {b:?}", layer.name);
+        }
+        assert!(layer.disparity.iter().all(|&d| (d - disparity).abs() < 1e-4), "{}", layer.name);
+    }
 }
 
 /// Loads `path` in Blender, pipes `layer`'s colour pass through the compositor into a plain

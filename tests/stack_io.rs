@@ -3,10 +3,8 @@
 mod common;
 use std::path::Path;
 
-use exr::prelude::{
-    f16, AnyChannel, AnyChannels, Encoding, FlatSamples, ImageAttributes, IntegerBounds,
-    LayerAttributes, Vec2, WritableImage,
-};
+use common::{float, half, write_parts, Part};
+use exr::prelude::FlatSamples;
 use lensblur::image::Image;
 use lensblur::stack::naming::Convention;
 use lensblur::stack::{
@@ -17,48 +15,6 @@ use lensblur::stack::{
 const W: usize = 8;
 const H: usize = 6;
 
-
-fn half(values: impl IntoIterator<Item = f32>) -> FlatSamples {
-    FlatSamples::F16(values.into_iter().map(f16::from_f32).collect())
-}
-
-fn float(values: impl IntoIterator<Item = f32>) -> FlatSamples {
-    FlatSamples::F32(values.into_iter().collect())
-}
-
-/// One EXR part: name, data window origin and size, channels (any order; sorted here).
-struct Part {
-    name: Option<&'static str>,
-    origin: (i32, i32),
-    size: (usize, usize),
-    channels: Vec<(String, FlatSamples)>,
-}
-
-fn write_parts(path: &Path, display: (usize, usize), parts: Vec<Part>) {
-    let layers: Vec<_> = parts
-        .into_iter()
-        .map(|p| {
-            let mut attributes = p.name.map(LayerAttributes::named).unwrap_or_default();
-            attributes.layer_position = Vec2(p.origin.0, p.origin.1);
-            let channels: Vec<_> = p
-                .channels
-                .into_iter()
-                .map(|(n, s)| AnyChannel::new(n.as_str(), s))
-                .collect();
-            exr::prelude::Layer::new(
-                p.size,
-                attributes,
-                Encoding::SMALL_LOSSLESS,
-                AnyChannels::sort(channels.into()),
-            )
-        })
-        .collect();
-    let attributes = ImageAttributes::new(IntegerBounds::new((0, 0), display));
-    exr::prelude::Image::from_layers(attributes, layers)
-        .write()
-        .to_file(path)
-        .unwrap();
-}
 
 /// Colour of layer `l` at pixel i (distinct per layer and pixel, exact in half precision).
 fn colour(l: usize, i: usize, c: usize) -> f32 {
@@ -240,6 +196,70 @@ fn blender_file_output_value_depth() {
         Convention::BlenderFileOutput
     );
     assert!(file.info.single_image, "one layer means single-image input");
+}
+
+/// One single-part file of `channels` at W x H.
+fn write_single_part(path: &Path, channels: Vec<(String, FlatSamples)>) {
+    write_parts(path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
+}
+
+#[test]
+fn file_output_node_depth_slots_pair_with_colour_slots_by_name() {
+    // One File Output node writing a stack: colour slots `fg`, `bg_Image`, depth slots
+    // `fgDepth` and `bg_Z` (value sockets, so `.V`).
+    let dir = common::temp_dir("stack-io", "slots");
+    let path = dir.join("slots.exr");
+    let n = W * H;
+    let mut channels = layer_channels(0, ["fg.R", "fg.G", "fg.B", "fg.A", "fgDepth.V"], |_| 2.0, opaque, n);
+    channels.extend(layer_channels(
+        1,
+        ["bg_Image.R", "bg_Image.G", "bg_Image.B", "bg_Image.A", "bg_Z.V"],
+        |_| 8.0,
+        opaque,
+        n,
+    ));
+    write_single_part(&path, channels.clone());
+    let file = read_stack(&path, &ReadOptions::default()).unwrap();
+    let names: Vec<&str> = file.stack.layers.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["fg", "bg_Image"]);
+    assert_layer(&file.stack.layers[0], 0, 0.5);
+    assert_layer(&file.stack.layers[1], 1, 0.125);
+    assert!(file.info.layers.iter().all(|l| l.convention == Convention::BlenderFileOutput));
+    assert_eq!(file.info.layers[1].channels.depth.as_deref(), Some("bg_Z.V"));
+    assert!(!file.info.single_image && file.info.extra_channels.is_empty(), "{:?}", file.info.extra_channels);
+
+    // A second depth slot for `fg`: which one is meant cannot be known, so the file is refused
+    // (by default and when fg is asked for), naming both slots; bg alone still reads.
+    channels.push(("fg_Z.V".to_string(), float((0..n).map(|_| 3.0))));
+    write_single_part(&path, channels);
+    for layers in [None, Some(vec!["fg".to_string()])] {
+        let options = ReadOptions { layers, ..ReadOptions::default() };
+        let message = read_stack(&path, &options).unwrap_err().to_string();
+        assert!(
+            message.contains("layer 'fg'") && message.contains("'fgDepth'") && message.contains("'fg_Z'"),
+            "{message}"
+        );
+    }
+    let options = ReadOptions { layers: Some(vec!["bg*".to_string()]), ..ReadOptions::default() };
+    assert_eq!(read_stack(&path, &options).unwrap().stack.layers.len(), 1);
+}
+
+#[test]
+fn only_a_file_holding_one_image_is_a_single_image() {
+    // Two layers and the flat composite (`R,G,B,A,Z`, layer `All`).
+    let dir = common::temp_dir("stack-io", "single");
+    let path = dir.join("stack.exr");
+    let n = W * H;
+    let mut channels = layer_channels(0, as_refs(&names("fg.", false, "Z")), |_| 2.0, opaque, n);
+    channels.extend(layer_channels(1, as_refs(&names("bg.", false, "Z")), |_| 8.0, opaque, n));
+    channels.extend(layer_channels(2, ["R", "G", "B", "A", "Z"], |_| 2.0, opaque, n));
+    write_single_part(&path, channels);
+    for (layers, single) in [(None, false), (Some("fg"), false), (Some("fg,bg"), false), (Some("All"), true)] {
+        let layers = layers.map(|l| l.split(',').map(String::from).collect());
+        let options = ReadOptions { layers: layers.clone(), ..ReadOptions::default() };
+        let file = read_stack(&path, &options).unwrap();
+        assert_eq!(file.info.single_image, single, "--layers {layers:?}");
+    }
 }
 
 #[test]
@@ -591,7 +611,7 @@ fn sample_stack() -> LayerStack {
 #[test]
 fn written_stacks_read_back_identically_in_every_naming_and_depth_kind() {
     let dir = common::temp_dir("stack-io", "stack_rt");
-    for naming in [StackNaming::BlenderMultilayer, StackNaming::LayerDotChannel] {
+    for naming in [StackNaming::BlenderMultilayer, StackNaming::LayerDotChannel, StackNaming::MultiPart] {
         for kind in [DepthKind::Z, DepthKind::InverseZ, DepthKind::Disparity] {
             let path = dir.join(format!("{naming:?}-{kind:?}.exr"));
             let stack = sample_stack();
@@ -627,12 +647,8 @@ fn written_stacks_read_back_identically_in_every_naming_and_depth_kind() {
                     }
                 }
             }
-            let expected = if naming == StackNaming::BlenderMultilayer {
-                Convention::BlenderMultilayer
-            } else {
-                Convention::LayerDotChannel
-            };
-            assert!(back.info.layers.iter().all(|l| l.convention == expected));
+            // Read back in the convention it was written in, which writes back the same way.
+            assert!(back.info.layers.iter().all(|l| StackNaming::for_convention(l.convention) == naming));
         }
     }
 }
@@ -657,6 +673,7 @@ fn written_images_carry_names_precision_and_pass_through_channels() {
         sample_type: SampleType::Half,
         extra_channels: vec![extra],
         camera: Some(camera),
+        ..WriteOptions::default()
     };
     let path = dir.join("out.exr");
     write_image(&path, &image, &options).unwrap();

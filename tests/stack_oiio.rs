@@ -147,6 +147,48 @@ fn oiiotool_parts_with_different_data_windows_share_the_display_window() {
     assert_eq!(front.rgba.get(6, 4)[3], 0.0);
 }
 
+#[test]
+fn render_outputs_keep_oiio_layer_names_parts_and_windows() {
+    let dir = common::temp_dir("oiio", "render-names");
+    let (layers, parts) = (dir.join("layers.exr"), dir.join("parts.exr"));
+    #[rustfmt::skip]
+    tool("oiiotool", &[
+        "--pattern", "constant:color=0.5,0.25,0.125,1,3", "16x12", "5", "--chnames", "fg.R,fg.G,fg.B,fg.A,fg.Z",
+        "--pattern", "constant:color=0.125,0.25,0.75,1,10", "16x12", "5", "--chnames", "bg.R,bg.G,bg.B,bg.A,bg.Z",
+        "--chappend", "--origin", "-2+3", "--fullsize", "16x12-2+3", "-d", "half", "-o", s(&layers),
+    ]);
+    #[rustfmt::skip]
+    tool("oiiotool", &[
+        "--pattern", "constant:color=0.5,0.5,0.5,1,2", "8x6", "5", "--chnames", "R,G,B,A,Z", "--attrib", "oiio:subimagename", "near",
+        "--pattern", "constant:color=0.25,0.5,1,1,8", "8x6", "5", "--chnames", "R,G,B,A,Z", "--attrib", "oiio:subimagename", "far",
+        "--siappend", "-d", "float", "-o", s(&parts),
+    ]);
+    let render = |input: &Path, output: &Path| {
+        let run = Command::new(env!("CARGO_BIN_EXE_lensblur"))
+            .args(["render", s(input), "-o", s(output), "--output-layer", "dof", "--method", "oracle"])
+            .args(["--blur", "10", "--focus-disparity", "0.1"])
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    };
+    let out = dir.join("layers-dof.exr");
+    render(&layers, &out);
+    let info = tool("iinfo", &["-v", s(&out)]);
+    for line in ["channel list: dof.R, dof.G, dof.B, dof.A", "full/display origin: -2, 3", "pixel data origin: x=-2, y=3"] {
+        assert!(info.contains(line), "'{line}' missing in:\n{info}");
+    }
+    // The constant layers stay constant under any blur: oiiotool sees fg over bg.
+    let stats = tool("oiiotool", &[s(&out), "--ch", "dof.R,dof.G,dof.B,dof.A", "--printstats"]);
+    assert_eq!(stats_line(&stats, "Stats Max:"), [0.5, 0.25, 0.125, 1.0], "{stats}");
+
+    let out = dir.join("parts-dof.exr");
+    render(&parts, &out);
+    let info = tool("iinfo", &["-v", s(&out)]);
+    for line in ["channel list: R, G, B, A", "oiio:subimagename: \"dof\""] {
+        assert!(info.contains(line), "'{line}' missing in:\n{info}");
+    }
+}
+
 fn stats_line(stats: &str, key: &str) -> Vec<f64> {
     let line = stats
         .lines()

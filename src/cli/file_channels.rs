@@ -1,4 +1,4 @@
-//! Output files named after an input's channels (`grad`, `fit-depth`): every channel of the
+//! Output files named after an input's channels (`grad`): every channel of the
 //! input, written single-part; multi-part inputs get `<part>.<channel>` names.
 use std::collections::BTreeMap;
 
@@ -27,17 +27,6 @@ impl<'a> FileChannels<'a> {
             }
         }
         Self { info, values }
-    }
-
-    /// The pass-through channels' own values (those the renderer did not read).
-    pub fn with_extra_channels(mut self) -> Self {
-        let multi_part = self.info.parts.len() > 1;
-        for extra in &self.info.extra_channels {
-            // Multi-part extras are already named `<part>.<channel>` by the reader.
-            let name = if multi_part { extra.name.clone() } else { output_name(self.info, 0, &extra.name) };
-            self.values.insert(name, extra.values.clone());
-        }
-        self
     }
 
     /// Where the rendered layer `layer` came from, or None if it is not from this file.

@@ -1,7 +1,8 @@
 //! `lensblur fit-depth FILE --target DEFOCUSED.exr -o OUT`: depth from defocus. Optimises the
 //! depth channel(s) of a stack so its render matches an observed defocused image (Dr.Bokeh
 //! paper Sec. 4.3: L1 + edge-aware smoothness + hierarchical SSIM, Adam). OUT is FILE with the
-//! depth channels replaced, in FILE's channel names and depth convention.
+//! depth channels replaced, in FILE's depth convention; everything else (other channels and
+//! their sample types, parts, windows, header) is kept as it was.
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -12,20 +13,26 @@ use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpuGrad, Model};
 use lensblur::render::gausspsf::GaussPsf;
 use lensblur::render::grad::Differentiable;
 use lensblur::render::InputKind;
-use lensblur::stack::{read_rgba, write_named_channels};
+use lensblur::render::Lens;
+use lensblur::stack::{
+    read_rgba, replace_channels, ChannelReplacement, DepthKind, HeaderEdits, LayerStack, StackInfo,
+};
 use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
-use super::file_channels::FileChannels;
 use super::input_args::{check_output_path, InputArgs};
 
 const EXAMPLES: &str = "\
 Examples:
   lensblur fit-depth layers.exr --target photo_dof.exr -o fitted.exr --focal-length 50 --fstop 2 --focus-distance 3
   lensblur fit-depth layers.exr --target t.exr -o fitted.exr --iters 300 --renderer gausspsf --json
+  lensblur fit-depth layers.exr --target t.exr -o fitted.exr --fit-focus --fixed-layers 'bg*'
 
 The colour and alpha of FILE's layers are kept; their depth is optimised (starting from FILE's
-depth) so that rendering the stack reproduces --target (R,G,B used). The loss is L1 +
+depth) so that rendering the stack reproduces --target (R,G,B used). OUT is FILE with only the depth
+channels changed (where alpha > 0; same sample type, parts, windows and header); --fit-focus also
+stamps the fitted focus distance into its 'focus' attribute. --fixed-layers keeps the depth of known
+layers, which is what lets --fit-focus find the focus. The loss is L1 +
 edge-aware depth smoothness + hierarchical SSIM (windows 5, 11, 21, 31). --renderer gausspsf
 uses the occlusion-free Gaussian-PSF baseline (GaussPSF, Gur & Wolf 2019) for comparison.";
 
@@ -50,9 +57,13 @@ pub struct Args {
     /// Adam learning rate (in units of the stack's mean disparity).
     #[arg(long, default_value_t = 0.1)]
     pub lr: f64,
-    /// Also fit the focus distance (only identifiable when some depth is known).
+    /// Also fit the focus distance (only identifiable when some depth is known: hold it with
+    /// --fixed-layers). The fitted focus is printed and stamped into OUT's `focus` attribute.
     #[arg(long)]
     pub fit_focus: bool,
+    /// Layers (names or globs, comma-separated) whose depth is known and kept as it is.
+    #[arg(long, value_name = "NAME,...", value_delimiter = ',')]
+    pub fixed_layers: Vec<String>,
     /// Differentiable renderer: drbokeh (leaky soft step), drbokeh-compat, gausspsf.
     #[arg(long, default_value = "drbokeh")]
     pub renderer: String,
@@ -74,7 +85,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "gausspsf" => Box::new(GaussPsf::default()),
         other => bail!("unknown renderer '{other}' (drbokeh, drbokeh-compat, gausspsf)"),
     };
-    let options = FitOptions { iterations: args.iters, learning_rate: args.lr, fit_focus: args.fit_focus, ..FitOptions::default() };
+    let options = FitOptions {
+        iterations: args.iters,
+        learning_rate: args.lr,
+        fit_focus: args.fit_focus,
+        fixed_layers: args.fixed_layers.clone(),
+        ..FitOptions::default()
+    };
     let bar = if args.json { ProgressBar::hidden() } else { ProgressBar::new(args.iters as u64 + 1) };
     bar.set_style(ProgressStyle::with_template("fitting depth [{bar:40}] {pos}/{len} loss {msg} {elapsed}").unwrap_or_else(|_| ProgressStyle::default_bar()));
     let fitted = fit_depth(renderer.as_ref(), &loaded.stack, &loaded.camera.lens, &target, &options, |i, loss| {
@@ -84,22 +101,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     bar.finish_and_clear();
     drop(renderer);
 
-    let mut channels = FileChannels::zeroed(info).with_extra_channels();
-    for layer in &fitted.stack.layers {
-        let Some(names) = channels.layer(&layer.name) else { continue };
-        for (c, name) in names.colour.iter().enumerate() {
-            if let Some(name) = name {
-                channels.set(name, layer.rgba.pixels.iter().map(|p| p[c]).collect());
-            }
-        }
-        if let Some(name) = &names.depth {
-            // Stored where the layer is covered; the far sentinel elsewhere, as files hold it.
-            let stored = layer.rgba.pixels.iter().zip(&layer.disparity);
-            let stored = stored.map(|(p, &d)| loaded.depth_kind.from_disparity(if p[3] > 0.0 { d } else { 0.0 })).collect();
-            channels.set(name, stored);
-        }
-    }
-    write_named_channels(&args.output, fitted.stack.width, fitted.stack.height, channels.into_list())
+    let focus = FittedFocus::new(&fitted.lens, loaded.camera.physical.is_some());
+    let replacements = depth_replacements(info, &fitted.stack, loaded.depth_kind);
+    let edits = HeaderEdits { focus: focus.distance.filter(|_| args.fit_focus) };
+    replace_channels(&args.input, &args.output, &replacements, edits, args.input_args.max_pixels)
         .with_context(|| format!("writing {}", args.output.display()))?;
     ctx.finish()?;
     let (first, best) = (fitted.history.first().copied().unwrap_or(f64::NAN), fitted.history.iter().copied().fold(f64::INFINITY, f64::min));
@@ -107,11 +112,60 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let report = serde_json::json!({
             "input": args.input, "target": args.target, "output": args.output, "renderer": args.renderer,
             "iterations": args.iters, "loss_first": first, "loss_best": best, "loss_history": fitted.history,
-            "focus_disparity": fitted.lens.coc.focus_disparity, "seconds": start.elapsed().as_secs_f64(),
+            "focus_disparity": focus.disparity, "focus_distance": focus.distance, "seconds": start.elapsed().as_secs_f64(),
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!("loss {first:.5} -> {best:.5} in {} iterations ({:.1} s); wrote {}", args.iters, start.elapsed().as_secs_f64(), args.output.display());
+        if args.fit_focus {
+            println!("{}", focus.describe());
+        }
     }
     Ok(())
+}
+
+/// The focus after fitting, as a disparity and, for a physical camera, as a distance.
+struct FittedFocus {
+    disparity: f32,
+    /// None for the normalised model, or when the fit went beyond infinity (disparity <= 0).
+    distance: Option<f32>,
+    physical: bool,
+}
+
+impl FittedFocus {
+    /// A physical camera's focus disparity is 1 / distance (see `CocModel::from_physical`).
+    fn new(lens: &Lens, physical: bool) -> Self {
+        let disparity = lens.coc.focus_disparity;
+        let distance = (physical && disparity > 0.0).then(|| 1.0 / disparity);
+        Self { disparity, distance, physical }
+    }
+
+    fn describe(&self) -> String {
+        match (self.distance, self.physical) {
+            (Some(d), _) => format!("fitted focus: distance {d:.6} (scene units), disparity {:.6}; stamped as 'focus'", self.disparity),
+            (None, true) => format!(
+                "fitted focus: disparity {:.6}, beyond infinity (no physical distance; not stamped)",
+                self.disparity
+            ),
+            (None, false) => format!("fitted focus: disparity {:.6} (normalised model: no distance)", self.disparity),
+        }
+    }
+}
+
+/// The fitted depth of every layer, for its depth channel in the file's convention; pixels
+/// whose stored depth the reader did not use (alpha 0) keep it.
+fn depth_replacements(info: &StackInfo, fitted: &LayerStack, kind: DepthKind) -> Vec<ChannelReplacement> {
+    let mut out = Vec::new();
+    for layer in &fitted.layers {
+        let Some(read) = info.layers.iter().find(|l| l.name == layer.name) else { continue };
+        let Some(channel) = &read.channels.depth else { continue };
+        let values = layer
+            .disparity
+            .iter()
+            .zip(&read.depth_weights)
+            .map(|(&d, &weight)| (weight > 0.0).then(|| kind.from_disparity(d)))
+            .collect();
+        out.push(ChannelReplacement { part: read.part, channel: channel.clone(), values });
+    }
+    out
 }

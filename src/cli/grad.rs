@@ -11,7 +11,8 @@ use lensblur::image::Image;
 use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpuGrad, Model, RenderOptions};
 use lensblur::render::grad::StackGradients;
 use lensblur::render::{InputKind, Method};
-use lensblur::stack::{read_rgba, write_named_channels, DepthKind, StackInfo};
+use lensblur::stack::fill::push_pull_adjoint;
+use lensblur::stack::{read_rgba, write_named_channels, DepthKind, Layer, StackInfo};
 use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
@@ -26,7 +27,8 @@ Examples:
 G (--grad-output) holds dL/dB of the rendered image in its R,G,B channels (same size as FILE;
 alpha is not differentiated). GRADS has FILE's channel names: dL/dR,G,B,A of each layer as stored
 (premultiplied), dL/dZ through the depth convention (--depth-kind), zero for channels that do not
-reach the render. Multi-part inputs are written single-part as <part>.<channel>.
+reach the render (depth where alpha is 0 is filled from the covered pixels when the file is read, so
+its gradient lands on those). Multi-part inputs are written single-part as <part>.<channel>.
 Printed: dL/dK and dL/d(focus disparity); with a physical camera also dL/d(focus distance),
 dL/d(f-stop) and dL/d(focal length).";
 
@@ -88,8 +90,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let tiling = RenderOptions { tile: args.tile, progress: None };
     let (grads, stats) = renderer.backward_with(&loaded.stack, &loaded.camera.lens, &grad_output, &tiling)?;
     drop(renderer);
-    let channels = gradient_channels(info, &loaded, &grads);
-    write_named_channels(&args.output, loaded.stack.width, loaded.stack.height, channels)
+    let channels = gradient_channels(info, &loaded, &grads)?;
+    let origin = (info.display_window.x, info.display_window.y);
+    write_named_channels(&args.output, (loaded.stack.width, loaded.stack.height), origin, channels)
         .with_context(|| format!("writing {}", args.output.display()))?;
     ctx.finish()?;
     let camera = camera_gradients(&loaded, &grads);
@@ -123,7 +126,7 @@ fn read_grad_output(path: &Path, loaded: &LoadedInput) -> anyhow::Result<Image> 
 }
 
 /// Every channel of the file, zero unless a rendered layer's gradient lands on it.
-fn gradient_channels(info: &StackInfo, loaded: &LoadedInput, grads: &StackGradients) -> Vec<(String, Vec<f32>)> {
+fn gradient_channels(info: &StackInfo, loaded: &LoadedInput, grads: &StackGradients) -> anyhow::Result<Vec<(String, Vec<f32>)>> {
     let mut channels = FileChannels::zeroed(info);
     for (layer, grad) in loaded.stack.layers.iter().zip(&grads.layers) {
         let Some(names) = channels.layer(&layer.name) else { continue };
@@ -133,15 +136,33 @@ fn gradient_channels(info: &StackInfo, loaded: &LoadedInput, grads: &StackGradie
             }
         }
         if let Some(name) = &names.depth {
-            channels.set(name, depth_chain(loaded.depth_kind, &layer.disparity, &grad.disparity));
+            let Some(read) = info.layers.iter().find(|l| l.name == layer.name) else { continue };
+            let stored = stored_depth_gradient(loaded.depth_kind, layer, &read.depth_weights, &grad.disparity)
+                .with_context(|| format!("layer '{}'", layer.name))?;
+            channels.set(name, stored);
         }
     }
-    channels.into_list()
+    Ok(channels.into_list())
 }
 
-/// dL/d(stored depth) = dL/d(disparity) * d(disparity)/d(stored).
-fn depth_chain(kind: DepthKind, disparity: &[f32], grad: &[f32]) -> Vec<f32> {
-    disparity.iter().zip(grad).map(|(&d, &g)| g * kind.disparity_derivative(kind.from_disparity(d))).collect()
+/// dL/d(stored depth). Where the reader did not read the stored depth (weight 0: no coverage)
+/// the layer's disparity was filled from the covered pixels, so the gradient that reached it
+/// flows back through the fill onto them; then dL/d(stored) = dL/d(disparity) *
+/// d(disparity)/d(stored) on the covered pixels, and 0 on the others.
+fn stored_depth_gradient(kind: DepthKind, layer: &Layer, weights: &[f32], grad: &[f32]) -> anyhow::Result<Vec<f32>> {
+    let (w, h) = (layer.rgba.width, layer.rgba.height);
+    if weights.len() != w * h {
+        bail!("the reader recorded {} depth weights for {}x{} pixels", weights.len(), w, h);
+    }
+    let through_fill = push_pull_adjoint(w, h, weights, grad);
+    let chain = |((&g, &d), &weight): ((&f32, &f32), &f32)| {
+        if weight > 0.0 {
+            g * kind.disparity_derivative(kind.from_disparity(d))
+        } else {
+            0.0
+        }
+    };
+    Ok(through_fill.iter().zip(&layer.disparity).zip(weights).map(chain).collect())
 }
 
 /// K = (f / 2N) (f / sensor) width and d_f = 1 / D, so dK/dN = -K/N, dK/df = 2K/f, dd_f/dD = -1/D^2.

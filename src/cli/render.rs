@@ -8,7 +8,8 @@ use lensblur::image::Image;
 use lensblur::render::drbokeh::RenderOptions;
 use lensblur::render::{Lens, Method};
 use lensblur::stack::{
-    is_ldr_path, write_image, write_ldr, write_png_preview, LayerStack, SampleType, WriteOptions,
+    is_ldr_path, write_image, write_ldr, write_png_preview, LayerStack, SampleType, StackNaming,
+    WriteOptions,
 };
 use lensblur::vk::Context;
 
@@ -28,9 +29,11 @@ Examples:
   lensblur render example-out/layers.exr -o out.exr --json      (camera read from the header)
 
 Input: Blender multilayer EXR (<ViewLayer>.Combined.RGBA + <ViewLayer>.Depth.Z), OpenEXR/OIIO/Nuke
-layer.R,G,B,A,Z, multi-part (one layer per part), plain R,G,B,A,Z; or PNG/JPEG + --depth. A single
-image is split into layers automatically for layered methods. Output: EXR (plain R,G,B,A, linear,
-premultiplied) or, for .png/.jpg, 8-bit sRGB. Files appear atomically; the input is never overwritten.";
+layer.R,G,B,A,Z, multi-part (one layer per part), plain R,G,B,A,Z; or PNG/JPEG + --depth. A file
+holding one image is split into layers automatically for layered methods (one layer picked out of a
+stack with --layers is not). Output: EXR (plain R,G,B,A, linear, premultiplied, on the input's display
+window; --output-layer names it in the input's convention) or, for .png/.jpg, 8-bit sRGB. Files
+appear atomically; the input is never overwritten.";
 
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
@@ -51,13 +54,16 @@ pub struct Args {
     /// Rendering method: drbokeh, drbokeh-compat, multiview, vdslr, oracle, gather, scatter.
     #[arg(long, default_value = "drbokeh", help_heading = "Output")]
     pub method: Method,
-    /// Write colour as NAME.Combined.R,G,B,A (what Blender's Image node reads as a layer).
+    /// Write colour as a layer NAME in the input's convention: NAME.Combined.R,G,B,A for
+    /// Blender multilayer, plain and PNG/JPEG inputs (what Blender's Image node reads as a
+    /// layer), NAME.R,G,B,A for layer.R inputs, a part NAME for multi-part inputs.
     #[arg(long, value_name = "NAME", help_heading = "Output")]
     pub output_layer: Option<String>,
     /// Write colour as half floats (default: 32-bit float).
     #[arg(long, help_heading = "Output")]
     pub half: bool,
-    /// Copy the input's other channels (cryptomatte, passes) to the output, unblurred.
+    /// Copy the input's other channels (cryptomatte, passes) to the output, unblurred (EXR
+    /// input only).
     #[arg(long, help_heading = "Output")]
     pub keep_channels: bool,
     /// Also write an 8-bit sRGB PNG preview.
@@ -114,6 +120,13 @@ struct Timings {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let total = Instant::now();
     check_output_path(&args.output, &[&args.input])?;
+    if args.keep_channels && is_ldr_path(&args.input) {
+        anyhow::bail!(
+            "--keep-channels copies the other channels of an EXR input; {} is a PNG/JPEG and has none \
+             (drop the flag)",
+            args.input.display()
+        );
+    }
     if let Some(preview) = &args.preview {
         check_output_path(preview, &[&args.input, &args.output])?;
     }
@@ -237,8 +250,15 @@ fn write_output(args: &Args, loaded: &LoadedInput, image: &Image) -> anyhow::Res
             (Some(info), true) => info.extra_channels.clone(),
             _ => Vec::new(),
         };
+        // Named like the input, on its display window, so the output lines up with it.
+        let (layer_naming, display_origin) = match &loaded.info {
+            Some(info) => (info.output_naming(), (info.display_window.x, info.display_window.y)),
+            None => (StackNaming::default(), (0, 0)),
+        };
         let options = WriteOptions {
             output_layer: args.output_layer.clone(),
+            layer_naming,
+            display_origin,
             sample_type: if args.half {
                 SampleType::Half
             } else {

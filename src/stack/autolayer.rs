@@ -304,7 +304,12 @@ impl super::StackFile {
                         .disparity
                         .iter()
                         .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &d| (lo.min(d), hi.max(d)));
-                    super::LayerInfo { name: l.name.clone(), disparity_range: range, ..template.clone() }
+                    super::LayerInfo {
+                        name: l.name.clone(),
+                        disparity_range: range,
+                        depth_weights: Vec::new(),
+                        ..template.clone()
+                    }
                 })
                 .collect();
         }

@@ -15,10 +15,11 @@ use super::{DepthKind, Layer, LayerStack};
 use crate::image::Image;
 use crate::{Error, Result};
 
-type ExrImage = exr::image::Image<exr::image::Layers<AnyChannels<FlatSamples>>>;
-/// Disparity per pixel and the stored depth range over covered pixels.
-type DepthResult = (Vec<f32>, Option<(f32, f32)>);
-type ExrPart = exr::image::Layer<AnyChannels<FlatSamples>>;
+pub(super) type ExrImage = exr::image::Image<exr::image::Layers<AnyChannels<FlatSamples>>>;
+/// Disparity per pixel, the stored depth range over covered pixels, and the fill weight of
+/// every stored sample (see [`known_depth_weight`]).
+type DepthResult = (Vec<f32>, Option<(f32, f32)>, Vec<f32>);
+pub(super) type ExrPart = exr::image::Layer<AnyChannels<FlatSamples>>;
 
 /// The default pixel budget per window: 2^28 pixels (16384 x 16384), 4 GiB as RGBA f32.
 pub const DEFAULT_MAX_PIXELS: u64 = 1 << 28;
@@ -65,7 +66,7 @@ pub fn read_stack(path: &Path, options: &ReadOptions) -> Result<StackFile> {
         layers.push(layer);
         infos.push(info);
     }
-    let single_image = selected.len() == 1;
+    let single_image = holds_one_image(&candidates, &selected);
     let used: HashSet<(usize, String)> =
         selected.iter().flat_map(|c| rendered_names(c).into_iter().map(move |n| (c.part, n))).collect();
     let mut stack = LayerStack::new(display.width, display.height, layers)?;
@@ -149,7 +150,7 @@ pub fn read_parts(path: &Path, max_pixels: u64) -> Result<(Vec<PartInfo>, BTreeM
     Ok((parts, camera_attributes(&meta)))
 }
 
-fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
+pub(super) fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
     let mut magic = [0u8; 4];
     let mut file = std::fs::File::open(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     let is_exr = std::io::Read::read_exact(&mut file, &mut magic).is_ok() && magic == [0x76, 0x2f, 0x31, 0x01];
@@ -207,7 +208,7 @@ fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
     Ok(meta)
 }
 
-fn read_pixels(path: &Path) -> Result<ExrImage> {
+pub(super) fn read_pixels(path: &Path) -> Result<ExrImage> {
     exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
@@ -218,11 +219,11 @@ fn read_pixels(path: &Path) -> Result<ExrImage> {
         .map_err(|e| Error::input(path, format!("cannot read EXR pixels: {e}")))
 }
 
-fn window_of(bounds: &IntegerBounds) -> Window {
+pub(super) fn window_of(bounds: &IntegerBounds) -> Window {
     Window { x: bounds.position.x(), y: bounds.position.y(), width: bounds.size.x(), height: bounds.size.y() }
 }
 
-fn part_window(part: &ExrPart) -> Window {
+pub(super) fn part_window(part: &ExrPart) -> Window {
     window_of(&IntegerBounds::new(part.attributes.layer_position, part.size))
 }
 
@@ -242,7 +243,7 @@ fn candidates(image: &ExrImage) -> Vec<Candidate> {
                 (Some(p), "") => p,
                 (Some(p), l) if l == p => p,
                 (Some(p), l) => format!("{p}.{l}"),
-                (None, "") => "All".to_string(),
+                (None, "") => FLAT_IMAGE_LAYER.to_string(),
                 (None, l) => l.to_string(),
             };
             if multi_part {
@@ -257,6 +258,16 @@ fn candidates(image: &ExrImage) -> Vec<Candidate> {
     out
 }
 
+/// The name of an unprefixed single-part group (`R,G,B,A,Z`): the file's flat image.
+const FLAT_IMAGE_LAYER: &str = "All";
+
+/// Whether the selection is one flat image to auto-layer: the only complete layer of the file,
+/// or its flat `All` image chosen by name. One layer picked out of a stack is just that layer.
+fn holds_one_image(candidates: &[Candidate], selected: &[&Candidate]) -> bool {
+    let complete = candidates.iter().filter(|c| c.group.channels.is_complete()).count();
+    matches!(selected, [only] if complete == 1 || only.name == FLAT_IMAGE_LAYER)
+}
+
 fn describe(candidates: &[&Candidate]) -> String {
     candidates
         .iter()
@@ -267,6 +278,9 @@ fn describe(candidates: &[&Candidate]) -> String {
 
 fn missing_message(candidate: &Candidate) -> Option<String> {
     let ch = &candidate.group.channels;
+    if let Some(ambiguity) = &candidate.group.ambiguity {
+        return Some(format!("layer '{}' has no unambiguous depth channel: {ambiguity}", candidate.name));
+    }
     let mut missing = Vec::new();
     if ch.red.is_none() || ch.green.is_none() || ch.blue.is_none() {
         missing.push("colour (R, G, B)");
@@ -286,6 +300,10 @@ fn missing_message(candidate: &Candidate) -> Option<String> {
 
 fn select<'c>(path: &Path, candidates: &'c [Candidate], patterns: Option<&[String]>) -> Result<Vec<&'c Candidate>> {
     let Some(patterns) = patterns else {
+        // Leaving an ambiguous layer out would render an incomplete stack without a word.
+        if let Some(message) = candidates.iter().filter(|c| c.group.ambiguity.is_some()).find_map(missing_message) {
+            return Err(Error::input(path, format!("{message}; or choose the layers with --layers")));
+        }
         let complete: Vec<&Candidate> = candidates.iter().filter(|c| c.group.channels.is_complete()).collect();
         if complete.is_empty() {
             let all: Vec<&Candidate> = candidates.iter().collect();
@@ -300,7 +318,7 @@ fn select<'c>(path: &Path, candidates: &'c [Candidate], patterns: Option<&[Strin
         }
         // A flattened `All` beside real layers is the composite, not a layer of the stack.
         if complete.len() > 1 {
-            return Ok(complete.into_iter().filter(|c| !c.name.eq_ignore_ascii_case("all")).collect());
+            return Ok(complete.into_iter().filter(|c| !c.name.eq_ignore_ascii_case(FLAT_IMAGE_LAYER)).collect());
         }
         return Ok(complete);
     };
@@ -351,21 +369,25 @@ fn sample_type_of_desc(t: exr::prelude::SampleType) -> SampleType {
     }
 }
 
+/// Every sample of a data window that lies in the display window: (index in the data
+/// window, index in the display window), both row-major.
+pub(super) fn data_in_display(data: Window, display: Window) -> impl Iterator<Item = (usize, usize)> {
+    (0..data.height).flat_map(move |row| {
+        let y = data.y as i64 + row as i64 - display.y as i64;
+        (0..data.width).filter_map(move |col| {
+            let x = data.x as i64 + col as i64 - display.x as i64;
+            let inside = (0..display.width as i64).contains(&x) && (0..display.height as i64).contains(&y);
+            inside.then(|| (row * data.width + col, y as usize * display.width + x as usize))
+        })
+    })
+}
+
 /// Copies a channel's data window into a display-window-sized buffer, `outside` elsewhere.
 fn place(samples: &FlatSamples, data: Window, display: Window, outside: f32) -> Vec<f32> {
     let values: Vec<f32> = samples.values_as_f32().collect();
     let mut out = vec![outside; display.width * display.height];
-    for row in 0..data.height {
-        let y = data.y as i64 + row as i64 - display.y as i64;
-        if y < 0 || y >= display.height as i64 {
-            continue;
-        }
-        for col in 0..data.width {
-            let x = data.x as i64 + col as i64 - display.x as i64;
-            if x >= 0 && x < display.width as i64 {
-                out[y as usize * display.width + x as usize] = values[row * data.width + col];
-            }
-        }
+    for (sample, pixel) in data_in_display(data, display) {
+        out[pixel] = values[sample];
     }
     out
 }
@@ -432,7 +454,7 @@ fn build_layer(
     let rgba = Image { width: display.width, height: display.height, pixels };
     warnings.extend(replaced.into_inner());
     let depth_channel = ch.depth.as_deref().unwrap_or("Z");
-    let (disparity, stored_depth_range) = depth_to_disparity(
+    let (disparity, stored_depth_range, depth_weights) = depth_to_disparity(
         path,
         (&candidate.name, depth_channel),
         (display.width, display.height),
@@ -451,8 +473,21 @@ fn build_layer(
         data_window: data,
         stored_depth_range,
         disparity_range,
+        depth_weights,
     };
     Ok((layer, info))
+}
+
+/// How much the depth fill trusts a stored depth sample, given the pixel's alpha and the
+/// sample converted to disparity: 0 where the sample is not read (no coverage, or a partly
+/// covered pixel whose depth says "nothing here"), else the alpha.
+pub fn known_depth_weight(alpha: f32, disparity: f32) -> f32 {
+    // Cycles writes 1e10 when a partly covered pixel's depth sample missed the surface.
+    if alpha <= 0.0 || (disparity == 0.0 && alpha < 1.0) {
+        0.0
+    } else {
+        alpha.min(1.0)
+    }
 }
 
 /// Converts stored depth to disparity where the layer has coverage, then fills the
@@ -470,15 +505,11 @@ fn depth_to_disparity(
     let mut weights = vec![0.0f32; depth.len()];
     let mut invalid = 0usize;
     for i in 0..depth.len() {
-        if alpha[i] <= 0.0 {
-            continue;
-        }
         let z = depth[i];
         let d = kind.to_disparity(z);
-        // A partially covered pixel whose depth says "nothing here" (Cycles writes 1e10
-        // when the depth sample missed the surface) takes its depth from its neighbours.
-        if d == 0.0 && alpha[i] < 1.0 {
-            continue;
+        let weight = known_depth_weight(alpha[i], d);
+        if weight <= 0.0 {
+            continue; // taken from the neighbours
         }
         // Planar Z is a distance in front of the camera: zero or negative is no valid depth
         // (a negated camera-space z from a -z-forward convention lands here, as it should).
@@ -488,7 +519,7 @@ fn depth_to_disparity(
         }
         range = Some(range.map_or((z, z), |(lo, hi)| (lo.min(z), hi.max(z))));
         disparity[i] = [d];
-        weights[i] = alpha[i].min(1.0);
+        weights[i] = weight;
     }
     if invalid > 0 {
         return Err(Error::input(
@@ -503,7 +534,7 @@ fn depth_to_disparity(
     }
     // An empty layer has no depth anywhere: it stays at disparity 0 (far) and is invisible.
     push_pull(size.0, size.1, &mut disparity, &weights);
-    Ok((disparity.into_iter().map(|d| d[0]).collect(), range))
+    Ok((disparity.into_iter().map(|d| d[0]).collect(), range, weights))
 }
 
 fn part_infos(image: &ExrImage) -> Vec<PartInfo> {

@@ -19,8 +19,13 @@ use crate::{Error, Result};
 /// How [`write_image`] names and stores its channels.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct WriteOptions {
-    /// `None`: plain `R,G,B,A`. `Some(name)`: `name.Combined.R...` as Blender's Image node reads.
+    /// `None`: plain `R,G,B,A`. `Some(name)`: a layer `name` named per `layer_naming`
+    /// (by default `name.Combined.R...`, as Blender's Image node reads it).
     pub output_layer: Option<String>,
+    /// How `output_layer` is named (the input's convention, see [`StackNaming::for_convention`]).
+    pub layer_naming: StackNaming,
+    /// Origin of the display window (the input's, so the output lines up with it).
+    pub display_origin: (i32, i32),
     /// Half or float for the colour channels (`Uint` is refused).
     pub sample_type: SampleType,
     /// Channels copied through unchanged (never blurred), each display-window sized.
@@ -46,22 +51,39 @@ pub enum StackNaming {
     BlenderMultilayer,
     /// `<Layer>.{R,G,B,A,Z}` (OpenEXR / OIIO / Nuke).
     LayerDotChannel,
+    /// One part per layer, named after it, holding `R,G,B,A,Z`.
+    MultiPart,
 }
 
 impl StackNaming {
-    /// The naming to write results in for an input read in `convention` (multi-part and
-    /// unprefixed inputs are written single-part as `layer.R...`).
+    /// The naming to write results in for an input read in `convention`: the same one, so
+    /// the tool that made the input finds the result where it looks; Blender's form for
+    /// inputs with no layer names of their own (plain `R,G,B,A,Z`).
     pub fn for_convention(convention: super::naming::Convention) -> Self {
         use super::naming::Convention;
         match convention {
-            Convention::BlenderMultilayer | Convention::BlenderFileOutput => {
+            Convention::BlenderMultilayer | Convention::BlenderFileOutput | Convention::Unprefixed => {
                 StackNaming::BlenderMultilayer
             }
-            Convention::LayerDotChannel | Convention::Unprefixed | Convention::MultiPart => {
-                StackNaming::LayerDotChannel
-            }
+            Convention::LayerDotChannel => StackNaming::LayerDotChannel,
+            Convention::MultiPart => StackNaming::MultiPart,
         }
     }
+
+    /// Part name and channel-name prefixes (colour, depth) of layer `name`.
+    fn layer_names(self, name: &str) -> (Option<String>, String, String) {
+        match self {
+            StackNaming::BlenderMultilayer => (None, format!("{name}.Combined."), format!("{name}.Depth.")),
+            StackNaming::LayerDotChannel => (None, format!("{name}."), format!("{name}.")),
+            StackNaming::MultiPart => (Some(name.to_string()), String::new(), String::new()),
+        }
+    }
+}
+
+/// The channels of one part of a file to write (`name` is required when there are several).
+struct PartChannels {
+    name: Option<String>,
+    channels: Vec<AnyChannel<FlatSamples>>,
 }
 
 fn samples(values: Vec<f32>, sample_type: SampleType) -> Result<FlatSamples> {
@@ -108,13 +130,19 @@ fn extra_channel(extra: &ExtraChannel, pixels: usize) -> Result<AnyChannel<FlatS
     Ok(AnyChannel::new(extra.name.as_str(), data))
 }
 
-/// Writes one image (plain or Blender-named RGBA plus pass-through channels).
+/// Writes one image (plain RGBA or a named layer, plus pass-through channels, which share
+/// the colour's part).
 pub fn write_image(path: &Path, image: &Image, options: &WriteOptions) -> Result<()> {
-    let prefix = options
-        .output_layer
-        .as_ref()
-        .map(|n| format!("{n}.Combined."))
-        .unwrap_or_default();
+    let (part, prefix, _) = match &options.output_layer {
+        // EXR names are Latin-1: the exr crate panics on anything else.
+        Some(name) if Text::new_or_none(name).is_none() => {
+            return Err(Error::param(format!(
+                "output layer name '{name}' has characters an EXR name cannot hold; use Latin-1 (e.g. ASCII)"
+            )));
+        }
+        Some(name) => options.layer_naming.layer_names(name),
+        None => (None, String::new(), String::new()),
+    };
     let mut channels = rgba_channels(image, &prefix, options.sample_type)?;
     for extra in &options.extra_channels {
         if channels.iter().any(|c| c.name.to_string() == extra.name) {
@@ -125,30 +153,17 @@ pub fn write_image(path: &Path, image: &Image, options: &WriteOptions) -> Result
         }
         channels.push(extra_channel(extra, image.width * image.height)?);
     }
-    write_channels(
-        path,
-        image.width,
-        image.height,
-        channels,
-        options.camera.as_ref(),
-    )
+    let frame = Frame { width: image.width, height: image.height, origin: options.display_origin };
+    write_parts(path, frame, vec![PartChannels { name: part, channels }], options.camera.as_ref())
 }
 
 /// Writes a layer stack, one named layer per stack layer, depth in `depth_kind`; where a
 /// layer is empty (alpha 0) depth is the far value (Z = 1e10, as Blender writes it).
 pub fn write_stack(path: &Path, stack: &LayerStack, options: &StackWriteOptions) -> Result<()> {
-    let mut channels = Vec::new();
+    let mut parts: Vec<PartChannels> = Vec::new();
     for layer in &stack.layers {
-        let (colour, depth) = match options.naming {
-            StackNaming::BlenderMultilayer => (
-                format!("{}.Combined.", layer.name),
-                format!("{}.Depth.Z", layer.name),
-            ),
-            StackNaming::LayerDotChannel => {
-                (format!("{}.", layer.name), format!("{}.Z", layer.name))
-            }
-        };
-        channels.extend(rgba_channels(&layer.rgba, &colour, SampleType::Float)?);
+        let (part, colour, depth) = options.naming.layer_names(&layer.name);
+        let mut channels = rgba_channels(&layer.rgba, &colour, SampleType::Float)?;
         let stored = layer
             .rgba
             .pixels
@@ -160,20 +175,24 @@ pub fn write_stack(path: &Path, stack: &LayerStack, options: &StackWriteOptions)
                     .from_disparity(if p[3] > 0.0 { d } else { 0.0 })
             })
             .collect();
-        channels.push(AnyChannel::new(depth.as_str(), FlatSamples::F32(stored)));
+        channels.push(AnyChannel::new(format!("{depth}Z").as_str(), FlatSamples::F32(stored)));
+        match parts.last_mut() {
+            Some(last) if part.is_none() => last.channels.extend(channels),
+            _ => parts.push(PartChannels { name: part, channels }),
+        }
     }
-    write_channels(
-        path,
-        stack.width,
-        stack.height,
-        channels,
-        options.camera.as_ref(),
-    )
+    let frame = Frame { width: stack.width, height: stack.height, origin: (0, 0) };
+    write_parts(path, frame, parts, options.camera.as_ref())
 }
 
-/// Writes float channels by name (single part, ZIP scanlines), e.g. gradients named after the
-/// channels of an input file.
-pub fn write_named_channels(path: &Path, width: usize, height: usize, channels: Vec<(String, Vec<f32>)>) -> Result<()> {
+/// Writes float channels by name (single part, ZIP scanlines) on a display window at
+/// `origin`, e.g. gradients named after the channels of an input file.
+pub fn write_named_channels(
+    path: &Path,
+    (width, height): (usize, usize),
+    origin: (i32, i32),
+    channels: Vec<(String, Vec<f32>)>,
+) -> Result<()> {
     let channels = channels
         .into_iter()
         .map(|(name, values)| {
@@ -183,7 +202,7 @@ pub fn write_named_channels(path: &Path, width: usize, height: usize, channels: 
             Ok(AnyChannel::new(name.as_str(), FlatSamples::F32(values)))
         })
         .collect::<Result<Vec<_>>>()?;
-    write_channels(path, width, height, channels, None)
+    write_parts(path, Frame { width, height, origin }, vec![PartChannels { name: None, channels }], None)
 }
 
 /// Header attributes holding a camera, named as [`crate::camera::CameraHints`] reads them:
@@ -204,25 +223,27 @@ fn camera_attributes(camera: Option<&PhysicalCamera>) -> (LayerAttributes, Image
     (own, shared)
 }
 
-fn write_channels(
-    path: &Path,
+/// The display window of a written file; every part's data window is the whole of it.
+#[derive(Clone, Copy)]
+struct Frame {
     width: usize,
     height: usize,
-    channels: Vec<AnyChannel<FlatSamples>>,
-    camera: Option<&PhysicalCamera>,
-) -> Result<()> {
-    if width == 0 || height == 0 {
+    origin: (i32, i32),
+}
+
+fn write_parts(path: &Path, frame: Frame, parts: Vec<PartChannels>, camera: Option<&PhysicalCamera>) -> Result<()> {
+    if frame.width == 0 || frame.height == 0 {
         return Err(Error::param("cannot write an empty image"));
     }
     let mut seen = std::collections::HashSet::new();
-    if let Some(dup) = channels
-        .iter()
-        .map(|c| c.name.to_string())
-        .find(|n| !seen.insert(n.clone()))
+    let qualified = |part: &PartChannels, c: &AnyChannel<FlatSamples>| match &part.name {
+        Some(p) => format!("part '{p}' channel '{}'", c.name),
+        None => format!("channel '{}'", c.name),
+    };
+    if let Some(dup) =
+        parts.iter().flat_map(|p| p.channels.iter().map(move |c| qualified(p, c))).find(|n| !seen.insert(n.clone()))
     {
-        return Err(Error::param(format!(
-            "channel '{dup}' would be written twice (duplicate layer names?)"
-        )));
+        return Err(Error::param(format!("{dup} would be written twice (duplicate layer names?)")));
     }
     let encoding = Encoding {
         compression: Compression::ZIP16,
@@ -230,9 +251,18 @@ fn write_channels(
         line_order: LineOrder::Increasing,
     };
     let (own, mut shared) = camera_attributes(camera);
-    let layer = exr::prelude::Layer::new((width, height), own, encoding, AnyChannels::sort(channels.into()));
-    shared.display_window = IntegerBounds::from_dimensions((width, height));
-    let image = exr::prelude::Image::new(shared, layer);
+    let origin = exr::prelude::Vec2(frame.origin.0, frame.origin.1);
+    let layers: Vec<_> = parts
+        .into_iter()
+        .map(|part| {
+            let mut attributes = own.clone();
+            attributes.layer_name = part.name.as_deref().map(Text::from);
+            attributes.layer_position = origin;
+            exr::prelude::Layer::new((frame.width, frame.height), attributes, encoding, AnyChannels::sort(part.channels.into()))
+        })
+        .collect();
+    shared.display_window = IntegerBounds::new(origin, (frame.width, frame.height));
+    let image = exr::prelude::Image::from_layers(shared, layers);
     write_atomically(path, |tmp| {
         image
             .write()

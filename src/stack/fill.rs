@@ -11,6 +11,16 @@ struct Level<const N: usize> {
     weights: Vec<f32>,
 }
 
+/// The fine pixels that carry weight among the 2x2 block under coarse pixel (x, y).
+fn pull_children<const N: usize>(fine: &Level<N>, x: usize, y: usize) -> [Option<usize>; 4] {
+    [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| {
+        let (fx, fy) = (2 * x + dx, 2 * y + dy);
+        let i = fy * fine.width + fx;
+        // Weightless values are undefined (may be NaN or infinite): never read.
+        (fx < fine.width && fy < fine.height && fine.weights[i] > 0.0).then_some(i)
+    })
+}
+
 fn pull<const N: usize>(fine: &Level<N>) -> Level<N> {
     let (width, height) = (fine.width.div_ceil(2), fine.height.div_ceil(2));
     let mut values = vec![[0.0; N]; width * height];
@@ -18,18 +28,11 @@ fn pull<const N: usize>(fine: &Level<N>) -> Level<N> {
     for y in 0..height {
         for x in 0..width {
             let (mut sum, mut total) = ([0.0f32; N], 0.0f32);
-            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                let (fx, fy) = (2 * x + dx, 2 * y + dy);
-                if fx < fine.width && fy < fine.height {
-                    let i = fy * fine.width + fx;
-                    let w = fine.weights[i];
-                    if w <= 0.0 {
-                        continue; // its value is undefined (may be NaN or infinite)
-                    }
-                    total += w;
-                    for (s, v) in sum.iter_mut().zip(fine.values[i]) {
-                        *s += w * v;
-                    }
+            for i in pull_children(fine, x, y).into_iter().flatten() {
+                let w = fine.weights[i];
+                total += w;
+                for (s, v) in sum.iter_mut().zip(fine.values[i]) {
+                    *s += w * v;
                 }
             }
             if total > 0.0 {
@@ -41,24 +44,37 @@ fn pull<const N: usize>(fine: &Level<N>) -> Level<N> {
     Level { width, height, values, weights }
 }
 
-/// Bilinear sample of a coarse level at the centre of fine pixel (x, y), using only
-/// coarse pixels that carry weight (so empty regions do not pull values towards zero).
-fn sample_coarse<const N: usize>(coarse: &Level<N>, x: usize, y: usize) -> [f32; N] {
+/// The coarse pixels that [`sample_coarse`] blends for the centre of fine pixel (x, y): up to
+/// four (index, bilinear weight x level weight), only those carrying weight, and the pixel
+/// used when none does.
+fn coarse_taps(width: usize, height: usize, weights: &[f32], x: usize, y: usize) -> ([(usize, f32); 4], usize, usize) {
     let cx = (x as f32 + 0.5) * 0.5 - 0.5;
     let cy = (y as f32 + 0.5) * 0.5 - 0.5;
     let (x0, y0) = (cx.floor(), cy.floor());
     let (tx, ty) = (cx - x0, cy - y0);
-    let (mut sum, mut total) = ([0.0f32; N], 0.0f32);
+    let (mut taps, mut count) = ([(0, 0.0); 4], 0);
     for (dx, dy, w) in
         [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
     {
-        let xi = (x0 as i64 + dx).clamp(0, coarse.width as i64 - 1) as usize;
-        let yi = (y0 as i64 + dy).clamp(0, coarse.height as i64 - 1) as usize;
-        let i = yi * coarse.width + xi;
-        let w = w * coarse.weights[i];
-        if w <= 0.0 {
-            continue;
+        let xi = (x0 as i64 + dx).clamp(0, width as i64 - 1) as usize;
+        let yi = (y0 as i64 + dy).clamp(0, height as i64 - 1) as usize;
+        let i = yi * width + xi;
+        let w = w * weights[i];
+        if w > 0.0 {
+            taps[count] = (i, w);
+            count += 1;
         }
+    }
+    let fallback = (y0.max(0.0) as usize).min(height - 1) * width + (x0.max(0.0) as usize).min(width - 1);
+    (taps, count, fallback)
+}
+
+/// Bilinear sample of a coarse level at the centre of fine pixel (x, y), using only
+/// coarse pixels that carry weight (so empty regions do not pull values towards zero).
+fn sample_coarse<const N: usize>(coarse: &Level<N>, x: usize, y: usize) -> [f32; N] {
+    let (taps, count, fallback) = coarse_taps(coarse.width, coarse.height, &coarse.weights, x, y);
+    let (mut sum, mut total) = ([0.0f32; N], 0.0f32);
+    for &(i, w) in &taps[..count] {
         total += w;
         for (s, v) in sum.iter_mut().zip(coarse.values[i]) {
             *s += w * v;
@@ -67,8 +83,7 @@ fn sample_coarse<const N: usize>(coarse: &Level<N>, x: usize, y: usize) -> [f32;
     if total > 0.0 {
         sum.map(|s| s / total)
     } else {
-        coarse.values[(y0.max(0.0) as usize).min(coarse.height - 1) * coarse.width
-            + (x0.max(0.0) as usize).min(coarse.width - 1)]
+        coarse.values[fallback]
     }
 }
 
@@ -116,6 +131,94 @@ pub fn push_pull<const N: usize>(width: usize, height: usize, values: &mut [[f32
     true
 }
 
+/// The weights of a level after [`push`] ran on it: every pixel it filled is complete.
+fn pushed_weights(weights: &[f32]) -> Vec<f32> {
+    weights.iter().map(|&w| if w.clamp(0.0, 1.0) < 1.0 { 1.0 } else { w }).collect()
+}
+
+/// The transpose of [`push_pull`] (one channel): given dL/d(its output), returns dL/d(its
+/// input). For fixed weights push-pull is linear in the values, so this is exact; it lets a
+/// gradient that reached filled pixels flow back to the known pixels they were made from.
+/// Pixels with weight <= 0 get 0 (their input is never read), unless no pixel has weight
+/// (then push-pull changes nothing and its transpose is the identity).
+pub fn push_pull_adjoint(width: usize, height: usize, weights: &[f32], grad_output: &[f32]) -> Vec<f32> {
+    assert_eq!(weights.len(), width * height);
+    assert_eq!(grad_output.len(), width * height);
+    if width == 0 || height == 0 || !weights.iter().any(|&w| w > 0.0) {
+        return grad_output.to_vec();
+    }
+    let base = Level::<1> {
+        width,
+        height,
+        values: vec![[0.0]; width * height],
+        weights: weights.iter().map(|w| w.max(0.0)).collect(),
+    };
+    let mut levels = vec![base];
+    while levels.last().is_some_and(|l| l.width > 1 || l.height > 1) {
+        let next = pull(levels.last().expect("pyramid has a level"));
+        levels.push(next);
+    }
+    let top = levels.len() - 1;
+    let mut grads: Vec<Vec<f32>> = levels.iter().map(|l| vec![0.0; l.width * l.height]).collect();
+    // The output: known pixels are the input itself, the others level 0 after the pushes.
+    let mut result = vec![0.0f32; width * height];
+    let mut pushed: Vec<f32> = vec![0.0; width * height];
+    for i in 0..width * height {
+        if weights[i] > 0.0 {
+            result[i] = grad_output[i]
+        } else {
+            pushed[i] = grad_output[i]
+        }
+    }
+    // Pushes, finest first (the forward ran them coarsest first): `pushed` is dL/d(level k-1
+    // after its push); it splits into dL/d(level k-1 before) and dL/d(level k after its push).
+    for k in 1..levels.len() {
+        let (fine, coarse) = (&levels[k - 1], &levels[k]);
+        let sampled = if k == top { coarse.weights.clone() } else { pushed_weights(&coarse.weights) };
+        let mut coarse_pushed = vec![0.0f32; coarse.width * coarse.height];
+        for y in 0..fine.height {
+            for x in 0..fine.width {
+                let i = y * fine.width + x;
+                let w = fine.weights[i].clamp(0.0, 1.0);
+                if w >= 1.0 {
+                    grads[k - 1][i] = pushed[i];
+                    continue;
+                }
+                grads[k - 1][i] = if w > 0.0 { w * pushed[i] } else { 0.0 };
+                let (taps, count, fallback) = coarse_taps(coarse.width, coarse.height, &sampled, x, y);
+                let total: f32 = taps[..count].iter().map(|t| t.1).sum();
+                if total > 0.0 {
+                    for &(j, t) in &taps[..count] {
+                        coarse_pushed[j] += pushed[i] * (1.0 - w) * t / total;
+                    }
+                } else {
+                    coarse_pushed[fallback] += pushed[i] * (1.0 - w);
+                }
+            }
+        }
+        pushed = coarse_pushed;
+    }
+    grads[top].iter_mut().zip(&pushed).for_each(|(g, p)| *g += p);
+    // Pulls, coarsest first: each coarse value is a weighted mean of its known children.
+    for k in (1..levels.len()).rev() {
+        let (finer, coarser) = grads.split_at_mut(k);
+        let (fine, coarse) = (&levels[k - 1], &levels[k]);
+        for y in 0..coarse.height {
+            for x in 0..coarse.width {
+                let children = pull_children(fine, x, y);
+                let total: f32 = children.iter().flatten().map(|&i| fine.weights[i]).sum();
+                if total > 0.0 {
+                    for &i in children.iter().flatten() {
+                        finer[k - 1][i] += coarser[0][y * coarse.width + x] * fine.weights[i] / total;
+                    }
+                }
+            }
+        }
+    }
+    result.iter_mut().zip(&grads[0]).for_each(|(r, g)| *r += g);
+    result
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -153,5 +256,25 @@ mod tests {
         for v in &values {
             assert!((v[0] - 3.0).abs() < 1e-5 && (v[1] + 1.0).abs() < 1e-5, "{v:?}");
         }
+    }
+
+    #[test]
+    fn adjoint_is_the_transpose_of_push_pull() {
+        // <push_pull(u), g> = <u, adjoint(g)> for any u and g, with holes, partial weights and
+        // odd sizes (pyramid edges). f32 sums of ~100 terms of size <= 1: 1e-5 relative.
+        let (w, h) = (11, 7);
+        let weights: Vec<f32> = (0..w * h).map(|i| [0.0, 0.0, 1.0, 0.4, 0.0, 1.0, 0.7][(i * 5 + i / w) % 7]).collect();
+        let u: Vec<f32> = (0..w * h).map(|i| ((i * 37) % 11) as f32 / 11.0 - 0.3).collect();
+        let g: Vec<f32> = (0..w * h).map(|i| ((i * 53) % 13) as f32 / 13.0 - 0.5).collect();
+        let mut filled: Vec<[f32; 1]> = u.iter().map(|&v| [v]).collect();
+        assert!(push_pull(w, h, &mut filled, &weights));
+        let adjoint = push_pull_adjoint(w, h, &weights, &g);
+        let lhs: f64 = filled.iter().zip(&g).map(|(f, &g)| (f[0] * g) as f64).sum();
+        let rhs: f64 = u.iter().zip(&adjoint).map(|(&u, &a)| (u * a) as f64).sum();
+        assert!((lhs - rhs).abs() <= 1e-5 * lhs.abs().max(1.0), "{lhs} vs {rhs}");
+        assert!(weights.iter().zip(&adjoint).all(|(&w, &a)| w > 0.0 || a == 0.0), "unread inputs get no gradient");
+        // Every filled value is a convex combination: the gradient's total is kept.
+        let (sum_g, sum_a) = (g.iter().sum::<f32>(), adjoint.iter().sum::<f32>());
+        assert!((sum_g - sum_a).abs() < 1e-4, "{sum_g} vs {sum_a}");
     }
 }

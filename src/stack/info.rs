@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use super::naming::{Convention, LayerChannels};
-use super::{DepthKind, LayerStack};
+use super::{DepthKind, LayerStack, StackNaming};
 
 /// A pixel rectangle in EXR coordinates (data or display window).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -52,6 +52,12 @@ pub struct LayerInfo {
     pub stored_depth_range: Option<(f32, f32)>,
     /// Disparity after conversion and fill (what the renderer sees).
     pub disparity_range: (f32, f32),
+    /// Per display-window pixel, the fill weight of the stored depth sample: 0 where it was
+    /// not read and the depth came from the neighbours (see
+    /// [`known_depth_weight`](super::exr_read::known_depth_weight)); empty for layers made by
+    /// auto-layering.
+    #[serde(skip)]
+    pub depth_weights: Vec<f32>,
 }
 
 /// A channel the renderer does not touch, resampled onto the display window so it can be
@@ -79,6 +85,14 @@ pub struct StackInfo {
     pub extra_channels: Vec<ExtraChannel>,
     /// Things the reader repaired (e.g. NaN/Inf replaced under `replace_nonfinite`).
     pub warnings: Vec<String>,
+}
+
+impl StackInfo {
+    /// How a result named after a layer is written for this input: in the convention of its
+    /// (front) layer, see [`StackNaming::for_convention`].
+    pub fn output_naming(&self) -> StackNaming {
+        self.layers.first().map_or(StackNaming::default(), |l| StackNaming::for_convention(l.convention))
+    }
 }
 
 /// A stack as read from a file, with everything needed to write results back.

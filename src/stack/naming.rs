@@ -54,12 +54,17 @@ fn role_of(channel: &str) -> Option<Role> {
     }
 }
 
+/// Pass (or File Output slot suffix) names that hold colour, lower case.
+pub(super) const COLOUR_PASSES: [&str; 4] = ["combined", "image", "rgba", "composite"];
+/// Pass (or File Output slot suffix) names that hold depth, lower case.
+pub(super) const DEPTH_PASSES: [&str; 2] = ["depth", "z"];
+
 fn is_colour_pass(pass: &str) -> bool {
-    ["combined", "image", "rgba", "composite"].contains(&pass.to_ascii_lowercase().as_str())
+    COLOUR_PASSES.contains(&pass.to_ascii_lowercase().as_str())
 }
 
 fn is_depth_pass(pass: &str) -> bool {
-    ["depth", "z"].contains(&pass.to_ascii_lowercase().as_str())
+    DEPTH_PASSES.contains(&pass.to_ascii_lowercase().as_str())
 }
 
 /// Splits one channel name (see module docs).
@@ -127,10 +132,17 @@ pub struct ChannelGroup {
     pub layer: String,
     pub channels: LayerChannels,
     pub convention: Convention,
+    /// Why this group's depth could not be chosen (several File Output depth slots fit it).
+    pub ambiguity: Option<String>,
 }
 
-/// Groups the channel names of one part into layers, in order of first appearance.
+/// Groups the channel names of one part into layers, in order of first appearance; depth
+/// slots of Blender's File Output node join the colour slot they are named after.
 pub fn group_channels(names: &[String]) -> Vec<ChannelGroup> {
+    super::file_output_slots::pair_depth_slots(group_by_prefix(names))
+}
+
+fn group_by_prefix(names: &[String]) -> Vec<ChannelGroup> {
     let mut order: Vec<String> = Vec::new();
     let mut groups: BTreeMap<String, (LayerChannels, bool, bool)> = BTreeMap::new();
     for name in names {
@@ -172,7 +184,7 @@ pub fn group_channels(names: &[String]) -> Vec<ChannelGroup> {
             } else {
                 Convention::LayerDotChannel
             };
-            Some(ChannelGroup { layer, channels, convention })
+            Some(ChannelGroup { layer, channels, convention, ambiguity: None })
         })
         .collect()
 }

@@ -1,7 +1,13 @@
 //! Shared test setup. GPU tests never skip: without a Vulkan device they fail loudly.
 #![allow(dead_code)]
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+use exr::meta::attribute::Text;
+use exr::prelude::{
+    f16, AnyChannel, AnyChannels, Encoding, FlatSamples, ImageAttributes, IntegerBounds, LayerAttributes, Vec2,
+    WritableImage,
+};
 
 use lensblur::image::Image;
 use lensblur::vk::{Context, ContextOptions};
@@ -65,3 +71,46 @@ pub fn lensblur(args: &[&str], env: &[(&str, &str)]) -> Output {
 /// No ICD for the Vulkan loader to find: what a machine without a GPU driver looks like.
 pub const NO_VULKAN: [(&str, &str); 2] =
     [("VK_ICD_FILENAMES", "/nonexistent/icd.json"), ("VK_DRIVER_FILES", "/nonexistent/icd.json")];
+
+pub fn half(values: impl IntoIterator<Item = f32>) -> FlatSamples {
+    FlatSamples::F16(values.into_iter().map(f16::from_f32).collect())
+}
+
+pub fn float(values: impl IntoIterator<Item = f32>) -> FlatSamples {
+    FlatSamples::F32(values.into_iter().collect())
+}
+
+/// One EXR part: name, data window origin and size, channels (any order; sorted here).
+pub struct Part {
+    pub name: Option<&'static str>,
+    pub origin: (i32, i32),
+    pub size: (usize, usize),
+    pub channels: Vec<(String, FlatSamples)>,
+}
+
+/// Writes `parts` into one EXR whose display window is `display` at (0, 0).
+pub fn write_parts(path: &Path, display: (usize, usize), parts: Vec<Part>) {
+    write_parts_with(path, ((0, 0), display), LayerAttributes::default(), parts)
+}
+
+/// Writes `parts` into one EXR with the display window `(origin, size)`; every part gets the
+/// header attributes `own` (camera attributes, say) besides its name and data window.
+pub fn write_parts_with(
+    path: &Path,
+    (origin, size): ((i32, i32), (usize, usize)),
+    own: LayerAttributes,
+    parts: Vec<Part>,
+) {
+    let layers: Vec<_> = parts
+        .into_iter()
+        .map(|p| {
+            let mut attributes = own.clone();
+            attributes.layer_name = p.name.map(Text::from);
+            attributes.layer_position = Vec2(p.origin.0, p.origin.1);
+            let channels: Vec<_> = p.channels.into_iter().map(|(n, s)| AnyChannel::new(n.as_str(), s)).collect();
+            exr::prelude::Layer::new(p.size, attributes, Encoding::SMALL_LOSSLESS, AnyChannels::sort(channels.into()))
+        })
+        .collect();
+    let attributes = ImageAttributes::new(IntegerBounds::new(origin, size));
+    exr::prelude::Image::from_layers(attributes, layers).write().to_file(path).unwrap();
+}

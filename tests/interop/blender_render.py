@@ -1,6 +1,7 @@
 """Renders a tiny two-view-layer scene with Cycles and writes what lensblur must read:
   OUT/render.exr     multilayer render: Front.Combined.RGBA + Front.Depth.Z, Back.*
   OUT/fileout_0001.exr  compositor File Output node (multilayer): Image.RGBA + Depth.V
+  OUT/stack_0001.exr    one File Output node, both layers: fg.RGBA + fgDepth.V, bg_Image.RGBA + bg_Z.V
 Usage: blender -b --factory-startup --python blender_render.py -- OUT
 Front: a 2x2 plane 5 m from the camera; Back: a large plane 10 m away. Transparent film,
 so the Front layer is empty (alpha 0, Z = 1e10) around its plane."""
@@ -73,6 +74,19 @@ fo.file_slots.new("Image")
 fo.file_slots.new("Depth")
 tree.links.new(rl.outputs["Image"], fo.inputs["Image"])
 tree.links.new(rl.outputs["Depth"], fo.inputs["Depth"])
+
+# One File Output node writing the whole stack, per-layer slots named as users do:
+# colour `fg` + depth `fgDepth`, colour `bg_Image` + depth `bg_Z`.
+rl_back = tree.nodes.new("CompositorNodeRLayers")
+rl_back.layer = "Back"
+stack = tree.nodes.new("CompositorNodeOutputFile")
+stack.format.file_format = "OPEN_EXR_MULTILAYER"
+stack.format.color_depth = "32"
+stack.base_path = out + "/stack_"
+stack.file_slots.clear()
+for slot, node, socket in (("fg", rl, "Image"), ("fgDepth", rl, "Depth"), ("bg_Image", rl_back, "Image"), ("bg_Z", rl_back, "Depth")):
+    stack.file_slots.new(slot)
+    tree.links.new(node.outputs[socket], stack.inputs[slot])
 
 scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
 scene.render.image_settings.color_depth = "16"
