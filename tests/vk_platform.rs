@@ -42,8 +42,31 @@ fn buffers_round_trip_and_zero_fill() {
 }
 
 #[test]
+fn buffers_recorded_into_a_batch_are_uploaded_zeroed_and_read_back_by_its_one_submission() {
+    let ctx = gpu();
+    let data: Vec<[f32; 4]> = (0..300).map(|i| [i as f32, -0.5 * i as f32, 1e6, 0.25]).collect();
+    let mut batch = CommandBatch::new(&ctx).unwrap();
+    let source = Buffer::from_iter_in(&ctx, &mut batch, "source", data.len(), data.iter().copied()).unwrap();
+    // Garbage first, so the recorded zero fill is what makes it zero.
+    let target = Buffer::from_iter_in(&ctx, &mut batch, "target", 600, (0..600).map(|i| i as f32 + 1.0)).unwrap();
+    let zeroed = Buffer::zeroed_in(&ctx, &mut batch, "zeroed", target.size()).unwrap();
+    batch.copy(&zeroed, &target, 2000).unwrap();
+    batch.copy(&source, &target, 1600).unwrap();
+    let readable = target.readable_in(&ctx, &mut batch).unwrap();
+    batch.submit_and_wait().unwrap();
+    let got: Vec<f32> = readable.read(&ctx).unwrap();
+    let want: Vec<f32> = data.iter().flatten().copied().take(400).chain(std::iter::repeat(0.0).take(100)).chain((500..600).map(|i| i as f32 + 1.0)).collect();
+    assert_eq!(got, want, "copies ran in recording order after the upload and the zero fill");
+    let short = Buffer::from_iter_in(&ctx, &mut batch, "short", 10, [1.0f32; 4]);
+    assert!(short.is_err(), "fewer items than declared is refused");
+    drop((source, target, zeroed, readable, batch));
+    finish(ctx);
+}
+
+#[test]
 fn a_batch_reused_with_more_sets_than_one_pool_holds_stays_valid_and_deterministic() {
-    // 70 dispatches need two descriptor pools; the batch is submitted and reused three times.
+    // 70 dispatches need two descriptor pools; the batch is submitted and reused three times,
+    // resetting the same two pools each time instead of creating new ones.
     let ctx = gpu();
     let pipeline = lensblur::vk::ComputePipeline::new(&ctx, &lensblur::shaders::DISK_BLUR, 3, 16).unwrap();
     let image = pattern(20, 20);
@@ -61,6 +84,7 @@ fn a_batch_reused_with_more_sets_than_one_pool_holds_stays_valid_and_determinist
         assert_eq!(batch.len(), 70);
         batch.submit_and_wait().unwrap();
         assert!(batch.is_empty());
+        assert_eq!(batch.descriptor_pool_count(), 2, "pools are reset and reused, not recreated");
         let pixels: Vec<[f32; 4]> = result.read(&ctx).unwrap();
         let out = Image { width: 20, height: 20, pixels };
         assert!(max_abs_diff(&out, &expected) < 4e-4, "HDR values ~20, f32 sums: 2e-5 relative");
