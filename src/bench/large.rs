@@ -98,7 +98,7 @@ pub fn run_large_frame(ctx: &Context, width: usize, height: usize, focus: Focus,
     let (stack, lens) = two_layer_stack(width, height, focus, max_coc_px)?;
     let renderer = DrBokehGpu::new(ctx)?;
     let start = Instant::now();
-    let (_, stats) = renderer.render_with(&stack, &lens, Model::DrBokeh, &RenderOptions { tile, progress })?;
+    let (_, stats) = renderer.render_with(&stack, &lens, Model::DrBokeh, &RenderOptions { tile, progress, ..RenderOptions::default() })?;
     let seconds = start.elapsed().as_secs_f64();
     Ok(LargeFrameResult {
         focus,

@@ -85,7 +85,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let ctx = Context::from_env().context("opening the Vulkan device")?;
     let options = if args.leaky { BackwardOptions::leaky() } else { BackwardOptions::exact() };
     let renderer = DrBokehGpuGrad::new(&ctx, model, options)?;
-    let tiling = RenderOptions { tile: args.tile, progress: None };
+    let tiling = RenderOptions { tile: args.tile, ..RenderOptions::default() };
     let (grads, stats) = renderer.backward_with(&loaded.stack, &loaded.camera.lens, &grad_output, &tiling)?;
     drop(renderer);
     let channels = gradient_channels(info, &loaded, &grads);

@@ -130,7 +130,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             spinner.set_message(format!("rendering {layer_count} layer(s) with {}: tile {done}/{total}", args.method));
         }
     };
-    let options = RenderOptions { tile: args.tile, progress: Some(&progress) };
+    let options = RenderOptions { tile: args.tile, progress: Some(&progress), ..RenderOptions::default() };
     let (image, lens) = args
         .character
         .render(args.method, ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options)
