@@ -17,6 +17,7 @@ use lensblur::vk::Context;
 use super::camera_args::CameraArgs;
 use super::file_channels::FileChannels;
 use super::input_args::{check_output_path, InputArgs, LoadedInput};
+use super::progress;
 
 const EXAMPLES: &str = "\
 Examples:
@@ -78,6 +79,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Method::DrBokehCompat => Model::Compat,
         other => bail!("method '{other}' has no backward pass; use drbokeh or drbokeh-compat"),
     };
+    let spinner = progress::spinner(args.json);
+    spinner.set_message(format!("reading {}", args.input.display()));
     // No auto-layering: gradients must map back onto the file's own channels.
     let loaded = args.input_args.load(&args.input, &args.camera, InputKind::SingleImage)?;
     let Some(info) = &loaded.info else { bail!("{}: grad needs an EXR stack", args.input.display()) };
@@ -85,12 +88,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let ctx = Context::from_env().context("opening the Vulkan device")?;
     let options = if args.leaky { BackwardOptions::leaky() } else { BackwardOptions::exact() };
     let renderer = DrBokehGpuGrad::new(&ctx, model, options)?;
-    let tiling = RenderOptions { tile: args.tile, ..RenderOptions::default() };
+    let what = format!("differentiating {} layer(s) with {}", loaded.stack.layers.len(), args.method);
+    let tile_progress = progress::tiles(&spinner, what);
+    let tiling = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
     let (grads, stats) = renderer.backward_with(&loaded.stack, &loaded.camera.lens, &grad_output, &tiling)?;
     drop(renderer);
+    spinner.set_message(format!("writing {}", args.output.display()));
     let channels = gradient_channels(info, &loaded, &grads);
     write_named_channels(&args.output, loaded.stack.width, loaded.stack.height, channels)
         .with_context(|| format!("writing {}", args.output.display()))?;
+    spinner.finish_and_clear();
     ctx.finish()?;
     let camera = camera_gradients(&loaded, &grads);
     if args.json {

@@ -15,6 +15,7 @@ mod fit_depth;
 mod grad;
 mod info;
 mod input_args;
+mod progress;
 mod raytrace;
 mod render;
 

@@ -3,7 +3,6 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use indicatif::{ProgressBar, ProgressStyle};
 use lensblur::image::Image;
 use lensblur::render::drbokeh::RenderOptions;
 use lensblur::render::{Lens, Method};
@@ -15,6 +14,7 @@ use lensblur::vk::Context;
 use super::camera_args::CameraArgs;
 use super::character_args::CharacterArgs;
 use super::input_args::{check_output_path, InputArgs, LoadedInput};
+use super::progress;
 
 const EXAMPLES: &str = "\
 Examples:
@@ -112,25 +112,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(preview) = &args.preview {
         check_output_path(preview, &[&args.input, &args.output])?;
     }
-    let spinner = spinner(&args);
+    let spinner = progress::spinner(args.json);
     spinner.set_message(format!("reading {}", args.input.display()));
     let loaded = args
         .input_args
         .load(&args.input, &args.camera, args.method.input())?;
     let ctx = open_device(args.device, args.method)?;
-    spinner.set_message(format!(
-        "rendering {} layer(s) with {}",
-        loaded.stack.layers.len(),
-        args.method
-    ));
     let start = Instant::now();
     let layer_count = loaded.stack.layers.len();
-    let progress = |done: usize, total: usize| {
-        if total > 1 {
-            spinner.set_message(format!("rendering {layer_count} layer(s) with {}: tile {done}/{total}", args.method));
-        }
-    };
-    let options = RenderOptions { tile: args.tile, progress: Some(&progress), ..RenderOptions::default() };
+    let what = format!("rendering {layer_count} layer(s) with {}", args.method);
+    let tile_progress = progress::tiles(&spinner, what);
+    let options = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
     let (image, lens) = args
         .character
         .render(args.method, ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options)
@@ -197,20 +189,6 @@ fn open_device(choice: DeviceChoice, method: Method) -> anyhow::Result<Option<Co
             "opening the Vulkan device (see `lensblur devices`; --device cpu renders without one)"
         })),
     }
-}
-
-fn spinner(args: &Args) -> ProgressBar {
-    let bar = if args.json {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new_spinner()
-    };
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {msg} {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-    );
-    bar.enable_steady_tick(Duration::from_millis(120));
-    bar
 }
 
 fn write_output(args: &Args, loaded: &LoadedInput, image: &Image) -> anyhow::Result<()> {
