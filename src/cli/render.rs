@@ -114,7 +114,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let spinner = progress::spinner(args.json);
     spinner.set_message(format!("reading {}", args.input.display()));
-    let loaded = args
+    let mut loaded = args
         .input_args
         .load(&args.input, &args.camera, args.method.input())?;
     let ctx = open_device(args.device, args.method)?;
@@ -128,6 +128,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .render(args.method, ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options)
         .with_context(|| format!("rendering {} with {}", args.input.display(), args.method))?;
     let render_time = start.elapsed();
+    let layers = layer_reports(&loaded.stack, &lens);
+    // The stack is done with: free it before the write copies the image into EXR channels,
+    // so the host never holds the stack, the image and the channels at once.
+    drop(std::mem::take(&mut loaded.stack.layers));
     spinner.set_message(format!("writing {}", args.output.display()));
     let start = Instant::now();
     write_output(&args, &loaded, &image)?;
@@ -144,7 +148,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         write: ms(write_time),
         total: ms(total.elapsed()),
     };
-    let report = report(&args, &loaded, &lens, device, timings);
+    let report = report(&args, &loaded, &lens, layers, device, timings);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -229,10 +233,10 @@ fn report<'a>(
     args: &'a Args,
     loaded: &LoadedInput,
     lens: &Lens,
+    layers: Vec<LayerReport>,
     device: Option<String>,
     timings_ms: Timings,
 ) -> Report<'a> {
-    let layers = layer_reports(&loaded.stack, lens);
     let coc_range_px = layers.iter().fold([f32::INFINITY, 0.0f32], |[lo, hi], l| {
         [lo.min(l.coc_range_px[0]), hi.max(l.coc_range_px[1])]
     });
