@@ -14,7 +14,13 @@ fn scene(w: usize, h: usize) -> LayerStack {
     let near = Layer {
         name: "near".into(),
         rgba: Image::from_fn(w, h, |x, y| {
-            let a = if (8..24).contains(&x) && (6..22).contains(&y) { 1.0 } else if (6..26).contains(&x) && (4..24).contains(&y) { 0.4 } else { 0.0 };
+            let a = if (8..24).contains(&x) && (6..22).contains(&y) {
+                1.0
+            } else if (6..26).contains(&x) && (4..24).contains(&y) {
+                0.4
+            } else {
+                0.0
+            };
             [0.9 * a, 0.2 * a, 0.1 * a, a]
         }),
         // Slopes chosen so no pixel sits exactly on a compat box-size step (int((r + 1) / 2)), where
@@ -57,7 +63,11 @@ fn gpu_matches_cpu_reference_for_both_models_and_every_aperture() {
     let ctx = gpu();
     let renderer = DrBokehGpu::new(&ctx).unwrap();
     let stack = scene(45, 37);
-    let kernel = KernelImage::from_weights(4, vec![0.2, 1.0, 1.0, 0.2, 1.0, 0.5, 0.5, 1.0, 1.0, 0.5, 0.5, 1.0, 0.2, 1.0, 1.0, 0.2]).unwrap();
+    let kernel = KernelImage::from_weights(
+        4,
+        vec![0.2, 1.0, 1.0, 0.2, 1.0, 0.5, 0.5, 1.0, 1.0, 0.5, 0.5, 1.0, 0.2, 1.0, 1.0, 0.2],
+    )
+    .unwrap();
     let apertures = [Aperture::Disk, Aperture::polygon(6, 15.0, 0.2).unwrap(), Aperture::Kernel(kernel)];
     for model in [Model::DrBokeh, Model::Compat] {
         for aperture in &apertures {
@@ -137,7 +147,12 @@ fn output_is_bit_identical_whatever_the_tile_size_and_batch_size() {
             for tiles_per_batch in [Some(1), Some(5), None] {
                 let calls = Mutex::new(Vec::new());
                 let progress = |finished: usize, total: usize| calls.lock().unwrap().push((finished, total));
-                let options = RenderOptions { tile: Some(tile), tiles_per_batch, progress: Some(&progress), ..RenderOptions::default() };
+                let options = RenderOptions {
+                    tile: Some(tile),
+                    tiles_per_batch,
+                    progress: Some(&progress),
+                    ..RenderOptions::default()
+                };
                 let (tiled, stats) = renderer.render_with(&stack, &lens, model, &options).unwrap();
                 let label = format!("{model:?}, tile {tile}, {tiles_per_batch:?} per batch");
                 let side = tile.div_ceil(16) * 16;

@@ -55,7 +55,14 @@ fn buffers_recorded_into_a_batch_are_uploaded_zeroed_and_read_back_by_its_one_su
     let readable = target.readable_in(&ctx, &mut batch).unwrap();
     batch.submit_and_wait().unwrap();
     let got: Vec<f32> = readable.read(&ctx).unwrap();
-    let want: Vec<f32> = data.iter().flatten().copied().take(400).chain(std::iter::repeat(0.0).take(100)).chain((500..600).map(|i| i as f32 + 1.0)).collect();
+    let want: Vec<f32> = data
+        .iter()
+        .flatten()
+        .copied()
+        .take(400)
+        .chain(std::iter::repeat(0.0).take(100))
+        .chain((500..600).map(|i| i as f32 + 1.0))
+        .collect();
     assert_eq!(got, want, "copies ran in recording order after the upload and the zero fill");
     let short = Buffer::from_iter_in(&ctx, &mut batch, "short", 10, [1.0f32; 4]);
     assert!(short.is_err(), "fewer items than declared is refused");
@@ -79,7 +86,14 @@ fn a_batch_reused_with_more_sets_than_one_pool_holds_stays_valid_and_determinist
     let mut batch = CommandBatch::new(&ctx).unwrap();
     for _ in 0..3 {
         for _ in 0..70 {
-            batch.dispatch(&pipeline, &[source.all(), weights.all(), result.all()], &push, pipeline.groups_for([20, 20, 1])).unwrap();
+            batch
+                .dispatch(
+                    &pipeline,
+                    &[source.all(), weights.all(), result.all()],
+                    &push,
+                    pipeline.groups_for([20, 20, 1]),
+                )
+                .unwrap();
         }
         assert_eq!(batch.len(), 70);
         batch.submit_and_wait().unwrap();
@@ -158,7 +172,8 @@ fn compiled_pipelines_are_saved_on_close_and_reloaded_by_the_next_process() {
     finish(first);
     let saved = std::fs::read(&file).expect("closing the device writes the cache file");
     assert!(saved.len() >= 32, "a cache file holds at least the 32-byte Vulkan header");
-    let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.path() != file).collect();
+    let leftovers: Vec<_> =
+        std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.path() != file).collect();
     assert!(leftovers.is_empty(), "temporary files left behind: {leftovers:?}");
 
     let second = gpu_with_pipeline_cache(&dir);
@@ -179,7 +194,9 @@ fn a_corrupt_or_foreign_cache_file_is_ignored_and_replaced() {
     foreign_uuid[20] ^= 0xff;
     let mut garbage = vec![0xA5u8; 4096];
     garbage[..4].copy_from_slice(&32u32.to_le_bytes());
-    for (what, bytes) in [("another driver build's cache", foreign_uuid), ("garbage", garbage), ("an empty file", Vec::new())] {
+    for (what, bytes) in
+        [("another driver build's cache", foreign_uuid), ("garbage", garbage), ("an empty file", Vec::new())]
+    {
         std::fs::write(&file, &bytes).unwrap();
         let ctx = gpu_with_pipeline_cache(&dir);
         assert_eq!(ctx.pipeline_cache_loaded_bytes(), 0, "{what} must not reach the driver");

@@ -72,7 +72,13 @@ pub fn two_layer_stack(width: usize, height: usize, focus: Focus, max_coc_px: f3
 /// near disk and the wall. Mostly in focus: the wall is in focus and the disks' CoC radii step
 /// from `max_coc_px` (front) toward 0; fully defocused: every layer's CoC is between half the
 /// largest and `max_coc_px`, the wall's at half.
-pub fn layered_stack(width: usize, height: usize, layers: usize, focus: Focus, max_coc_px: f32) -> Result<(LayerStack, Lens)> {
+pub fn layered_stack(
+    width: usize,
+    height: usize,
+    layers: usize,
+    focus: Focus,
+    max_coc_px: f32,
+) -> Result<(LayerStack, Lens)> {
     if layers < 2 {
         return Err(Error::param("the procedural stack needs at least two layers"));
     }
@@ -152,7 +158,12 @@ pub fn run_large_frame(
     let (stack, lens) = two_layer_stack(width, height, focus, max_coc_px)?;
     let layers = stack.layers.len();
     let renderer = DrBokehGpu::new(ctx)?;
-    let render_options = RenderOptions { tile: options.tile, tiles_per_batch: options.tiles_per_batch, progress, ..RenderOptions::default() };
+    let render_options = RenderOptions {
+        tile: options.tile,
+        tiles_per_batch: options.tiles_per_batch,
+        progress,
+        ..RenderOptions::default()
+    };
     let (seconds, stats, exr) = match &options.exr_dir {
         None => {
             reset_peak_resident();
@@ -163,7 +174,11 @@ pub fn run_large_frame(
         Some(dir) => {
             let name = focus.name();
             let (stack_path, render_path) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}-render.exr")));
-            let naming = StackWriteOptions { naming: StackNaming::LayerDotChannel, depth_kind: DepthKind::Disparity, camera: None };
+            let naming = StackWriteOptions {
+                naming: StackNaming::LayerDotChannel,
+                depth_kind: DepthKind::Disparity,
+                camera: None,
+            };
             write_stack(&stack_path, &stack, &naming)?;
             drop(stack);
             reset_peak_resident();

@@ -60,12 +60,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     let ctx = GpuContext::from_env().context("opening the Vulkan device")?;
-    let options = LargeFrameOptions { tile: args.tile, tiles_per_batch: args.tiles_per_batch, exr_dir: args.exr.clone() };
+    let options =
+        LargeFrameOptions { tile: args.tile, tiles_per_batch: args.tiles_per_batch, exr_dir: args.exr.clone() };
     let focuses = [(CaseArg::MostlyInFocus, Focus::MostlyInFocus), (CaseArg::FullyDefocused, Focus::FullyDefocused)];
     let mut results = Vec::new();
     for (_, focus) in focuses.into_iter().filter(|(case, _)| args.case.is_empty() || args.case.contains(case)) {
         let bar = ProgressBar::new(0).with_message(focus.name());
-        bar.set_style(ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} tiles {elapsed}").unwrap_or_else(|_| ProgressStyle::default_bar()));
+        bar.set_style(
+            ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} tiles {elapsed}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
         let progress = |done: usize, total: usize| {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
@@ -90,7 +94,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn print_result(r: &LargeFrameResult, device: &str) {
     let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
     let host = match r.peak_host_bytes {
-        Some(b) => format!("{:.0} MiB = {:.2}x the stack's f32 {:.0} MiB", mib(b), b as f64 / r.stack_bytes as f64, mib(r.stack_bytes)),
+        Some(b) => format!(
+            "{:.0} MiB = {:.2}x the stack's f32 {:.0} MiB",
+            mib(b),
+            b as f64 / r.stack_bytes as f64,
+            mib(r.stack_bytes)
+        ),
         None => format!("n/a (stack f32 {:.0} MiB)", mib(r.stack_bytes)),
     };
     println!(

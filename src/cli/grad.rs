@@ -119,9 +119,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn read_grad_output(path: &Path, loaded: &LoadedInput) -> anyhow::Result<Image> {
-    let mut g = read_rgba(path, None, 1 << 28).with_context(|| format!("reading the output gradient {}", path.display()))?;
+    let mut g =
+        read_rgba(path, None, 1 << 28).with_context(|| format!("reading the output gradient {}", path.display()))?;
     if (g.width, g.height) != (loaded.stack.width, loaded.stack.height) {
-        bail!("{}: the output gradient is {}x{} but the stack is {}x{}", path.display(), g.width, g.height, loaded.stack.width, loaded.stack.height);
+        bail!(
+            "{}: the output gradient is {}x{} but the stack is {}x{}",
+            path.display(),
+            g.width,
+            g.height,
+            loaded.stack.width,
+            loaded.stack.height
+        );
     }
     for p in &mut g.pixels {
         p[3] = 0.0; // alpha of the render is not differentiated

@@ -6,9 +6,7 @@ use anyhow::Context as _;
 use lensblur::image::Image;
 use lensblur::render::drbokeh::RenderOptions;
 use lensblur::render::{Lens, Method};
-use lensblur::stack::{
-    is_ldr_path, write_image, write_ldr, write_png_preview, LayerStack, SampleType, WriteOptions,
-};
+use lensblur::stack::{is_ldr_path, write_image, write_ldr, write_png_preview, LayerStack, SampleType, WriteOptions};
 use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
@@ -114,9 +112,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let spinner = progress::spinner(args.json);
     spinner.set_message(format!("reading {}", args.input.display()));
-    let mut loaded = args
-        .input_args
-        .load(&args.input, &args.camera, args.method.input())?;
+    let mut loaded = args.input_args.load(&args.input, &args.camera, args.method.input())?;
     let ctx = open_device(args.device, args.method)?;
     let start = Instant::now();
     let layer_count = loaded.stack.layers.len();
@@ -211,20 +207,14 @@ fn write_output(args: &Args, loaded: &LoadedInput, image: &Image) -> anyhow::Res
         };
         let options = WriteOptions {
             output_layer: args.output_layer.clone(),
-            sample_type: if args.half {
-                SampleType::Half
-            } else {
-                SampleType::Float
-            },
+            sample_type: if args.half { SampleType::Half } else { SampleType::Float },
             extra_channels,
             camera: loaded.camera.physical,
         };
-        write_image(&args.output, image, &options)
-            .with_context(|| format!("writing {}", args.output.display()))?;
+        write_image(&args.output, image, &options).with_context(|| format!("writing {}", args.output.display()))?;
     }
     if let Some(preview) = &args.preview {
-        write_png_preview(preview, image)
-            .with_context(|| format!("writing {}", preview.display()))?;
+        write_png_preview(preview, image).with_context(|| format!("writing {}", preview.display()))?;
     }
     Ok(())
 }
@@ -237,9 +227,9 @@ fn report<'a>(
     device: Option<String>,
     timings_ms: Timings,
 ) -> Report<'a> {
-    let coc_range_px = layers.iter().fold([f32::INFINITY, 0.0f32], |[lo, hi], l| {
-        [lo.min(l.coc_range_px[0]), hi.max(l.coc_range_px[1])]
-    });
+    let coc_range_px = layers
+        .iter()
+        .fold([f32::INFINITY, 0.0f32], |[lo, hi], l| [lo.min(l.coc_range_px[0]), hi.max(l.coc_range_px[1])]);
     Report {
         input: &args.input,
         output: &args.output,
@@ -253,11 +243,7 @@ fn report<'a>(
         depth_kind: loaded.depth_kind,
         auto_layered: loaded.auto_layered.is_some(),
         layers,
-        coc_range_px: if coc_range_px[0].is_finite() {
-            coc_range_px
-        } else {
-            [0.0, 0.0]
-        },
+        coc_range_px: if coc_range_px[0].is_finite() { coc_range_px } else { [0.0, 0.0] },
         timings_ms,
     }
 }
@@ -268,16 +254,8 @@ fn layer_reports(stack: &LayerStack, lens: &Lens) -> Vec<LayerReport> {
         .layers
         .iter()
         .map(|layer| {
-            let covered = layer
-                .rgba
-                .pixels
-                .iter()
-                .zip(&layer.disparity)
-                .filter(|(p, _)| p[3] > 0.0)
-                .map(|(_, &d)| d);
-            let (lo, hi) = covered.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| {
-                (lo.min(d), hi.max(d))
-            });
+            let covered = layer.rgba.pixels.iter().zip(&layer.disparity).filter(|(p, _)| p[3] > 0.0).map(|(_, &d)| d);
+            let (lo, hi) = covered.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| (lo.min(d), hi.max(d)));
             let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 0.0) };
             let (r_lo, r_hi) = (lens.coc.radius(lo), lens.coc.radius(hi));
             // |d - df| is smallest inside the range when the focus plane crosses the layer.
@@ -296,12 +274,7 @@ fn print_summary(report: &Report) {
     let layers: Vec<String> = report
         .layers
         .iter()
-        .map(|l| {
-            format!(
-                "{} ({:.1}-{:.1} px)",
-                l.name, l.coc_range_px[0], l.coc_range_px[1]
-            )
-        })
+        .map(|l| format!("{} ({:.1}-{:.1} px)", l.name, l.coc_range_px[0], l.coc_range_px[1]))
         .collect();
     println!(
         "{} -> {}: {}x{}, {} {}, {} layer(s) front to back: {}; render {:.0} ms, total {:.0} ms{}",
@@ -310,20 +283,12 @@ fn print_summary(report: &Report) {
         report.width,
         report.height,
         report.method,
-        report
-            .device
-            .as_deref()
-            .map(|d| format!("on {d}"))
-            .unwrap_or_else(|| "on the CPU".into()),
+        report.device.as_deref().map(|d| format!("on {d}")).unwrap_or_else(|| "on the CPU".into()),
         report.layers.len(),
         layers.join(", "),
         report.timings_ms.render,
         report.timings_ms.total,
-        if report.auto_layered {
-            " (auto-layered from one image)"
-        } else {
-            ""
-        },
+        if report.auto_layered { " (auto-layered from one image)" } else { "" },
     );
 }
 

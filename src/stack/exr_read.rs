@@ -97,7 +97,9 @@ pub fn read_rgba(path: &Path, layer: Option<&str>, max_pixels: u64) -> Result<Im
     let candidates = candidates(&image);
     let coloured: Vec<&Candidate> = candidates
         .iter()
-        .filter(|c| c.group.channels.red.is_some() && c.group.channels.green.is_some() && c.group.channels.blue.is_some())
+        .filter(|c| {
+            c.group.channels.red.is_some() && c.group.channels.green.is_some() && c.group.channels.blue.is_some()
+        })
         .collect();
     let names = || coloured.iter().map(|c| format!("'{}'", c.name)).collect::<Vec<_>>().join(", ");
     let chosen = match layer {
@@ -114,7 +116,8 @@ pub fn read_rgba(path: &Path, layer: Option<&str>, max_pixels: u64) -> Result<Im
     let data = part_window(part);
     let ch = &candidate.group.channels;
     let fetch = |name: &str| -> Result<Vec<f32>> {
-        let channel = find_channel(part, name).ok_or_else(|| Error::input(path, format!("channel '{name}' vanished")))?;
+        let channel =
+            find_channel(part, name).ok_or_else(|| Error::input(path, format!("channel '{name}' vanished")))?;
         let mut values = place(&channel.sample_data, data, display, 0.0);
         check_finite(path, &candidate.name, name, &mut values, false)?;
         Ok(values)
@@ -162,10 +165,9 @@ fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
              EXR, or a PNG/JPEG with --depth",
         ));
     }
-    let meta =
-        MetaData::read_from_file(path, false).map_err(|e| {
-            Error::input(path, format!("invalid EXR header ({e}); the file is damaged or truncated: write it again"))
-        })?;
+    let meta = MetaData::read_from_file(path, false).map_err(|e| {
+        Error::input(path, format!("invalid EXR header ({e}); the file is damaged or truncated: write it again"))
+    })?;
     let first = meta.headers.first().ok_or_else(|| Error::input(path, "EXR file has no parts"))?;
     let display = first.shared_attributes.display_window;
     for header in meta.headers.iter() {

@@ -77,7 +77,8 @@ impl Buffer {
         // SAFETY: a live allocation of this device; read before it moves into the handle.
         let (memory, offset) = unsafe { (allocation.memory(), allocation.offset()) };
         // From here on, dropping `inner` frees the memory and destroys the buffer.
-        let inner = BufferInner { device: device.clone(), raw, allocation: Some(allocation), size, name: name.to_string() };
+        let inner =
+            BufferInner { device: device.clone(), raw, allocation: Some(allocation), size, name: name.to_string() };
         // SAFETY: the allocation satisfies the buffer's requirements and is bound exactly once.
         unsafe { device.raw.bind_buffer_memory(raw, memory, offset) }.call("vkBindBufferMemory")?;
         device.set_name(raw, name);
@@ -228,7 +229,12 @@ impl Buffer {
 
     fn check_len(&self, len: usize) -> Result<()> {
         if len as u64 > self.size() {
-            return Err(Error::param(format!("{} bytes do not fit buffer '{}' of {} bytes", len, self.name(), self.size())));
+            return Err(Error::param(format!(
+                "{} bytes do not fit buffer '{}' of {} bytes",
+                len,
+                self.name(),
+                self.size()
+            )));
         }
         Ok(())
     }

@@ -152,10 +152,18 @@ impl CommandBatch {
     ) -> Result<()> {
         let name = pipeline.shader().name;
         if bindings.len() != pipeline.0.bindings as usize || bindings.len() > BUFFERS_PER_SET as usize {
-            return Err(Error::param(format!("{name}: {} buffers bound, pipeline declares {}", bindings.len(), pipeline.0.bindings)));
+            return Err(Error::param(format!(
+                "{name}: {} buffers bound, pipeline declares {}",
+                bindings.len(),
+                pipeline.0.bindings
+            )));
         }
         if std::mem::size_of::<P>() != pipeline.0.push_size as usize {
-            return Err(Error::param(format!("{name}: push constants of {} bytes, pipeline declares {}", std::mem::size_of::<P>(), pipeline.0.push_size)));
+            return Err(Error::param(format!(
+                "{name}: push constants of {} bytes, pipeline declares {}",
+                std::mem::size_of::<P>(),
+                pipeline.0.push_size
+            )));
         }
         let limits = &self.device.info;
         let max_range = u64::from(limits.max_storage_buffer_range);
@@ -168,7 +176,10 @@ impl CommandBatch {
             }
         }
         if (0..3).any(|i| groups[i] > limits.max_workgroup_count[i]) {
-            return Err(Error::param(format!("{name}: {groups:?} workgroups exceed the device limit {:?}", limits.max_workgroup_count)));
+            return Err(Error::param(format!(
+                "{name}: {groups:?} workgroups exceed the device limit {:?}",
+                limits.max_workgroup_count
+            )));
         }
         self.begin_if_needed()?;
         let set = self.allocate_set(pipeline)?;
@@ -193,9 +204,22 @@ impl CommandBatch {
         unsafe {
             self.device.raw.update_descriptor_sets(&writes, &[]);
             self.device.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline.0.raw);
-            self.device.raw.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, pipeline.0.layout, 0, &[set], &[]);
+            self.device.raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                pipeline.0.layout,
+                0,
+                &[set],
+                &[],
+            );
             if pipeline.0.push_size > 0 {
-                self.device.raw.cmd_push_constants(cmd, pipeline.0.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(push));
+                self.device.raw.cmd_push_constants(
+                    cmd,
+                    pipeline.0.layout,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    bytemuck::bytes_of(push),
+                );
             }
             self.device.raw.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
         }
@@ -209,7 +233,11 @@ impl CommandBatch {
     /// Records a copy of the first `bytes` bytes of `src` into `dst`, followed by a barrier.
     pub fn copy(&mut self, src: &Buffer, dst: &Buffer, bytes: u64) -> Result<()> {
         if bytes > src.size() || bytes > dst.size() {
-            return Err(Error::param(format!("copy of {bytes} bytes from '{}' to '{}' out of bounds", src.name(), dst.name())));
+            return Err(Error::param(format!(
+                "copy of {bytes} bytes from '{}' to '{}' out of bounds",
+                src.name(),
+                dst.name()
+            )));
         }
         self.begin_if_needed()?;
         let region = vk::BufferCopy::default().size(bytes);
@@ -297,7 +325,10 @@ impl CommandBatch {
                 .call("vkResetCommandPool")?;
             // Only the pools this batch used hold sets; later ones are still empty.
             for &pool in &self.descriptor_pools[..self.descriptor_pools.len().min(self.current_pool + 1)] {
-                self.device.raw.reset_descriptor_pool(pool, vk::DescriptorPoolResetFlags::empty()).call("vkResetDescriptorPool")?;
+                self.device
+                    .raw
+                    .reset_descriptor_pool(pool, vk::DescriptorPoolResetFlags::empty())
+                    .call("vkResetDescriptorPool")?;
             }
         }
         // Every pool is kept for the next batch: a loop of similar batches creates them once.

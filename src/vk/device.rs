@@ -106,7 +106,9 @@ fn compute_queue_family(instance: &Instance, device: vk::PhysicalDevice) -> Opti
 /// The index of the largest device-local heap (where device buffers live).
 fn device_local_heap(memory: &vk::PhysicalDeviceMemoryProperties) -> Option<usize> {
     let heaps = &memory.memory_heaps[..memory.memory_heap_count as usize];
-    (0..heaps.len()).filter(|&i| heaps[i].flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL)).max_by_key(|&i| heaps[i].size)
+    (0..heaps.len())
+        .filter(|&i| heaps[i].flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+        .max_by_key(|&i| heaps[i].size)
 }
 
 fn supports_memory_budget(instance: &Instance, device: vk::PhysicalDevice) -> bool {
@@ -138,7 +140,9 @@ fn describe(instance: &Instance, index: usize, device: vk::PhysicalDevice) -> De
         index,
         name: text(props.device_name_as_c_str()),
         kind: kind_name(props.device_type).to_string(),
-        driver: format!("{} {}", text(driver.driver_name_as_c_str()), text(driver.driver_info_as_c_str())).trim().to_string(),
+        driver: format!("{} {}", text(driver.driver_name_as_c_str()), text(driver.driver_info_as_c_str()))
+            .trim()
+            .to_string(),
         api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
         device_local_bytes,
         max_allocation_bytes: maintenance3.max_memory_allocation_size,
@@ -157,7 +161,12 @@ fn describe(instance: &Instance, index: usize, device: vk::PhysicalDevice) -> De
 }
 
 /// Picks the device index to use: the override if given, else the best-ranked with compute.
-fn choose(instance: &Instance, devices: &[vk::PhysicalDevice], infos: &[DeviceInfo], wanted: Option<&str>) -> Result<usize> {
+fn choose(
+    instance: &Instance,
+    devices: &[vk::PhysicalDevice],
+    infos: &[DeviceInfo],
+    wanted: Option<&str>,
+) -> Result<usize> {
     let usable: Vec<usize> = (0..infos.len()).filter(|&i| infos[i].has_compute_queue).collect();
     if let Some(wanted) = wanted {
         let found = match wanted.trim().parse::<usize>() {
@@ -169,7 +178,10 @@ fn choose(instance: &Instance, devices: &[vk::PhysicalDevice], infos: &[DeviceIn
         };
         let list: Vec<String> = infos.iter().map(|d| format!("{}: {}", d.index, d.name)).collect();
         return found.ok_or_else(|| {
-            Error::NoVulkan(format!("LENSBLUR_DEVICE={wanted} matches no Vulkan device with compute; devices: [{}]", list.join(", ")))
+            Error::NoVulkan(format!(
+                "LENSBLUR_DEVICE={wanted} matches no Vulkan device with compute; devices: [{}]",
+                list.join(", ")
+            ))
         });
     }
     usable
@@ -179,7 +191,11 @@ fn choose(instance: &Instance, devices: &[vk::PhysicalDevice], infos: &[DeviceIn
             let props = unsafe { instance.raw.get_physical_device_properties(devices[i]) };
             (kind_rank(props.device_type), i)
         })
-        .ok_or_else(|| Error::NoVulkan("no Vulkan device with a compute queue was found (install mesa-vulkan-drivers for lavapipe)".into()))
+        .ok_or_else(|| {
+            Error::NoVulkan(
+                "no Vulkan device with a compute queue was found (install mesa-vulkan-drivers for lavapipe)".into(),
+            )
+        })
 }
 
 /// Lists every Vulkan device, and the index the options would choose (if any).
@@ -257,7 +273,8 @@ impl Context {
         let physical = devices[index];
         let (queue_family, _) = compute_queue_family(&instance, physical).expect("chosen devices have a compute queue");
         let priorities = [1.0f32];
-        let queues = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let queues =
+            [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
         let extensions = [ash::ext::memory_budget::NAME.as_ptr()];
         let enabled = if infos[index].memory_budget_extension { &extensions[..] } else { &[] };
         let info = vk::DeviceCreateInfo::default().queue_create_infos(&queues).enabled_extension_names(enabled);
@@ -293,7 +310,8 @@ impl Context {
                 return Err(e.into());
             }
         };
-        let debug_utils = instance.validation_enabled().then(|| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
+        let debug_utils =
+            instance.validation_enabled().then(|| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
         let device = Device {
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             raw,
@@ -351,7 +369,9 @@ impl Context {
         // when the extension is supported and enabled) outlives the call.
         unsafe { device.instance.raw.get_physical_device_memory_properties2(device.physical, &mut properties) };
         let memory = properties.memory_properties;
-        let Some(heap) = device_local_heap(&memory) else { return MemoryBudget { available_bytes: 0, from_driver: false } };
+        let Some(heap) = device_local_heap(&memory) else {
+            return MemoryBudget { available_bytes: 0, from_driver: false };
+        };
         if device.info.memory_budget_extension && budget.heap_budget[heap] > 0 {
             let available_bytes = budget.heap_budget[heap].saturating_sub(budget.heap_usage[heap]);
             return MemoryBudget { available_bytes, from_driver: true };

@@ -144,7 +144,12 @@ impl DrBokehGpu {
 
     /// One attempt at the frame: its tiles in batches of `plan.tiles_per_batch`, each tile's
     /// core read back into the image once its batch has run.
-    fn render_tiles(&self, frame: &ForwardFrame, plan: TilePlan, options: &RenderOptions) -> Result<(Image, RenderStats)> {
+    fn render_tiles(
+        &self,
+        frame: &ForwardFrame,
+        plan: TilePlan,
+        options: &RenderOptions,
+    ) -> Result<(Image, RenderStats)> {
         let (ctx, params) = (&self.ctx, frame.params);
         let cores = frame_cores(params.width, params.height, plan.tile);
         let mut image = Image::new(params.width, params.height);
@@ -174,7 +179,8 @@ impl DrBokehGpu {
         // A layer workgroup covers one 16x16 search tile: the optimised kernels write a run of
         // TILE / local_size_x adjacent pixels per invocation.
         let per_invocation = TILE as u32 / self.layer.shader().local_size[0];
-        let layer_groups = self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
+        let layer_groups =
+            self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
         let (layer_pipeline, disk) = match &self.layer_disk {
             Some(disk) if disk_path(params) => (disk, true),
             _ => (&self.layer, false),
@@ -275,7 +281,13 @@ impl ForwardBuffers {
             block_alpha: zeroed("drbokeh block_alpha", layers * read_pixels * 8)?,
             rgba: Buffer::from_iter_in(ctx, batch, "drbokeh rgba", read_n, rgba)?,
             disparity: Buffer::from_iter_in(ctx, batch, "drbokeh disparity", read_n, disparity)?,
-            tile_interior: Buffer::from_iter_in(ctx, batch, "drbokeh tile_interior", tile_interior.len(), tile_interior)?,
+            tile_interior: Buffer::from_iter_in(
+                ctx,
+                batch,
+                "drbokeh tile_interior",
+                tile_interior.len(),
+                tile_interior,
+            )?,
             tile_window: frame.tile_window.clone(),
             area_lut: frame.area_lut.clone(),
             kernel: frame.kernel.clone(),
@@ -297,7 +309,13 @@ pub(crate) struct ForwardFrame<'a> {
 }
 
 impl<'a> ForwardFrame<'a> {
-    pub fn new(ctx: &Context, stack: &'a LayerStack, params: &'a Params, windows: &'a [i32], interior: bool) -> Result<Self> {
+    pub fn new(
+        ctx: &Context,
+        stack: &'a LayerStack,
+        params: &'a Params,
+        windows: &'a [i32],
+        interior: bool,
+    ) -> Result<Self> {
         Ok(Self {
             stack,
             params,
@@ -343,7 +361,12 @@ pub(crate) fn taps(params: &Params, windows: &[i32], core: Rect) -> u64 {
     for layer in 0..params.layer_count {
         for t in search_tiles(params, core) {
             let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
-            let tile = Rect { x0: tx * TILE, y0: ty * TILE, x1: ((tx + 1) * TILE).min(params.width), y1: ((ty + 1) * TILE).min(params.height) };
+            let tile = Rect {
+                x0: tx * TILE,
+                y0: ty * TILE,
+                x1: ((tx + 1) * TILE).min(params.width),
+                y1: ((ty + 1) * TILE).min(params.height),
+            };
             // An empty window (-1) gathers nothing.
             let side = (2 * windows[layer * per_layer + t] + 1).max(0) as u64;
             taps += tile.area() as u64 * side * side;

@@ -83,7 +83,12 @@ impl DrBokehGpuGrad {
     }
 
     /// [`Differentiable::backward`] plus what the passes measured, on automatically sized tiles.
-    pub fn backward_with_stats(&self, stack: &LayerStack, lens: &Lens, grad_output: &Image) -> Result<(StackGradients, RenderStats)> {
+    pub fn backward_with_stats(
+        &self,
+        stack: &LayerStack,
+        lens: &Lens,
+        grad_output: &Image,
+    ) -> Result<(StackGradients, RenderStats)> {
         self.backward_with(stack, lens, grad_output, &RenderOptions::default())
     }
 
@@ -116,13 +121,22 @@ impl DrBokehGpuGrad {
             tile_reach: Buffer::from_slice(ctx, "drbokeh tile_reach", &reach)?,
             grad_output,
         };
-        let footprint = backward_footprint(&params, windows.iter().copied().max().unwrap_or(0), reach.iter().copied().max().unwrap_or(0));
+        let footprint = backward_footprint(
+            &params,
+            windows.iter().copied().max().unwrap_or(0),
+            reach.iter().copied().max().unwrap_or(0),
+        );
         run_tiled(ctx, &params, options, footprint, |plan| self.backward_tiles(&frame, plan, options))
     }
 
     /// One attempt at the frame: its tiles in batches of `plan.tiles_per_batch`, each tile's
     /// gradients stored into the frame's once its batch has run.
-    fn backward_tiles(&self, frame: &Frame, plan: TilePlan, options: &RenderOptions) -> Result<(StackGradients, RenderStats)> {
+    fn backward_tiles(
+        &self,
+        frame: &Frame,
+        plan: TilePlan,
+        options: &RenderOptions,
+    ) -> Result<(StackGradients, RenderStats)> {
         let ctx = self.context();
         let params = frame.forward.params;
         let cores = frame_cores(params.width, params.height, plan.tile);
@@ -147,7 +161,14 @@ impl DrBokehGpuGrad {
     }
 
     /// A tile's backward buffers, zero fills and uploads recorded into `batch`.
-    fn buffers(&self, batch: &mut CommandBatch, frame: &Frame, core: Rect, receivers: Rect, read: Rect) -> Result<BackwardBuffers> {
+    fn buffers(
+        &self,
+        batch: &mut CommandBatch,
+        frame: &Frame,
+        core: Rect,
+        receivers: Rect,
+        read: Rect,
+    ) -> Result<BackwardBuffers> {
         let ctx = self.context();
         let params = frame.forward.params;
         let layers = params.layer_count as u64;
@@ -168,15 +189,24 @@ impl DrBokehGpuGrad {
     }
 
     /// Passes 1 and 2 over the receivers (the forward's core), pass 4 over the tile's `sources`.
-    fn record(&self, batch: &mut CommandBatch, params: &Params, f: &ForwardBuffers, b: &BackwardBuffers, sources: Rect) -> Result<()> {
+    fn record(
+        &self,
+        batch: &mut CommandBatch,
+        params: &Params,
+        f: &ForwardBuffers,
+        b: &BackwardBuffers,
+        sources: Rect,
+    ) -> Result<()> {
         let groups = self.own.groups_for([f.core.width() as u32, f.core.height() as u32, 1]);
         let leaky_slope = self.options.leaky_slope as f32;
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
-        let (own_pipeline, source_pipeline) = if disk_path(params) { (&self.own_disk, &self.source_disk) } else { (&self.own, &self.source) };
+        let (own_pipeline, source_pipeline) =
+            if disk_path(params) { (&self.own_disk, &self.source_disk) } else { (&self.own, &self.source) };
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
         let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];
-        let source_groups = source_pipeline.groups_for([(sources.width() as u32).div_ceil(per_invocation), sources.height() as u32, 1]);
+        let source_groups =
+            source_pipeline.groups_for([(sources.width() as u32).div_ceil(per_invocation), sources.height() as u32, 1]);
         let composite = [f.layer_cw.all(), f.layer_vis.all(), b.grad_output.all(), b.adj_cw.all(), b.adj_vis.all()];
         batch.dispatch(&self.composite, &composite, &push(0), groups)?;
         for layer in 0..params.layer_count {
@@ -235,7 +265,12 @@ impl Frame<'_> {
     fn receivers(&self, core: Rect) -> Rect {
         let p = self.forward.params;
         let grown = core.grown(halo(p, self.reach, core), p.width, p.height);
-        Rect { x0: grown.x0 / TILE * TILE, y0: grown.y0 / TILE * TILE, x1: round_to_tile(grown.x1).min(p.width), y1: round_to_tile(grown.y1).min(p.height) }
+        Rect {
+            x0: grown.x0 / TILE * TILE,
+            y0: grown.y0 / TILE * TILE,
+            x1: round_to_tile(grown.x1).min(p.width),
+            y1: round_to_tile(grown.y1).min(p.height),
+        }
     }
 }
 
@@ -254,7 +289,10 @@ fn backward_footprint(params: &Params, max_window: i32, max_reach: i32) -> impl 
         let (adjoint_bytes, gradient_bytes) = (VEC4 + 4 + VEC4 + VEC4, VEC4 + 4 + 4);
         Footprint {
             largest_binding: layers * read * VEC4,
-            total: layers * (read * (READ_BYTES_PER_PIXEL + adjoint_bytes) + receivers * CORE_BYTES_PER_PIXEL + core * gradient_bytes)
+            total: layers
+                * (read * (READ_BYTES_PER_PIXEL + adjoint_bytes)
+                    + receivers * CORE_BYTES_PER_PIXEL
+                    + core * gradient_bytes)
                 + 2 * receivers * VEC4,
         }
     }
@@ -299,7 +337,10 @@ impl FrameGradients {
         let k_px = self.k_partial.iter().map(|&v| v as f64).sum();
         let focus_disparity = -self.disparity.iter().map(|&v| v as f64).sum::<f64>();
         let layers = (0..params.layer_count)
-            .map(|l| LayerGradients { rgba: self.rgba[l * n..(l + 1) * n].to_vec(), disparity: self.disparity[l * n..(l + 1) * n].to_vec() })
+            .map(|l| LayerGradients {
+                rgba: self.rgba[l * n..(l + 1) * n].to_vec(),
+                disparity: self.disparity[l * n..(l + 1) * n].to_vec(),
+            })
             .collect();
         StackGradients { layers, k_px, focus_disparity }
     }

@@ -86,8 +86,8 @@ impl Model {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct DrBokehPush {
-    pub width: i32, // 0
-    pub height: i32, // 4
+    pub width: i32,   // 0
+    pub height: i32,  // 4
     pub tiles_x: i32, // 8
     pub tiles_y: i32, // 12
     /// Layer this dispatch works on (0 = front); unused by `composite`.
@@ -97,7 +97,7 @@ pub struct DrBokehPush {
     pub model: i32, // 24
     /// Side of the kernel image buffer (0 = no kernel image).
     pub kernel_size: i32, // 28
-    pub k_px: f32, // 32
+    pub k_px: f32,    // 32
     pub focus_disparity: f32, // 36
     /// Largest scatter support / gather radius over the stack, bounds the dilation loop.
     pub max_support: f32, // 40
