@@ -324,8 +324,12 @@ fn backward_out_of_device_memory_retries_with_smaller_tiles_and_the_same_gradien
     let lens = Lens { coc: CocModel::new(16.0, 0.5).unwrap(), aperture: Aperture::Disk };
     let renderer = DrBokehGpuGrad::new(&ctx, Model::DrBokeh, BackwardOptions::exact()).unwrap();
     let (whole, whole_stats) = renderer.backward_with_stats(&stack, &lens, &gout).unwrap();
-    // The one-tile frame needs more than this, so the first attempt runs out of memory.
-    let limit = whole_stats.peak_device_bytes * 3 / 4;
+    // What 32 px tiles, one per batch, hold: less than the one-tile frame (on this small frame a
+    // tile's receivers and halo span most of it, so no fixed fraction is safe), so the first
+    // attempt runs out of memory and the retries must reach a plan that fits.
+    let small = RenderOptions { tile: Some(32), tiles_per_batch: Some(1), ..RenderOptions::default() };
+    let limit = renderer.backward_with(&stack, &lens, &gout, &small).unwrap().1.peak_device_bytes;
+    assert!(limit < whole_stats.peak_device_bytes, "{limit} vs {whole_stats:?}");
     let options = RenderOptions { device_memory_limit: Some(limit), ..RenderOptions::default() };
     let (retried, stats) = renderer.backward_with(&stack, &lens, &gout, &options).unwrap();
     assert!(

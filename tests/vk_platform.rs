@@ -141,6 +141,21 @@ fn dispatch_refuses_wrong_binding_count() {
 }
 
 #[test]
+fn memory_budget_is_within_the_heap_and_is_the_heap_size_without_the_extension() {
+    let ctx = gpu();
+    let info = ctx.info().clone();
+    let budget = ctx.memory_budget();
+    assert!(budget.available_bytes > 0 && budget.available_bytes <= info.device_local_bytes, "{budget:?} vs {info:?}");
+    if !info.memory_budget_extension {
+        assert!(
+            !budget.from_driver && budget.available_bytes == info.device_local_bytes,
+            "no extension: the heap size"
+        );
+    }
+    finish(ctx);
+}
+
+#[test]
 fn shader_workgroup_size_is_read_from_spirv() {
     assert_eq!(lensblur::shaders::DISK_BLUR.local_size, [16, 16, 1]);
     let _ = Image::new(1, 1);
