@@ -1,8 +1,8 @@
 //! GPU host code of the Dr.Bokeh forward renderer. The frame is cut into tiles: each uploads
-//! its core plus the halo its search windows reach, runs the layer passes and the composite of
-//! `glsl/drbokeh_*.comp` in one submission, and reads its core back. Every pixel reads the same
-//! sources in the same order whatever the tiling, so the output is bit-identical for every
-//! tile size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
+//! its core plus the halo its search windows reach, records the layer passes and the composite
+//! of `glsl/drbokeh_*.comp`, and reads its core back; several tiles share one submission
+//! ([`super::tiled`]). Every pixel reads the same sources in the same order whatever the
+//! tiling, so the output is bit-identical for every tile size and batch size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
 //! lens, area table, push constants) and the search windows are shared with it.
 use super::bounds::{interior_bounds, search_windows};
 use super::tiled::{frame_cores, run_batches, run_tiled, Footprint, TilePlan};

@@ -1,8 +1,8 @@
 //! GPU host code of the Dr.Bokeh backward pass: the four forward passes, then the three
 //! gather passes of `glsl/drbokeh_backward_*.comp` (composite, own, source; pass 3, the tile
 //! reach, is computed on the host, which needs it to cut the tiles anyway, and uploaded) over
-//! the forward's intermediates, in one command batch per frame tile. The f64 reference of the
-//! same passes is [`super::backward_cpu`].
+//! the forward's intermediates, recorded per frame tile, several tiles to a submission
+//! ([`super::tiled`]). The f64 reference of the same passes is [`super::backward_cpu`].
 //!
 //! A tile is a core C of *source* pixels, whose gradients it writes. They gather over the
 //! receivers O whose windows hold a source of C (C grown by the tile reach, pass 3); O's
