@@ -12,6 +12,13 @@ pub enum Error {
     Validation { count: usize, first: String },
     #[error("GPU memory allocation failed: {0}")]
     Allocation(#[from] gpu_allocator::AllocationError),
+    /// Out of device memory with the smallest tiles: retrying smaller cannot help.
+    #[error(
+        "out of device memory even with {tile} px tiles, one per submission ({source}); free device memory \
+         (close other programs using the GPU), choose a device with more memory (LENSBLUR_DEVICE, see \
+         `lensblur devices`), or render on the CPU (`lensblur render --device cpu`)"
+    )]
+    OutOfDeviceMemory { tile: usize, source: Box<Error> },
     #[error("{path}: {message}")]
     Input { path: PathBuf, message: String },
     #[error("invalid parameter: {0}")]
@@ -50,7 +57,7 @@ impl Error {
     pub fn is_out_of_memory(&self) -> bool {
         use ash::vk::Result as VkResult;
         match self {
-            Error::Allocation(gpu_allocator::AllocationError::OutOfMemory) => true,
+            Error::Allocation(gpu_allocator::AllocationError::OutOfMemory) | Error::OutOfDeviceMemory { .. } => true,
             Error::Vulkan { result, .. } => {
                 matches!(*result, VkResult::ERROR_OUT_OF_DEVICE_MEMORY | VkResult::ERROR_OUT_OF_HOST_MEMORY)
             }

@@ -26,18 +26,34 @@ fn scene(w: usize, h: usize, near_d: f32) -> LayerStack {
         name: "near".into(),
         rgba: Image::from_fn(w, h, |x, y| {
             let d = ((x as f32 - cx).powi(2) + (y as f32 - cy).powi(2)).sqrt() / (h as f32 * 0.25);
-            let a = if d < 0.8 { 1.0 } else if d < 1.1 { 0.5 } else { 0.0 };
+            let a = if d < 0.8 {
+                1.0
+            } else if d < 1.1 {
+                0.5
+            } else {
+                0.0
+            };
             [0.9 * a, (0.2 + 0.01 * x as f32) * a, 0.4 * a, a]
         }),
-        disparity: (0..w * h).map(|i| near_d + 0.0013 * (i % w) as f32 / w as f32 * 16.0 - 0.0007 * (i / w) as f32 / h as f32 * 16.0).collect(),
+        disparity: (0..w * h)
+            .map(|i| near_d + 0.0013 * (i % w) as f32 / w as f32 * 16.0 - 0.0007 * (i / w) as f32 / h as f32 * 16.0)
+            .collect(),
     };
     let mid = Layer {
         name: "mid".into(),
         rgba: Image::from_fn(w, h, |x, y| {
-            let a = if (x + 2 * y) % 7 == 0 { 0.0 } else if x > w / 2 { 0.75 } else { 1.0 };
+            let a = if (x + 2 * y) % 7 == 0 {
+                0.0
+            } else if x > w / 2 {
+                0.75
+            } else {
+                1.0
+            };
             [(0.3 + 0.1 * (y % 3) as f32) * a, 0.7 * a, 2.0 * a, a]
         }),
-        disparity: (0..w * h).map(|i| 0.5137 + 0.1 * (i % w) as f32 / w as f32 + 0.011 * (i / w) as f32 / h as f32).collect(),
+        disparity: (0..w * h)
+            .map(|i| 0.5137 + 0.1 * (i % w) as f32 / w as f32 + 0.011 * (i / w) as f32 / h as f32)
+            .collect(),
     };
     let far = Layer {
         name: "far".into(),
@@ -46,7 +62,9 @@ fn scene(w: usize, h: usize, near_d: f32) -> LayerStack {
             let v = ((x * 5 + y * 3) % 7) as f32 / 7.0;
             [v + highlight, 0.5 - 0.3 * v, 3.0 * v + 0.1, 1.0]
         }),
-        disparity: (0..w * h).map(|i| 0.2113 + 0.03 * (i % w) as f32 / w as f32 + 0.021 * (i / w) as f32 / h as f32).collect(),
+        disparity: (0..w * h)
+            .map(|i| 0.2113 + 0.03 * (i % w) as f32 / w as f32 + 0.021 * (i / w) as f32 / h as f32)
+            .collect(),
     };
     LayerStack::new(w, h, vec![near, mid, far]).unwrap()
 }
@@ -72,12 +90,20 @@ fn gpu_backward_matches_cpu_reference_for_both_models_and_apertures() {
     let (w, h) = (37, 29);
     let stack = scene(w, h, 0.83);
     let gout = grad_output(w, h);
-    let kernel = KernelImage::from_weights(4, vec![0.2, 1.0, 1.0, 0.2, 1.0, 0.5, 0.5, 1.0, 1.0, 0.5, 0.5, 1.0, 0.2, 1.0, 1.0, 0.2]).unwrap();
+    let kernel = KernelImage::from_weights(
+        4,
+        vec![0.2, 1.0, 1.0, 0.2, 1.0, 0.5, 0.5, 1.0, 1.0, 0.5, 0.5, 1.0, 0.2, 1.0, 1.0, 0.2],
+    )
+    .unwrap();
     let apertures = [Aperture::Disk, Aperture::polygon(6, 15.0, 0.2).unwrap(), Aperture::Kernel(kernel)];
     for model in [Model::DrBokeh, Model::Compat] {
         for (a, aperture) in apertures.iter().enumerate() {
             // The leak changes only dS/dr terms, the same code for every aperture: disk only.
-            let leaks: &[BackwardOptions] = if a == 0 { &[BackwardOptions::exact(), BackwardOptions::leaky()] } else { &[BackwardOptions::exact()] };
+            let leaks: &[BackwardOptions] = if a == 0 {
+                &[BackwardOptions::exact(), BackwardOptions::leaky()]
+            } else {
+                &[BackwardOptions::exact()]
+            };
             for &options in leaks {
                 let lens = lens(aperture.clone());
                 let renderer = DrBokehGpuGrad::new(&ctx, model, options).unwrap();
@@ -90,12 +116,22 @@ fn gpu_backward_matches_cpu_reference_for_both_models_and_apertures() {
                     eprintln!("{label} layer {l}: rgba {rgba:e}, disparity {disparity:e}");
                     // f32 sums of a few hundred terms per entry (plus the 1/W^2 of the colour
                     // ratio): ~1e-5 of the largest entry; 1e-4 leaves margin for cancellation.
-                    assert!(rgba < 1e-4 && disparity < 1e-4, "{label} layer {l}: rgba {rgba:e}, disparity {disparity:e}");
+                    assert!(
+                        rgba < 1e-4 && disparity < 1e-4,
+                        "{label} layer {l}: rgba {rgba:e}, disparity {disparity:e}"
+                    );
                 }
                 // The scalars sum ~3000 f32 shares of both signs.
                 let k = (got.k_px - want.k_px).abs() / want.k_px.abs().max(1.0);
                 let f = (got.focus_disparity - want.focus_disparity).abs() / want.focus_disparity.abs().max(1.0);
-                assert!(k < 1e-4 && f < 1e-4, "{label}: K {} vs {}, focus {} vs {}", got.k_px, want.k_px, got.focus_disparity, want.focus_disparity);
+                assert!(
+                    k < 1e-4 && f < 1e-4,
+                    "{label}: K {} vs {}, focus {} vs {}",
+                    got.k_px,
+                    want.k_px,
+                    got.focus_disparity,
+                    want.focus_disparity
+                );
             }
         }
     }
@@ -207,13 +243,14 @@ fn bits(g: &StackGradients) -> (Vec<u32>, Vec<u32>, u64, u64) {
 }
 
 #[test]
-fn gradients_are_bit_identical_whatever_the_tile_size() {
+fn gradients_are_bit_identical_whatever_the_tile_size_and_batch_size() {
     use lensblur::render::drbokeh::RenderOptions;
-    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Mutex;
     let ctx = gpu();
     // 75x53 is divisible by none of the tile sides (16, 32, 48); K = 16 with the near layer at
     // d ~ 1.15 gives CoCs up to 10.5 px, so a tile's receivers and their sources reach well
-    // into its neighbours (two tiles away for the 16 px ones).
+    // into its neighbours (two tiles away for the 16 px ones). Batches of 1, 3 (which divides
+    // neither 20 nor 6 tiles) and as many as the budget allows (8 at most) share submissions.
     let (w, h) = (75, 53);
     let stack = scene(w, h, 1.15);
     let gout = grad_output(w, h);
@@ -224,24 +261,83 @@ fn gradients_are_bit_identical_whatever_the_tile_size() {
         assert_eq!(whole_stats.tiles, 1, "a small frame is one tile");
         let want = bits(&whole);
         for tile in [16, 24, 40] {
-            let done = AtomicUsize::new(0);
-            let progress = |finished: usize, _total: usize| done.store(finished, Ordering::Relaxed);
-            let tiled_options = RenderOptions { tile: Some(tile), progress: Some(&progress) };
-            let (tiled, stats) = renderer.backward_with(&stack, &lens, &gout, &tiled_options).unwrap();
-            let side = tile.div_ceil(16) * 16;
-            assert_eq!(stats.tiles, w.div_ceil(side) * h.div_ceil(side));
-            assert_eq!(done.load(Ordering::Relaxed), stats.tiles, "progress reaches the last tile");
-            // Smaller tiles hold less on the device (the point of tiling).
-            assert!(stats.peak_device_bytes < whole_stats.peak_device_bytes, "tile {tile}: {} vs {} bytes", stats.peak_device_bytes, whole_stats.peak_device_bytes);
-            let got = bits(&tiled);
-            let label = format!("leak {}, tile {tile}", options.leaky_slope);
-            let differing = |a: &[u32], b: &[u32]| a.iter().zip(b).filter(|(x, y)| x != y).count();
-            assert_eq!(differing(&got.0, &want.0), 0, "{label}: rgba gradients differ from the untiled ones");
-            assert_eq!(differing(&got.1, &want.1), 0, "{label}: disparity gradients differ from the untiled ones");
-            assert_eq!((got.2, got.3), (want.2, want.3), "{label}: K / focus gradients differ from the untiled ones");
+            let mut one_per_batch_peak = 0;
+            for tiles_per_batch in [Some(1), Some(3), None] {
+                let calls = Mutex::new(Vec::new());
+                let progress = |finished: usize, total: usize| calls.lock().unwrap().push((finished, total));
+                let tiled_options = RenderOptions {
+                    tile: Some(tile),
+                    tiles_per_batch,
+                    progress: Some(&progress),
+                    ..RenderOptions::default()
+                };
+                let (tiled, stats) = renderer.backward_with(&stack, &lens, &gout, &tiled_options).unwrap();
+                let side = tile.div_ceil(16) * 16;
+                assert_eq!(stats.tiles, w.div_ceil(side) * h.div_ceil(side));
+                let label = format!("leak {}, tile {tile}, {tiles_per_batch:?} per batch", options.leaky_slope);
+                let expected: Vec<(usize, usize)> = (1..=stats.tiles).map(|done| (done, stats.tiles)).collect();
+                assert_eq!(*calls.lock().unwrap(), expected, "{label}: progress once per tile, in order");
+                match tiles_per_batch {
+                    Some(1) => {
+                        // Smaller tiles hold less on the device (the point of tiling).
+                        assert!(
+                            stats.peak_device_bytes < whole_stats.peak_device_bytes,
+                            "{label}: {} vs {} bytes",
+                            stats.peak_device_bytes,
+                            whole_stats.peak_device_bytes
+                        );
+                        one_per_batch_peak = stats.peak_device_bytes;
+                    }
+                    // A batch holds its tiles' buffers and no more: at most that many of the largest.
+                    _ => assert!(
+                        stats.peak_device_bytes <= stats.tiles_per_batch as u64 * one_per_batch_peak,
+                        "{label}: {} bytes",
+                        stats.peak_device_bytes
+                    ),
+                }
+                if let Some(n) = tiles_per_batch {
+                    assert_eq!(stats.tiles_per_batch, n.min(stats.tiles), "{label}");
+                }
+                let got = bits(&tiled);
+                let differing = |a: &[u32], b: &[u32]| a.iter().zip(b).filter(|(x, y)| x != y).count();
+                assert_eq!(differing(&got.0, &want.0), 0, "{label}: rgba gradients differ from the untiled ones");
+                assert_eq!(differing(&got.1, &want.1), 0, "{label}: disparity gradients differ from the untiled ones");
+                assert_eq!(
+                    (got.2, got.3),
+                    (want.2, want.3),
+                    "{label}: K / focus gradients differ from the untiled ones"
+                );
+            }
         }
         assert!(whole.k_px != 0.0 && whole.layers[0].disparity.iter().any(|&g| g != 0.0));
     }
+    finish(ctx);
+}
+
+#[test]
+fn backward_out_of_device_memory_retries_with_smaller_tiles_and_the_same_gradients() {
+    use lensblur::render::drbokeh::RenderOptions;
+    let ctx = gpu();
+    let (w, h) = (75, 53);
+    let stack = scene(w, h, 1.15);
+    let gout = grad_output(w, h);
+    let lens = Lens { coc: CocModel::new(16.0, 0.5).unwrap(), aperture: Aperture::Disk };
+    let renderer = DrBokehGpuGrad::new(&ctx, Model::DrBokeh, BackwardOptions::exact()).unwrap();
+    let (whole, whole_stats) = renderer.backward_with_stats(&stack, &lens, &gout).unwrap();
+    // What 32 px tiles, one per batch, hold: less than the one-tile frame (on this small frame a
+    // tile's receivers and halo span most of it, so no fixed fraction is safe), so the first
+    // attempt runs out of memory and the retries must reach a plan that fits.
+    let small = RenderOptions { tile: Some(32), tiles_per_batch: Some(1), ..RenderOptions::default() };
+    let limit = renderer.backward_with(&stack, &lens, &gout, &small).unwrap().1.peak_device_bytes;
+    assert!(limit < whole_stats.peak_device_bytes, "{limit} vs {whole_stats:?}");
+    let options = RenderOptions { device_memory_limit: Some(limit), ..RenderOptions::default() };
+    let (retried, stats) = renderer.backward_with(&stack, &lens, &gout, &options).unwrap();
+    assert!(
+        stats.tile_size < whole_stats.tile_size && stats.peak_device_bytes <= limit,
+        "{stats:?} within {limit} bytes"
+    );
+    assert_eq!(bits(&retried), bits(&whole), "gradients of the retried, smaller tiles are the untiled ones");
+    drop(renderer);
     finish(ctx);
 }
 
@@ -253,9 +349,15 @@ fn tiled_gpu_backward_matches_cpu_reference() {
     let stack = scene(w, h, 0.95);
     let gout = grad_output(w, h);
     let lens = lens(Aperture::polygon(5, 10.0, 0.1).unwrap());
-    for (model, options) in [(Model::DrBokeh, BackwardOptions::exact()), (Model::DrBokeh, BackwardOptions::leaky()), (Model::Compat, BackwardOptions::exact())] {
+    for (model, options) in [
+        (Model::DrBokeh, BackwardOptions::exact()),
+        (Model::DrBokeh, BackwardOptions::leaky()),
+        (Model::Compat, BackwardOptions::exact()),
+    ] {
         let renderer = DrBokehGpuGrad::new(&ctx, model, options).unwrap();
-        let (got, stats) = renderer.backward_with(&stack, &lens, &gout, &RenderOptions { tile: Some(16), progress: None }).unwrap();
+        let (got, stats) = renderer
+            .backward_with(&stack, &lens, &gout, &RenderOptions { tile: Some(16), ..RenderOptions::default() })
+            .unwrap();
         assert_eq!(stats.tiles, 9);
         let want = backward_cpu(&stack, &lens, model, options, &gout).unwrap();
         let label = format!("{model:?} leak {}", options.leaky_slope);
@@ -267,7 +369,14 @@ fn tiled_gpu_backward_matches_cpu_reference() {
         }
         let k = (got.k_px - want.k_px).abs() / want.k_px.abs().max(1.0);
         let f = (got.focus_disparity - want.focus_disparity).abs() / want.focus_disparity.abs().max(1.0);
-        assert!(k < 1e-4 && f < 1e-4, "{label}: K {} vs {}, focus {} vs {}", got.k_px, want.k_px, got.focus_disparity, want.focus_disparity);
+        assert!(
+            k < 1e-4 && f < 1e-4,
+            "{label}: K {} vs {}, focus {} vs {}",
+            got.k_px,
+            want.k_px,
+            got.focus_disparity,
+            want.focus_disparity
+        );
     }
     finish(ctx);
 }

@@ -14,7 +14,13 @@ fn scene(w: usize, h: usize) -> LayerStack {
     let near = Layer {
         name: "near".into(),
         rgba: Image::from_fn(w, h, |x, y| {
-            let a = if (8..24).contains(&x) && (6..22).contains(&y) { 1.0 } else if (6..26).contains(&x) && (4..24).contains(&y) { 0.4 } else { 0.0 };
+            let a = if (8..24).contains(&x) && (6..22).contains(&y) {
+                1.0
+            } else if (6..26).contains(&x) && (4..24).contains(&y) {
+                0.4
+            } else {
+                0.0
+            };
             [0.9 * a, 0.2 * a, 0.1 * a, a]
         }),
         // Slopes chosen so no pixel sits exactly on a compat box-size step (int((r + 1) / 2)), where
@@ -57,7 +63,11 @@ fn gpu_matches_cpu_reference_for_both_models_and_every_aperture() {
     let ctx = gpu();
     let renderer = DrBokehGpu::new(&ctx).unwrap();
     let stack = scene(45, 37);
-    let kernel = KernelImage::from_weights(4, vec![0.2, 1.0, 1.0, 0.2, 1.0, 0.5, 0.5, 1.0, 1.0, 0.5, 0.5, 1.0, 0.2, 1.0, 1.0, 0.2]).unwrap();
+    let kernel = KernelImage::from_weights(
+        4,
+        vec![0.2, 1.0, 1.0, 0.2, 1.0, 0.5, 0.5, 1.0, 1.0, 0.5, 0.5, 1.0, 0.2, 1.0, 1.0, 0.2],
+    )
+    .unwrap();
     let apertures = [Aperture::Disk, Aperture::polygon(6, 15.0, 0.2).unwrap(), Aperture::Kernel(kernel)];
     for model in [Model::DrBokeh, Model::Compat] {
         for aperture in &apertures {
@@ -120,30 +130,71 @@ fn gpu_render_is_deterministic() {
 }
 
 #[test]
-fn output_is_bit_identical_whatever_the_tile_size() {
+fn output_is_bit_identical_whatever_the_tile_size_and_batch_size() {
     use lensblur::render::drbokeh::RenderOptions;
+    use std::sync::Mutex;
     let ctx = gpu();
     let renderer = DrBokehGpu::new(&ctx).unwrap();
     // 83x61 is divisible by none of the tile sizes; K = 25 gives halos of ~13 px, wider than
-    // the 16 px tiles, so tiles read well into their neighbours.
+    // the 16 px tiles, so tiles read well into their neighbours. Batches of 1, 5 (which divides
+    // neither 24 nor 6 tiles) and as many as the budget allows (8 at most) share submissions.
     let stack = scene(83, 61);
     for model in [Model::DrBokeh, Model::Compat] {
         let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: Aperture::polygon(5, 10.0, 0.0).unwrap() };
         let (whole, stats) = renderer.render_with(&stack, &lens, model, &RenderOptions::default()).unwrap();
-        assert_eq!(stats.tiles, 1, "a small frame is one tile");
+        assert_eq!((stats.tiles, stats.tiles_per_batch), (1, 1), "a small frame is one tile");
         for tile in [16, 32, 40, 64] {
-            let done = std::sync::atomic::AtomicUsize::new(0);
-            let progress = |finished: usize, _total: usize| {
-                done.store(finished, std::sync::atomic::Ordering::Relaxed);
-            };
-            let options = RenderOptions { tile: Some(tile), progress: Some(&progress) };
-            let (tiled, stats) = renderer.render_with(&stack, &lens, model, &options).unwrap();
-            let side = tile.div_ceil(16) * 16;
-            assert_eq!(stats.tiles, 83usize.div_ceil(side) * 61usize.div_ceil(side));
-            assert_eq!(done.load(std::sync::atomic::Ordering::Relaxed), stats.tiles, "progress reaches the last tile");
-            let differing = tiled.pixels.iter().zip(&whole.pixels).filter(|(a, b)| a != b).count();
-            assert_eq!(differing, 0, "{model:?}, tile {tile}: {differing} pixels differ from the untiled render");
+            for tiles_per_batch in [Some(1), Some(5), None] {
+                let calls = Mutex::new(Vec::new());
+                let progress = |finished: usize, total: usize| calls.lock().unwrap().push((finished, total));
+                let options = RenderOptions {
+                    tile: Some(tile),
+                    tiles_per_batch,
+                    progress: Some(&progress),
+                    ..RenderOptions::default()
+                };
+                let (tiled, stats) = renderer.render_with(&stack, &lens, model, &options).unwrap();
+                let label = format!("{model:?}, tile {tile}, {tiles_per_batch:?} per batch");
+                let side = tile.div_ceil(16) * 16;
+                assert_eq!(stats.tiles, 83usize.div_ceil(side) * 61usize.div_ceil(side), "{label}");
+                if let Some(n) = tiles_per_batch {
+                    assert_eq!(stats.tiles_per_batch, n.min(stats.tiles), "{label}");
+                }
+                let expected: Vec<(usize, usize)> = (1..=stats.tiles).map(|done| (done, stats.tiles)).collect();
+                assert_eq!(*calls.lock().unwrap(), expected, "{label}: progress once per tile, in order");
+                let differing = tiled.pixels.iter().zip(&whole.pixels).filter(|(a, b)| a != b).count();
+                assert_eq!(differing, 0, "{label}: {differing} pixels differ from the untiled render");
+            }
         }
+    }
+    drop(renderer);
+    finish(ctx);
+}
+
+#[test]
+fn out_of_device_memory_retries_with_smaller_tiles_and_the_same_output() {
+    use lensblur::render::drbokeh::RenderOptions;
+    let ctx = gpu();
+    let renderer = DrBokehGpu::new(&ctx).unwrap();
+    let stack = scene(83, 61);
+    let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: Aperture::Disk };
+    let (whole, whole_stats) = renderer.render_with(&stack, &lens, Model::DrBokeh, &RenderOptions::default()).unwrap();
+    // Half of what the one-tile frame holds: the first attempt runs out of device memory and
+    // the retries must shrink the tiles (and batches) until a batch fits.
+    let limit = whole_stats.peak_device_bytes / 2;
+    let options = RenderOptions { device_memory_limit: Some(limit), ..RenderOptions::default() };
+    let (retried, stats) = renderer.render_with(&stack, &lens, Model::DrBokeh, &options).unwrap();
+    assert!(stats.tile_size < whole_stats.tile_size && stats.tiles > 1, "{stats:?}");
+    assert!(stats.peak_device_bytes <= limit, "{} bytes held, limit {limit}", stats.peak_device_bytes);
+    let differing = retried.pixels.iter().zip(&whole.pixels).filter(|(a, b)| a != b).count();
+    assert_eq!(differing, 0, "{differing} pixels of the retried render differ from the untiled one");
+    // Not even one 16 px tile fits: a clear error, not a loop or a panic.
+    let options = RenderOptions { device_memory_limit: Some(1), ..RenderOptions::default() };
+    let error = renderer.render_with(&stack, &lens, Model::DrBokeh, &options).unwrap_err();
+    let message = error.to_string();
+    assert!(matches!(error, lensblur::Error::OutOfDeviceMemory { tile: 16, .. }), "{message}");
+    for needle in ["out of device memory", "16 px tiles", "LENSBLUR_DEVICE", "--device cpu"] {
+        assert!(message.contains(needle), "'{needle}' missing: {message}");
     }
     drop(renderer);
     finish(ctx);

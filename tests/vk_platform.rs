@@ -42,8 +42,38 @@ fn buffers_round_trip_and_zero_fill() {
 }
 
 #[test]
+fn buffers_recorded_into_a_batch_are_uploaded_zeroed_and_read_back_by_its_one_submission() {
+    let ctx = gpu();
+    let data: Vec<[f32; 4]> = (0..300).map(|i| [i as f32, -0.5 * i as f32, 1e6, 0.25]).collect();
+    let mut batch = CommandBatch::new(&ctx).unwrap();
+    let source = Buffer::from_iter_in(&ctx, &mut batch, "source", data.len(), data.iter().copied()).unwrap();
+    // Garbage first, so the recorded zero fill is what makes it zero.
+    let target = Buffer::from_iter_in(&ctx, &mut batch, "target", 600, (0..600).map(|i| i as f32 + 1.0)).unwrap();
+    let zeroed = Buffer::zeroed_in(&ctx, &mut batch, "zeroed", target.size()).unwrap();
+    batch.copy(&zeroed, &target, 2000).unwrap();
+    batch.copy(&source, &target, 1600).unwrap();
+    let readable = target.readable_in(&ctx, &mut batch).unwrap();
+    batch.submit_and_wait().unwrap();
+    let got: Vec<f32> = readable.read(&ctx).unwrap();
+    let want: Vec<f32> = data
+        .iter()
+        .flatten()
+        .copied()
+        .take(400)
+        .chain(std::iter::repeat(0.0).take(100))
+        .chain((500..600).map(|i| i as f32 + 1.0))
+        .collect();
+    assert_eq!(got, want, "copies ran in recording order after the upload and the zero fill");
+    let short = Buffer::from_iter_in(&ctx, &mut batch, "short", 10, [1.0f32; 4]);
+    assert!(short.is_err(), "fewer items than declared is refused");
+    drop((source, target, zeroed, readable, batch));
+    finish(ctx);
+}
+
+#[test]
 fn a_batch_reused_with_more_sets_than_one_pool_holds_stays_valid_and_deterministic() {
-    // 70 dispatches need two descriptor pools; the batch is submitted and reused three times.
+    // 70 dispatches need two descriptor pools; the batch is submitted and reused three times,
+    // resetting the same two pools each time instead of creating new ones.
     let ctx = gpu();
     let pipeline = lensblur::vk::ComputePipeline::new(&ctx, &lensblur::shaders::DISK_BLUR, 3, 16).unwrap();
     let image = pattern(20, 20);
@@ -56,11 +86,19 @@ fn a_batch_reused_with_more_sets_than_one_pool_holds_stays_valid_and_determinist
     let mut batch = CommandBatch::new(&ctx).unwrap();
     for _ in 0..3 {
         for _ in 0..70 {
-            batch.dispatch(&pipeline, &[source.all(), weights.all(), result.all()], &push, pipeline.groups_for([20, 20, 1])).unwrap();
+            batch
+                .dispatch(
+                    &pipeline,
+                    &[source.all(), weights.all(), result.all()],
+                    &push,
+                    pipeline.groups_for([20, 20, 1]),
+                )
+                .unwrap();
         }
         assert_eq!(batch.len(), 70);
         batch.submit_and_wait().unwrap();
         assert!(batch.is_empty());
+        assert_eq!(batch.descriptor_pool_count(), 2, "pools are reset and reused, not recreated");
         let pixels: Vec<[f32; 4]> = result.read(&ctx).unwrap();
         let out = Image { width: 20, height: 20, pixels };
         assert!(max_abs_diff(&out, &expected) < 4e-4, "HDR values ~20, f32 sums: 2e-5 relative");
@@ -103,6 +141,21 @@ fn dispatch_refuses_wrong_binding_count() {
 }
 
 #[test]
+fn memory_budget_is_within_the_heap_and_is_the_heap_size_without_the_extension() {
+    let ctx = gpu();
+    let info = ctx.info().clone();
+    let budget = ctx.memory_budget();
+    assert!(budget.available_bytes > 0 && budget.available_bytes <= info.device_local_bytes, "{budget:?} vs {info:?}");
+    if !info.memory_budget_extension {
+        assert!(
+            !budget.from_driver && budget.available_bytes == info.device_local_bytes,
+            "no extension: the heap size"
+        );
+    }
+    finish(ctx);
+}
+
+#[test]
 fn shader_workgroup_size_is_read_from_spirv() {
     assert_eq!(lensblur::shaders::DISK_BLUR.local_size, [16, 16, 1]);
     let _ = Image::new(1, 1);
@@ -134,7 +187,8 @@ fn compiled_pipelines_are_saved_on_close_and_reloaded_by_the_next_process() {
     finish(first);
     let saved = std::fs::read(&file).expect("closing the device writes the cache file");
     assert!(saved.len() >= 32, "a cache file holds at least the 32-byte Vulkan header");
-    let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.path() != file).collect();
+    let leftovers: Vec<_> =
+        std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()).filter(|e| e.path() != file).collect();
     assert!(leftovers.is_empty(), "temporary files left behind: {leftovers:?}");
 
     let second = gpu_with_pipeline_cache(&dir);
@@ -155,7 +209,9 @@ fn a_corrupt_or_foreign_cache_file_is_ignored_and_replaced() {
     foreign_uuid[20] ^= 0xff;
     let mut garbage = vec![0xA5u8; 4096];
     garbage[..4].copy_from_slice(&32u32.to_le_bytes());
-    for (what, bytes) in [("another driver build's cache", foreign_uuid), ("garbage", garbage), ("an empty file", Vec::new())] {
+    for (what, bytes) in
+        [("another driver build's cache", foreign_uuid), ("garbage", garbage), ("an empty file", Vec::new())]
+    {
         std::fs::write(&file, &bytes).unwrap();
         let ctx = gpu_with_pipeline_cache(&dir);
         assert_eq!(ctx.pipeline_cache_loaded_bytes(), 0, "{what} must not reach the driver");

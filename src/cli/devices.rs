@@ -23,9 +23,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("{mark} {}: {} [{}]", d.index, d.name, d.kind);
         println!("      driver: {}, Vulkan {}", d.driver, d.api_version);
         println!(
-            "      memory: {:.1} GiB device-local, max allocation {:.1} GiB",
+            "      memory: {:.1} GiB device-local, max allocation {:.1} GiB; tiles planned from {}",
             d.device_local_bytes as f64 / (1u64 << 30) as f64,
-            d.max_allocation_bytes as f64 / (1u64 << 30) as f64
+            d.max_allocation_bytes as f64 / (1u64 << 30) as f64,
+            if d.memory_budget_extension { "the driver's budget (VK_EXT_memory_budget)" } else { "the heap size" }
         );
         println!(
             "      workgroup: {} invocations max, size {:?}; storage buffer range {} MiB; push constants {} B; shared memory {} KiB",

@@ -18,6 +18,7 @@ use lensblur::vk::Context;
 use super::camera_args::CameraArgs;
 use super::file_channels::FileChannels;
 use super::input_args::{check_output_path, InputArgs, LoadedInput};
+use super::progress;
 
 const EXAMPLES: &str = "\
 Examples:
@@ -80,6 +81,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Method::DrBokehCompat => Model::Compat,
         other => bail!("method '{other}' has no backward pass; use drbokeh or drbokeh-compat"),
     };
+    let spinner = progress::spinner(args.json);
+    spinner.set_message(format!("reading {}", args.input.display()));
     // No auto-layering: gradients must map back onto the file's own channels.
     let loaded = args.input_args.load(&args.input, &args.camera, InputKind::SingleImage)?;
     let Some(info) = &loaded.info else { bail!("{}: grad needs an EXR stack", args.input.display()) };
@@ -87,13 +90,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let ctx = Context::from_env().context("opening the Vulkan device")?;
     let options = if args.leaky { BackwardOptions::leaky() } else { BackwardOptions::exact() };
     let renderer = DrBokehGpuGrad::new(&ctx, model, options)?;
-    let tiling = RenderOptions { tile: args.tile, progress: None };
+    let what = format!("differentiating {} layer(s) with {}", loaded.stack.layers.len(), args.method);
+    let tile_progress = progress::tiles(&spinner, what);
+    let tiling = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
     let (grads, stats) = renderer.backward_with(&loaded.stack, &loaded.camera.lens, &grad_output, &tiling)?;
     drop(renderer);
+    spinner.set_message(format!("writing {}", args.output.display()));
     let channels = gradient_channels(info, &loaded, &grads)?;
     let origin = (info.display_window.x, info.display_window.y);
     write_named_channels(&args.output, (loaded.stack.width, loaded.stack.height), origin, channels)
         .with_context(|| format!("writing {}", args.output.display()))?;
+    spinner.finish_and_clear();
     ctx.finish()?;
     let camera = camera_gradients(&loaded, &grads);
     if args.json {
@@ -115,9 +122,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn read_grad_output(path: &Path, loaded: &LoadedInput) -> anyhow::Result<Image> {
-    let mut g = read_rgba(path, None, 1 << 28).with_context(|| format!("reading the output gradient {}", path.display()))?;
+    let mut g =
+        read_rgba(path, None, 1 << 28).with_context(|| format!("reading the output gradient {}", path.display()))?;
     if (g.width, g.height) != (loaded.stack.width, loaded.stack.height) {
-        bail!("{}: the output gradient is {}x{} but the stack is {}x{}", path.display(), g.width, g.height, loaded.stack.width, loaded.stack.height);
+        bail!(
+            "{}: the output gradient is {}x{} but the stack is {}x{}",
+            path.display(),
+            g.width,
+            g.height,
+            loaded.stack.width,
+            loaded.stack.height
+        );
     }
     for p in &mut g.pixels {
         p[3] = 0.0; // alpha of the render is not differentiated

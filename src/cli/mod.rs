@@ -16,6 +16,7 @@ mod grad;
 mod info;
 mod input_args;
 mod method_args;
+mod progress;
 mod raytrace;
 mod render;
 

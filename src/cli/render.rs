@@ -3,13 +3,11 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use indicatif::{ProgressBar, ProgressStyle};
 use lensblur::image::Image;
 use lensblur::render::drbokeh::RenderOptions;
 use lensblur::render::{Lens, Method};
 use lensblur::stack::{
-    is_ldr_path, write_image, write_ldr, write_png_preview, LayerStack, SampleType, StackNaming,
-    WriteOptions,
+    is_ldr_path, write_image, write_ldr, write_png_preview, LayerStack, SampleType, StackNaming, WriteOptions,
 };
 use lensblur::vk::Context;
 
@@ -17,6 +15,7 @@ use super::camera_args::CameraArgs;
 use super::character_args::CharacterArgs;
 use super::input_args::{check_output_path, InputArgs, LoadedInput};
 use super::method_args::MethodArgs;
+use super::progress;
 
 const EXAMPLES: &str = "\
 Examples:
@@ -133,32 +132,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     args.method_args.check(args.method)?;
     let mut camera = args.camera.clone();
     args.method_args.apply_to_camera(&mut camera)?;
-    let spinner = spinner(&args);
+    let spinner = progress::spinner(args.json);
     spinner.set_message(format!("reading {}", args.input.display()));
-    let loaded = args.input_args.load(&args.input, &camera, args.method.input())?;
+    let mut loaded = args.input_args.load(&args.input, &camera, args.method.input())?;
     let (lens, stack) = (&loaded.camera.lens, &loaded.stack);
     let physical = loaded.camera.physical.is_some();
     let settings = args.method_args.resolve(args.method, lens, physical, stack.width, stack.height)?;
     args.character.resolve()?.check_focus_field(settings.focus(args.method))?;
     let ctx = open_device(args.device, args.method)?;
-    spinner.set_message(format!(
-        "rendering {} layer(s) with {}",
-        loaded.stack.layers.len(),
-        args.method
-    ));
     let start = Instant::now();
     let layer_count = loaded.stack.layers.len();
-    let progress = |done: usize, total: usize| {
-        if total > 1 {
-            spinner.set_message(format!("rendering {layer_count} layer(s) with {}: tile {done}/{total}", args.method));
-        }
-    };
-    let options = RenderOptions { tile: args.tile, progress: Some(&progress) };
+    let what = format!("rendering {layer_count} layer(s) with {}", args.method);
+    let tile_progress = progress::tiles(&spinner, what);
+    let options = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
     let (image, lens) = args
         .character
         .render(args.method, ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options, &settings)
         .with_context(|| format!("rendering {} with {}", args.input.display(), args.method))?;
     let render_time = start.elapsed();
+    let layers = layer_reports(&loaded.stack, &lens);
+    // The stack is done with: free it before the write copies the image into EXR channels,
+    // so the host never holds the stack, the image and the channels at once.
+    drop(std::mem::take(&mut loaded.stack.layers));
     spinner.set_message(format!("writing {}", args.output.display()));
     let start = Instant::now();
     write_output(&args, &loaded, &image)?;
@@ -175,7 +170,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         write: ms(write_time),
         total: ms(total.elapsed()),
     };
-    let report = report(&args, &loaded, &lens, device, timings);
+    let report = report(&args, &loaded, &lens, layers, device, timings);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -222,20 +217,6 @@ fn open_device(choice: DeviceChoice, method: Method) -> anyhow::Result<Option<Co
     }
 }
 
-fn spinner(args: &Args) -> ProgressBar {
-    let bar = if args.json {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new_spinner()
-    };
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} {msg} {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-    );
-    bar.enable_steady_tick(Duration::from_millis(120));
-    bar
-}
-
 fn write_output(args: &Args, loaded: &LoadedInput, image: &Image) -> anyhow::Result<()> {
     if is_ldr_path(&args.output) {
         if args.output_layer.is_some() || args.keep_channels || args.half {
@@ -259,20 +240,14 @@ fn write_output(args: &Args, loaded: &LoadedInput, image: &Image) -> anyhow::Res
             output_layer: args.output_layer.clone(),
             layer_naming,
             display_origin,
-            sample_type: if args.half {
-                SampleType::Half
-            } else {
-                SampleType::Float
-            },
+            sample_type: if args.half { SampleType::Half } else { SampleType::Float },
             extra_channels,
             camera: loaded.camera.physical,
         };
-        write_image(&args.output, image, &options)
-            .with_context(|| format!("writing {}", args.output.display()))?;
+        write_image(&args.output, image, &options).with_context(|| format!("writing {}", args.output.display()))?;
     }
     if let Some(preview) = &args.preview {
-        write_png_preview(preview, image)
-            .with_context(|| format!("writing {}", preview.display()))?;
+        write_png_preview(preview, image).with_context(|| format!("writing {}", preview.display()))?;
     }
     Ok(())
 }
@@ -281,13 +256,13 @@ fn report<'a>(
     args: &'a Args,
     loaded: &LoadedInput,
     lens: &Lens,
+    layers: Vec<LayerReport>,
     device: Option<String>,
     timings_ms: Timings,
 ) -> Report<'a> {
-    let layers = layer_reports(&loaded.stack, lens);
-    let coc_range_px = layers.iter().fold([f32::INFINITY, 0.0f32], |[lo, hi], l| {
-        [lo.min(l.coc_range_px[0]), hi.max(l.coc_range_px[1])]
-    });
+    let coc_range_px = layers
+        .iter()
+        .fold([f32::INFINITY, 0.0f32], |[lo, hi], l| [lo.min(l.coc_range_px[0]), hi.max(l.coc_range_px[1])]);
     Report {
         input: &args.input,
         output: &args.output,
@@ -301,11 +276,7 @@ fn report<'a>(
         depth_kind: loaded.depth_kind,
         auto_layered: loaded.auto_layered.is_some(),
         layers,
-        coc_range_px: if coc_range_px[0].is_finite() {
-            coc_range_px
-        } else {
-            [0.0, 0.0]
-        },
+        coc_range_px: if coc_range_px[0].is_finite() { coc_range_px } else { [0.0, 0.0] },
         timings_ms,
     }
 }
@@ -316,16 +287,8 @@ fn layer_reports(stack: &LayerStack, lens: &Lens) -> Vec<LayerReport> {
         .layers
         .iter()
         .map(|layer| {
-            let covered = layer
-                .rgba
-                .pixels
-                .iter()
-                .zip(&layer.disparity)
-                .filter(|(p, _)| p[3] > 0.0)
-                .map(|(_, &d)| d);
-            let (lo, hi) = covered.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| {
-                (lo.min(d), hi.max(d))
-            });
+            let covered = layer.rgba.pixels.iter().zip(&layer.disparity).filter(|(p, _)| p[3] > 0.0).map(|(_, &d)| d);
+            let (lo, hi) = covered.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| (lo.min(d), hi.max(d)));
             let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 0.0) };
             let (r_lo, r_hi) = (lens.coc.radius(lo), lens.coc.radius(hi));
             // |d - df| is smallest inside the range when the focus plane crosses the layer.
@@ -344,12 +307,7 @@ fn print_summary(report: &Report) {
     let layers: Vec<String> = report
         .layers
         .iter()
-        .map(|l| {
-            format!(
-                "{} ({:.1}-{:.1} px)",
-                l.name, l.coc_range_px[0], l.coc_range_px[1]
-            )
-        })
+        .map(|l| format!("{} ({:.1}-{:.1} px)", l.name, l.coc_range_px[0], l.coc_range_px[1]))
         .collect();
     println!(
         "{} -> {}: {}x{}, {} {}, {} layer(s) front to back: {}; render {:.0} ms, total {:.0} ms{}",
@@ -358,20 +316,12 @@ fn print_summary(report: &Report) {
         report.width,
         report.height,
         report.method,
-        report
-            .device
-            .as_deref()
-            .map(|d| format!("on {d}"))
-            .unwrap_or_else(|| "on the CPU".into()),
+        report.device.as_deref().map(|d| format!("on {d}")).unwrap_or_else(|| "on the CPU".into()),
         report.layers.len(),
         layers.join(", "),
         report.timings_ms.render,
         report.timings_ms.total,
-        if report.auto_layered {
-            " (auto-layered from one image)"
-        } else {
-            ""
-        },
+        if report.auto_layered { " (auto-layered from one image)" } else { "" },
     );
 }
 

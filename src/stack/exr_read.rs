@@ -53,16 +53,18 @@ struct Candidate {
 /// Reads a layer stack: layers front to back, premultiplied colour, depth as disparity.
 pub fn read_stack(path: &Path, options: &ReadOptions) -> Result<StackFile> {
     let meta = read_headers(path, options.max_pixels)?;
-    let image = read_pixels(path)?;
+    let mut image = read_pixels(path)?;
     let display = window_of(&image.attributes.display_window);
     let candidates = candidates(&image);
     let selected = select(path, &candidates, options.layers.as_deref())?;
+    // Described before the layers take their channels' samples out of the file's image.
+    let parts = part_infos(&image);
     let mut layers = Vec::new();
     let mut infos = Vec::new();
     let mut warnings = Vec::new();
     for candidate in &selected {
         let (layer, info) =
-            build_layer(path, &image.layer_data[candidate.part], candidate, display, options, &mut warnings)?;
+            build_layer(path, &mut image.layer_data[candidate.part], candidate, display, options, &mut warnings)?;
         layers.push(layer);
         infos.push(info);
     }
@@ -77,7 +79,7 @@ pub fn read_stack(path: &Path, options: &ReadOptions) -> Result<StackFile> {
         display_window: display,
         depth_kind: options.depth_kind,
         single_image,
-        parts: part_infos(&image),
+        parts,
         layers: infos,
         camera: camera_attributes(&meta),
         extra_channels: extra_channels(&image, display, &used),
@@ -96,7 +98,9 @@ pub fn read_rgba(path: &Path, layer: Option<&str>, max_pixels: u64) -> Result<Im
     let candidates = candidates(&image);
     let coloured: Vec<&Candidate> = candidates
         .iter()
-        .filter(|c| c.group.channels.red.is_some() && c.group.channels.green.is_some() && c.group.channels.blue.is_some())
+        .filter(|c| {
+            c.group.channels.red.is_some() && c.group.channels.green.is_some() && c.group.channels.blue.is_some()
+        })
         .collect();
     let names = || coloured.iter().map(|c| format!("'{}'", c.name)).collect::<Vec<_>>().join(", ");
     let chosen = match layer {
@@ -113,7 +117,8 @@ pub fn read_rgba(path: &Path, layer: Option<&str>, max_pixels: u64) -> Result<Im
     let data = part_window(part);
     let ch = &candidate.group.channels;
     let fetch = |name: &str| -> Result<Vec<f32>> {
-        let channel = find_channel(part, name).ok_or_else(|| Error::input(path, format!("channel '{name}' vanished")))?;
+        let channel =
+            find_channel(part, name).ok_or_else(|| Error::input(path, format!("channel '{name}' vanished")))?;
         let mut values = place(&channel.sample_data, data, display, 0.0);
         check_finite(path, &candidate.name, name, &mut values, false)?;
         Ok(values)
@@ -161,10 +166,9 @@ pub(super) fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
              EXR, or a PNG/JPEG with --depth",
         ));
     }
-    let meta =
-        MetaData::read_from_file(path, false).map_err(|e| {
-            Error::input(path, format!("invalid EXR header ({e}); the file is damaged or truncated: write it again"))
-        })?;
+    let meta = MetaData::read_from_file(path, false).map_err(|e| {
+        Error::input(path, format!("invalid EXR header ({e}); the file is damaged or truncated: write it again"))
+    })?;
     let first = meta.headers.first().ok_or_else(|| Error::input(path, "EXR file has no parts"))?;
     let display = first.shared_attributes.display_window;
     for header in meta.headers.iter() {
@@ -384,12 +388,53 @@ pub(super) fn data_in_display(data: Window, display: Window) -> impl Iterator<It
 
 /// Copies a channel's data window into a display-window-sized buffer, `outside` elsewhere.
 fn place(samples: &FlatSamples, data: Window, display: Window, outside: f32) -> Vec<f32> {
-    let values: Vec<f32> = samples.values_as_f32().collect();
     let mut out = vec![outside; display.width * display.height];
-    for (sample, pixel) in data_in_display(data, display) {
-        out[pixel] = values[sample];
+    // The data window's overlap with the display window, in display coordinates.
+    let clip = |data_at: i32, data_len: usize, display_at: i32, display_len: usize| {
+        let start = (data_at as i64).max(display_at as i64);
+        let end = (data_at as i64 + data_len as i64).min(display_at as i64 + display_len as i64);
+        (start, end.max(start))
+    };
+    let (x0, x1) = clip(data.x, data.width, display.x, display.width);
+    let (y0, y1) = clip(data.y, data.height, display.y, display.height);
+    let width = (x1 - x0) as usize;
+    if width == 0 {
+        return out; // no column overlaps (the row offsets below would point past the rows)
+    }
+    for y in y0..y1 {
+        let src = (y - data.y as i64) as usize * data.width + (x0 - data.x as i64) as usize;
+        let dst = (y - display.y as i64) as usize * display.width + (x0 - display.x as i64) as usize;
+        let row = &mut out[dst..dst + width];
+        match samples {
+            FlatSamples::F32(v) => row.copy_from_slice(&v[src..src + width]),
+            FlatSamples::F16(v) => row.iter_mut().zip(&v[src..src + width]).for_each(|(o, s)| *o = s.to_f32()),
+            FlatSamples::U32(v) => row.iter_mut().zip(&v[src..src + width]).for_each(|(o, &s)| *o = s as f32),
+        }
     }
     out
+}
+
+/// [`place`] of samples taken out of the file: float samples whose data window is the display
+/// window are moved, not copied (a stack's layers then hold the only copy of their pixels).
+fn place_owned(samples: FlatSamples, data: Window, display: Window, outside: f32) -> Vec<f32> {
+    match samples {
+        FlatSamples::F32(values) if data == display => values,
+        samples => place(&samples, data, display, outside),
+    }
+}
+
+/// Takes the samples of channel `name` out of `part` (leaving it empty) and places them on
+/// the display window; refuses a channel that is absent or was already taken.
+fn take_channel(path: &Path, part: &mut ExrPart, name: &str, display: Window, outside: f32) -> Result<Vec<f32>> {
+    let data = part_window(part);
+    let channel = part.channel_data.list.iter_mut().find(|c| c.name.to_string() == name);
+    let vanished = || Error::input(path, format!("channel '{name}' vanished"));
+    let channel = channel.ok_or_else(vanished)?;
+    let samples = std::mem::replace(&mut channel.sample_data, FlatSamples::F32(Vec::new()));
+    if samples.len() != data.width * data.height {
+        return Err(vanished());
+    }
+    Ok(place_owned(samples, data, display, outside))
 }
 
 /// Refuses NaN/Inf samples in colour or alpha (they would poison every blurred neighbour),
@@ -412,9 +457,12 @@ fn check_finite(path: &Path, layer: &str, channel: &str, values: &mut [f32], rep
     Ok(Some(format!("{}: layer '{layer}' channel '{channel}': replaced {bad} NaN/Inf sample(s) by 0", path.display())))
 }
 
+/// Builds one layer from its channels, taking their samples out of `part`: alpha and depth
+/// first (disparity needs both), then colour one channel at a time, each dropped once it is
+/// interleaved, so converting a layer never holds a second copy of it.
 fn build_layer(
     path: &Path,
-    part: &ExrPart,
+    part: &mut ExrPart,
     candidate: &Candidate,
     display: Window,
     options: &ReadOptions,
@@ -428,40 +476,40 @@ fn build_layer(
         ));
     }
     let ch = &candidate.group.channels;
-    let replaced = std::cell::RefCell::new(Vec::new());
-    let fetch = |name: &Option<String>, outside: f32, finite: bool| -> Result<Option<Vec<f32>>> {
-        let Some(name) = name else { return Ok(None) };
-        let channel =
-            find_channel(part, name).ok_or_else(|| Error::input(path, format!("channel '{name}' vanished")))?;
-        let mut values = place(&channel.sample_data, data, display, outside);
-        if finite {
-            let warning = check_finite(path, &candidate.name, name, &mut values, options.replace_nonfinite)?;
-            replaced.borrow_mut().extend(warning);
-        }
-        Ok(Some(values))
-    };
     let missing = || Error::input(path, missing_message(candidate).unwrap_or_default());
-    let red = fetch(&ch.red, 0.0, true)?.ok_or_else(missing)?;
-    let green = fetch(&ch.green, 0.0, true)?.ok_or_else(missing)?;
-    let blue = fetch(&ch.blue, 0.0, true)?.ok_or_else(missing)?;
-    let depth = fetch(&ch.depth, f32::INFINITY, false)?.ok_or_else(missing)?;
+    let [Some(red), Some(green), Some(blue), Some(depth_name)] = [&ch.red, &ch.green, &ch.blue, &ch.depth] else {
+        return Err(missing());
+    };
+    let mut replaced = Vec::new();
     // No alpha channel: opaque inside the data window, transparent outside.
-    let alpha = match fetch(&ch.alpha, 0.0, true)? {
-        Some(a) => a,
+    let alpha = match &ch.alpha {
+        Some(name) => {
+            let mut alpha = take_channel(path, part, name, display, 0.0)?;
+            replaced.push(check_finite(path, &candidate.name, name, &mut alpha, options.replace_nonfinite)?);
+            alpha
+        }
         None => place(&FlatSamples::F32(vec![1.0; data.width * data.height]), data, display, 0.0),
     };
-    let pixels: Vec<[f32; 4]> = (0..red.len()).map(|i| [red[i], green[i], blue[i], alpha[i]]).collect();
-    let rgba = Image { width: display.width, height: display.height, pixels };
-    warnings.extend(replaced.into_inner());
-    let depth_channel = ch.depth.as_deref().unwrap_or("Z");
+    let depth = take_channel(path, part, depth_name, display, f32::INFINITY)?;
     let (disparity, stored_depth_range, depth_weights) = depth_to_disparity(
         path,
-        (&candidate.name, depth_channel),
+        (&candidate.name, depth_name),
         (display.width, display.height),
         &depth,
         &alpha,
         options.depth_kind,
     )?;
+    drop(depth);
+    let mut pixels: Vec<[f32; 4]> = alpha.iter().map(|&a| [0.0, 0.0, 0.0, a]).collect();
+    drop(alpha);
+    for (c, name) in [red, green, blue].into_iter().enumerate() {
+        let mut values = take_channel(path, part, name, display, 0.0)?;
+        // Colour first in the warnings, as the channels are listed.
+        replaced.insert(c, check_finite(path, &candidate.name, name, &mut values, options.replace_nonfinite)?);
+        pixels.iter_mut().zip(values).for_each(|(p, v)| p[c] = v);
+    }
+    warnings.extend(replaced.into_iter().flatten());
+    let rgba = Image { width: display.width, height: display.height, pixels };
     let layer = Layer { name: candidate.name.clone(), rgba, disparity };
     let disparity_range =
         layer.disparity.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &d| (lo.min(d), hi.max(d)));
@@ -616,4 +664,41 @@ fn camera_attributes(meta: &MetaData) -> BTreeMap<String, String> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use exr::prelude::f16;
+
+    /// Per-pixel definition of placing: display pixel (x, y) takes data sample (x - dx, y - dy)
+    /// where that lies inside the data window, `outside` elsewhere.
+    fn placed_by_definition(values: &[f32], data: Window, display: Window, outside: f32) -> Vec<f32> {
+        let mut out = Vec::new();
+        for y in display.y..display.y + display.height as i32 {
+            for x in display.x..display.x + display.width as i32 {
+                let (col, row) = (x - data.x, y - data.y);
+                let inside = (0..data.width as i32).contains(&col) && (0..data.height as i32).contains(&row);
+                out.push(if inside { values[row as usize * data.width + col as usize] } else { outside });
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn placing_clips_data_windows_that_overhang_or_miss_the_display_window() {
+        let display = Window { x: -2, y: 1, width: 7, height: 5 };
+        let values: Vec<f32> = (0..40).map(|i| i as f32 * 0.5).collect();
+        // Inside, overhanging each side, covering it whole, and entirely outside.
+        for (x, y, width, height) in [(0, 2, 4, 3), (-4, -1, 6, 4), (3, 4, 6, 4), (-3, 0, 8, 3), (9, 1, 4, 6)] {
+            let data = Window { x, y, width, height };
+            let values = &values[..width * height];
+            let want = placed_by_definition(values, data, display, -1.0);
+            assert_eq!(place(&FlatSamples::F32(values.to_vec()), data, display, -1.0), want, "{data:?}");
+            let halves = FlatSamples::F16(values.iter().map(|&v| f16::from_f32(v)).collect());
+            assert_eq!(place(&halves, data, display, -1.0), want, "{data:?} as half (exact: multiples of 0.5)");
+        }
+        let same: Vec<f32> = values[..35].to_vec();
+        assert_eq!(place_owned(FlatSamples::F32(same.clone()), display, display, -1.0), same, "moved as is");
+    }
 }

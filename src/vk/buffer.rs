@@ -77,7 +77,8 @@ impl Buffer {
         // SAFETY: a live allocation of this device; read before it moves into the handle.
         let (memory, offset) = unsafe { (allocation.memory(), allocation.offset()) };
         // From here on, dropping `inner` frees the memory and destroys the buffer.
-        let inner = BufferInner { device: device.clone(), raw, allocation: Some(allocation), size, name: name.to_string() };
+        let inner =
+            BufferInner { device: device.clone(), raw, allocation: Some(allocation), size, name: name.to_string() };
         // SAFETY: the allocation satisfies the buffer's requirements and is bound exactly once.
         unsafe { device.raw.bind_buffer_memory(raw, memory, offset) }.call("vkBindBufferMemory")?;
         device.set_name(raw, name);
@@ -99,6 +100,61 @@ impl Buffer {
         let buffer = Self::create(ctx, name, bytes.len() as u64, MemoryLocation::GpuOnly)?;
         buffer.write(ctx, bytes)?;
         Ok(buffer)
+    }
+
+    /// A device-local buffer of `size` bytes, zero-filled by a command recorded into `batch`:
+    /// zero for every later command of the batch, without a submission of its own.
+    pub fn zeroed_in(ctx: &Context, batch: &mut CommandBatch, name: &str, size: u64) -> Result<Self> {
+        let buffer = Self::create(ctx, name, size, MemoryLocation::GpuOnly)?;
+        batch.fill_zero(&buffer)?;
+        Ok(buffer)
+    }
+
+    /// A device-local buffer holding the items of `data` (exactly `len` of them), written
+    /// straight into host-visible memory, else through a staging buffer whose copy is recorded
+    /// into `batch` (which keeps the staging alive until its fence). No submission of its own,
+    /// and no host copy of the data beside the mapping.
+    pub fn from_iter_in<T: bytemuck::Pod>(
+        ctx: &Context,
+        batch: &mut CommandBatch,
+        name: &str,
+        len: usize,
+        data: impl IntoIterator<Item = T>,
+    ) -> Result<Self> {
+        let bytes = (len * std::mem::size_of::<T>()) as u64;
+        let buffer = Self::create(ctx, name, bytes, MemoryLocation::GpuOnly)?;
+        let staging = match buffer.mapped() {
+            Some(_) => None,
+            None => Some(Self::create(ctx, "staging upload", bytes, MemoryLocation::CpuToGpu)?),
+        };
+        let target = staging.as_ref().unwrap_or(&buffer);
+        let ptr = target.mapped().ok_or_else(|| Error::param("staging memory is not host-visible"))?;
+        let mut written = 0;
+        for item in data.into_iter().take(len) {
+            // SAFETY: the mapping holds `len` items of T (`bytes` bytes, checked by `take`), is
+            // not in use by the GPU (just created), and `write_unaligned` needs no alignment.
+            unsafe { ptr.cast::<T>().add(written).write_unaligned(item) };
+            written += 1;
+        }
+        if written != len {
+            return Err(Error::param(format!("buffer '{name}': {written} items given, {len} expected")));
+        }
+        if let Some(staging) = &staging {
+            batch.copy(staging, &buffer, bytes)?;
+        }
+        Ok(buffer)
+    }
+
+    /// A host-readable buffer that holds this buffer's contents once `batch` has been submitted
+    /// and waited for: this buffer itself where its memory is host-visible, else a staging copy
+    /// recorded into the batch. Read it with [`Buffer::read`] (a plain memory copy then).
+    pub fn readable_in(&self, ctx: &Context, batch: &mut CommandBatch) -> Result<Self> {
+        if self.mapped().is_some() {
+            return Ok(self.clone());
+        }
+        let staging = Self::create(ctx, "staging read-back", self.size(), MemoryLocation::GpuToCpu)?;
+        batch.copy(self, &staging, self.size())?;
+        Ok(staging)
     }
 
     /// Size in bytes.
@@ -173,7 +229,12 @@ impl Buffer {
 
     fn check_len(&self, len: usize) -> Result<()> {
         if len as u64 > self.size() {
-            return Err(Error::param(format!("{} bytes do not fit buffer '{}' of {} bytes", len, self.name(), self.size())));
+            return Err(Error::param(format!(
+                "{} bytes do not fit buffer '{}' of {} bytes",
+                len,
+                self.name(),
+                self.size()
+            )));
         }
         Ok(())
     }

@@ -1,7 +1,8 @@
 //! Command recording and submission. A [`CommandBatch`] records dispatches and copies into one
 //! command buffer, submits it with a fence, and keeps every buffer, pipeline and descriptor
 //! pool it used alive until that fence has signalled. Reusable: after `submit_and_wait` it is
-//! reset (command pool and descriptor pools) and records the next batch.
+//! reset (command pool and descriptor pools) and records the next batch. Descriptor pools are
+//! kept across batches (reset, not destroyed), so a loop of similar batches creates them once.
 use std::sync::Arc;
 
 use ash::vk;
@@ -22,9 +23,11 @@ pub struct CommandBatch {
     command_pool: vk::CommandPool,
     command_buffer: vk::CommandBuffer,
     fence: vk::Fence,
+    /// Every pool this batch has created; those before `current_pool` are full.
     descriptor_pools: Vec<vk::DescriptorPool>,
-    /// Sets handed out from the last pool of `descriptor_pools`.
-    sets_in_last_pool: u32,
+    current_pool: usize,
+    /// Sets handed out from `descriptor_pools[current_pool]`.
+    sets_in_current_pool: u32,
     timestamps: Option<vk::QueryPool>,
     last_device_time_ns: Option<f64>,
     in_use_buffers: Vec<Buffer>,
@@ -47,7 +50,8 @@ impl CommandBatch {
             command_buffer: vk::CommandBuffer::null(),
             fence: vk::Fence::null(),
             descriptor_pools: Vec::new(),
-            sets_in_last_pool: SETS_PER_POOL,
+            current_pool: 0,
+            sets_in_current_pool: 0,
             timestamps: None,
             last_device_time_ns: None,
             in_use_buffers: Vec::new(),
@@ -115,7 +119,11 @@ impl CommandBatch {
     }
 
     fn allocate_set(&mut self, pipeline: &ComputePipeline) -> Result<vk::DescriptorSet> {
-        if self.sets_in_last_pool >= SETS_PER_POOL {
+        if self.sets_in_current_pool >= SETS_PER_POOL {
+            self.current_pool += 1;
+            self.sets_in_current_pool = 0;
+        }
+        if self.current_pool == self.descriptor_pools.len() {
             let sizes = [vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::STORAGE_BUFFER)
                 .descriptor_count(SETS_PER_POOL * BUFFERS_PER_SET)];
@@ -123,14 +131,13 @@ impl CommandBatch {
             // SAFETY: valid create info; destroyed in `Drop`.
             let pool = unsafe { self.device.raw.create_descriptor_pool(&info, None) }.call("vkCreateDescriptorPool")?;
             self.descriptor_pools.push(pool);
-            self.sets_in_last_pool = 0;
         }
         let layouts = [pipeline.0.set_layout];
-        let pool = *self.descriptor_pools.last().expect("a pool was just ensured");
+        let pool = self.descriptor_pools[self.current_pool];
         let info = vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&layouts);
         // SAFETY: the pool has room for one more set of at most BUFFERS_PER_SET buffers.
         let set = unsafe { self.device.raw.allocate_descriptor_sets(&info) }.call("vkAllocateDescriptorSets")?[0];
-        self.sets_in_last_pool += 1;
+        self.sets_in_current_pool += 1;
         Ok(set)
     }
 
@@ -145,10 +152,18 @@ impl CommandBatch {
     ) -> Result<()> {
         let name = pipeline.shader().name;
         if bindings.len() != pipeline.0.bindings as usize || bindings.len() > BUFFERS_PER_SET as usize {
-            return Err(Error::param(format!("{name}: {} buffers bound, pipeline declares {}", bindings.len(), pipeline.0.bindings)));
+            return Err(Error::param(format!(
+                "{name}: {} buffers bound, pipeline declares {}",
+                bindings.len(),
+                pipeline.0.bindings
+            )));
         }
         if std::mem::size_of::<P>() != pipeline.0.push_size as usize {
-            return Err(Error::param(format!("{name}: push constants of {} bytes, pipeline declares {}", std::mem::size_of::<P>(), pipeline.0.push_size)));
+            return Err(Error::param(format!(
+                "{name}: push constants of {} bytes, pipeline declares {}",
+                std::mem::size_of::<P>(),
+                pipeline.0.push_size
+            )));
         }
         let limits = &self.device.info;
         let max_range = u64::from(limits.max_storage_buffer_range);
@@ -161,7 +176,10 @@ impl CommandBatch {
             }
         }
         if (0..3).any(|i| groups[i] > limits.max_workgroup_count[i]) {
-            return Err(Error::param(format!("{name}: {groups:?} workgroups exceed the device limit {:?}", limits.max_workgroup_count)));
+            return Err(Error::param(format!(
+                "{name}: {groups:?} workgroups exceed the device limit {:?}",
+                limits.max_workgroup_count
+            )));
         }
         self.begin_if_needed()?;
         let set = self.allocate_set(pipeline)?;
@@ -186,9 +204,22 @@ impl CommandBatch {
         unsafe {
             self.device.raw.update_descriptor_sets(&writes, &[]);
             self.device.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline.0.raw);
-            self.device.raw.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, pipeline.0.layout, 0, &[set], &[]);
+            self.device.raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                pipeline.0.layout,
+                0,
+                &[set],
+                &[],
+            );
             if pipeline.0.push_size > 0 {
-                self.device.raw.cmd_push_constants(cmd, pipeline.0.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(push));
+                self.device.raw.cmd_push_constants(
+                    cmd,
+                    pipeline.0.layout,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    bytemuck::bytes_of(push),
+                );
             }
             self.device.raw.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
         }
@@ -202,7 +233,11 @@ impl CommandBatch {
     /// Records a copy of the first `bytes` bytes of `src` into `dst`, followed by a barrier.
     pub fn copy(&mut self, src: &Buffer, dst: &Buffer, bytes: u64) -> Result<()> {
         if bytes > src.size() || bytes > dst.size() {
-            return Err(Error::param(format!("copy of {bytes} bytes from '{}' to '{}' out of bounds", src.name(), dst.name())));
+            return Err(Error::param(format!(
+                "copy of {bytes} bytes from '{}' to '{}' out of bounds",
+                src.name(),
+                dst.name()
+            )));
         }
         self.begin_if_needed()?;
         let region = vk::BufferCopy::default().size(bytes);
@@ -223,6 +258,11 @@ impl CommandBatch {
         self.in_use_buffers.push(buffer.clone());
         self.commands += 1;
         Ok(())
+    }
+
+    /// Descriptor pools this batch holds (created as batches needed them, kept across resets).
+    pub fn descriptor_pool_count(&self) -> usize {
+        self.descriptor_pools.len()
     }
 
     /// Commands recorded since the last submission.
@@ -283,18 +323,17 @@ impl CommandBatch {
                 .raw
                 .reset_command_pool(self.command_pool, vk::CommandPoolResetFlags::empty())
                 .call("vkResetCommandPool")?;
-            for &pool in &self.descriptor_pools {
-                self.device.raw.reset_descriptor_pool(pool, vk::DescriptorPoolResetFlags::empty()).call("vkResetDescriptorPool")?;
+            // Only the pools this batch used hold sets; later ones are still empty.
+            for &pool in &self.descriptor_pools[..self.descriptor_pools.len().min(self.current_pool + 1)] {
+                self.device
+                    .raw
+                    .reset_descriptor_pool(pool, vk::DescriptorPoolResetFlags::empty())
+                    .call("vkResetDescriptorPool")?;
             }
         }
-        // Keep the first pool for the next batch; extra ones were for an unusually big batch.
-        if self.descriptor_pools.len() > 1 {
-            for pool in self.descriptor_pools.drain(1..) {
-                // SAFETY: reset above and no longer referenced by any pending work.
-                unsafe { self.device.raw.destroy_descriptor_pool(pool, None) };
-            }
-        }
-        self.sets_in_last_pool = if self.descriptor_pools.is_empty() { SETS_PER_POOL } else { 0 };
+        // Every pool is kept for the next batch: a loop of similar batches creates them once.
+        self.current_pool = 0;
+        self.sets_in_current_pool = 0;
         self.in_use_buffers.clear();
         self.in_use_pipelines.clear();
         self.commands = 0;

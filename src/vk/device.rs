@@ -51,6 +51,8 @@ pub struct DeviceInfo {
     pub api_version: String,
     pub device_local_bytes: u64,
     pub max_allocation_bytes: u64,
+    /// VK_EXT_memory_budget is supported: [`Context::memory_budget`] reads the driver's budget.
+    pub memory_budget_extension: bool,
     pub max_workgroup_invocations: u32,
     pub max_workgroup_size: [u32; 3],
     pub max_workgroup_count: [u32; 3],
@@ -60,6 +62,15 @@ pub struct DeviceInfo {
     pub has_compute_queue: bool,
     /// Nanoseconds per timestamp tick, if the compute queue supports timestamps.
     pub timestamp_period_ns: Option<f32>,
+}
+
+/// Device memory available to this process, as [`Context::memory_budget`] measures it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct MemoryBudget {
+    /// Bytes of the largest device-local heap this process may still allocate.
+    pub available_bytes: u64,
+    /// From VK_EXT_memory_budget (budget minus usage); false: the heap's whole size.
+    pub from_driver: bool,
 }
 
 fn kind_rank(kind: vk::PhysicalDeviceType) -> u32 {
@@ -92,6 +103,20 @@ fn compute_queue_family(instance: &Instance, device: vk::PhysicalDevice) -> Opti
         .map(|(i, f)| (i as u32, f.timestamp_valid_bits))
 }
 
+/// The index of the largest device-local heap (where device buffers live).
+fn device_local_heap(memory: &vk::PhysicalDeviceMemoryProperties) -> Option<usize> {
+    let heaps = &memory.memory_heaps[..memory.memory_heap_count as usize];
+    (0..heaps.len())
+        .filter(|&i| heaps[i].flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+        .max_by_key(|&i| heaps[i].size)
+}
+
+fn supports_memory_budget(instance: &Instance, device: vk::PhysicalDevice) -> bool {
+    // SAFETY: `device` was enumerated from this live instance.
+    let extensions = unsafe { instance.raw.enumerate_device_extension_properties(device) }.unwrap_or_default();
+    extensions.iter().any(|e| e.extension_name_as_c_str() == Ok(ash::ext::memory_budget::NAME))
+}
+
 fn describe(instance: &Instance, index: usize, device: vk::PhysicalDevice) -> DeviceInfo {
     let mut driver = vk::PhysicalDeviceDriverProperties::default();
     let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
@@ -105,9 +130,7 @@ fn describe(instance: &Instance, index: usize, device: vk::PhysicalDevice) -> De
     // SAFETY: as above.
     unsafe { instance.raw.get_physical_device_properties2(device, &mut props2b) };
     let limits = props.limits;
-    let heaps = &memory.memory_heaps[..memory.memory_heap_count as usize];
-    let device_local_bytes =
-        heaps.iter().filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL)).map(|h| h.size).max().unwrap_or(0);
+    let device_local_bytes = device_local_heap(&memory).map_or(0, |i| memory.memory_heaps[i].size);
     let queue = compute_queue_family(instance, device);
     let text = |s: Result<&std::ffi::CStr, std::ffi::FromBytesUntilNulError>| {
         s.map(|c| c.to_string_lossy().into_owned()).unwrap_or_default()
@@ -117,10 +140,13 @@ fn describe(instance: &Instance, index: usize, device: vk::PhysicalDevice) -> De
         index,
         name: text(props.device_name_as_c_str()),
         kind: kind_name(props.device_type).to_string(),
-        driver: format!("{} {}", text(driver.driver_name_as_c_str()), text(driver.driver_info_as_c_str())).trim().to_string(),
+        driver: format!("{} {}", text(driver.driver_name_as_c_str()), text(driver.driver_info_as_c_str()))
+            .trim()
+            .to_string(),
         api_version: format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v)),
         device_local_bytes,
         max_allocation_bytes: maintenance3.max_memory_allocation_size,
+        memory_budget_extension: supports_memory_budget(instance, device),
         max_workgroup_invocations: limits.max_compute_work_group_invocations,
         max_workgroup_size: limits.max_compute_work_group_size,
         max_workgroup_count: limits.max_compute_work_group_count,
@@ -135,7 +161,12 @@ fn describe(instance: &Instance, index: usize, device: vk::PhysicalDevice) -> De
 }
 
 /// Picks the device index to use: the override if given, else the best-ranked with compute.
-fn choose(instance: &Instance, devices: &[vk::PhysicalDevice], infos: &[DeviceInfo], wanted: Option<&str>) -> Result<usize> {
+fn choose(
+    instance: &Instance,
+    devices: &[vk::PhysicalDevice],
+    infos: &[DeviceInfo],
+    wanted: Option<&str>,
+) -> Result<usize> {
     let usable: Vec<usize> = (0..infos.len()).filter(|&i| infos[i].has_compute_queue).collect();
     if let Some(wanted) = wanted {
         let found = match wanted.trim().parse::<usize>() {
@@ -147,7 +178,10 @@ fn choose(instance: &Instance, devices: &[vk::PhysicalDevice], infos: &[DeviceIn
         };
         let list: Vec<String> = infos.iter().map(|d| format!("{}: {}", d.index, d.name)).collect();
         return found.ok_or_else(|| {
-            Error::NoVulkan(format!("LENSBLUR_DEVICE={wanted} matches no Vulkan device with compute; devices: [{}]", list.join(", ")))
+            Error::NoVulkan(format!(
+                "LENSBLUR_DEVICE={wanted} matches no Vulkan device with compute; devices: [{}]",
+                list.join(", ")
+            ))
         });
     }
     usable
@@ -157,7 +191,11 @@ fn choose(instance: &Instance, devices: &[vk::PhysicalDevice], infos: &[DeviceIn
             let props = unsafe { instance.raw.get_physical_device_properties(devices[i]) };
             (kind_rank(props.device_type), i)
         })
-        .ok_or_else(|| Error::NoVulkan("no Vulkan device with a compute queue was found (install mesa-vulkan-drivers for lavapipe)".into()))
+        .ok_or_else(|| {
+            Error::NoVulkan(
+                "no Vulkan device with a compute queue was found (install mesa-vulkan-drivers for lavapipe)".into(),
+            )
+        })
 }
 
 /// Lists every Vulkan device, and the index the options would choose (if any).
@@ -175,6 +213,7 @@ pub(crate) struct Device {
     pub(crate) raw: ash::Device,
     debug_utils: Option<ash::ext::debug_utils::Device>,
     queue: Mutex<vk::Queue>,
+    physical: vk::PhysicalDevice,
     pub(crate) pipeline_cache: PipelineCache,
     pub(crate) queue_family: u32,
     pub(crate) info: DeviceInfo,
@@ -234,8 +273,11 @@ impl Context {
         let physical = devices[index];
         let (queue_family, _) = compute_queue_family(&instance, physical).expect("chosen devices have a compute queue");
         let priorities = [1.0f32];
-        let queues = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
-        let info = vk::DeviceCreateInfo::default().queue_create_infos(&queues);
+        let queues =
+            [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let extensions = [ash::ext::memory_budget::NAME.as_ptr()];
+        let enabled = if infos[index].memory_budget_extension { &extensions[..] } else { &[] };
+        let info = vk::DeviceCreateInfo::default().queue_create_infos(&queues).enabled_extension_names(enabled);
         // SAFETY: `physical` belongs to `instance`; `info` points to locals that outlive the call.
         let raw = unsafe { instance.raw.create_device(physical, &info, None) }.call("vkCreateDevice")?;
         // SAFETY: the family was requested with one queue above.
@@ -268,12 +310,14 @@ impl Context {
                 return Err(e.into());
             }
         };
-        let debug_utils = instance.validation_enabled().then(|| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
+        let debug_utils =
+            instance.validation_enabled().then(|| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
         let device = Device {
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             raw,
             debug_utils,
             queue: Mutex::new(queue),
+            physical,
             pipeline_cache,
             queue_family,
             info: infos[index].clone(),
@@ -308,6 +352,31 @@ impl Context {
         self.check_validation()?;
         drop(self);
         super::validation::check_unreported()
+    }
+
+    /// Device memory this process may still allocate on the largest device-local heap: the
+    /// driver's budget minus the heap's current usage where VK_EXT_memory_budget is supported
+    /// (both change as this and other processes allocate, so this asks now), else the heap's
+    /// size, which other processes may already be using.
+    pub fn memory_budget(&self) -> MemoryBudget {
+        let device = &self.device;
+        let mut budget = vk::PhysicalDeviceMemoryBudgetPropertiesEXT::default();
+        let mut properties = vk::PhysicalDeviceMemoryProperties2::default();
+        if device.info.memory_budget_extension {
+            properties = properties.push_next(&mut budget);
+        }
+        // SAFETY: the physical device belongs to this live instance; the chained struct (only
+        // when the extension is supported and enabled) outlives the call.
+        unsafe { device.instance.raw.get_physical_device_memory_properties2(device.physical, &mut properties) };
+        let memory = properties.memory_properties;
+        let Some(heap) = device_local_heap(&memory) else {
+            return MemoryBudget { available_bytes: 0, from_driver: false };
+        };
+        if device.info.memory_budget_extension && budget.heap_budget[heap] > 0 {
+            let available_bytes = budget.heap_budget[heap].saturating_sub(budget.heap_usage[heap]);
+            return MemoryBudget { available_bytes, from_driver: true };
+        }
+        MemoryBudget { available_bytes: memory.memory_heaps[heap].size, from_driver: false }
     }
 
     /// The file compiled pipelines are loaded from and saved to, if any.

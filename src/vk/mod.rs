@@ -29,5 +29,5 @@ pub mod validation;
 
 pub use buffer::{Binding, Buffer};
 pub use command::CommandBatch;
-pub use device::{list_devices, Context, ContextOptions, DeviceInfo};
+pub use device::{list_devices, Context, ContextOptions, DeviceInfo, MemoryBudget};
 pub use pipeline::ComputePipeline;

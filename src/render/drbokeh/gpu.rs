@@ -1,10 +1,11 @@
 //! GPU host code of the Dr.Bokeh forward renderer. The frame is cut into tiles: each uploads
-//! its core plus the halo its search windows reach, runs the layer passes and the composite of
-//! `glsl/drbokeh_*.comp` in one submission, and reads its core back. Every pixel reads the same
-//! sources in the same order whatever the tiling, so the output is bit-identical for every
-//! tile size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
+//! its core plus the halo its search windows reach, records the layer passes and the composite
+//! of `glsl/drbokeh_*.comp`, and reads its core back; several tiles share one submission
+//! ([`super::tiled`]). Every pixel reads the same sources in the same order whatever the
+//! tiling, so the output is bit-identical for every tile size and batch size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
 //! lens, area table, push constants) and the search windows are shared with it.
 use super::bounds::{interior_bounds, search_windows};
+use super::tiled::{frame_cores, run_batches, run_tiled, Footprint, TilePlan};
 use super::{Model, Params, TILE};
 use crate::image::Image;
 use crate::render::Lens;
@@ -51,11 +52,20 @@ pub enum LayerKernel {
 /// How to cut and report a render.
 #[derive(Clone, Copy, Default)]
 pub struct RenderOptions<'a> {
-    /// Frame tile side in pixels (rounded up to a multiple of 16); `None` picks the largest
-    /// that fits the device's buffer range and a quarter of its memory.
+    /// Frame tile side in pixels (rounded up to a multiple of 16); `None`: the whole frame if
+    /// it fits the device's buffer range and memory budget, else the largest tile of which two
+    /// fit together ([`tiled`](super::tiled)).
     pub tile: Option<usize>,
+    /// Tiles recorded into one submission; `None`: as many as fit the memory budget together
+    /// (at most 8).
+    pub tiles_per_batch: Option<usize>,
     /// Called after each finished tile with (tiles done, tiles in all).
     pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
+    /// Testing aid, not a user setting: device memory (bytes over what the device held when
+    /// the frame began) past which a tile's allocations count as out of device memory, so the
+    /// smaller-tile retry runs on any device. `None` in every real render.
+    #[doc(hidden)]
+    pub device_memory_limit: Option<u64>,
 }
 
 /// What one render measured.
@@ -66,6 +76,8 @@ pub struct RenderStats {
     /// Frame tiles rendered and their side (after any out-of-memory retries).
     pub tiles: usize,
     pub tile_size: usize,
+    /// Tiles recorded into one submission.
+    pub tiles_per_batch: usize,
     /// Most device memory this renderer's buffers held at once.
     pub peak_device_bytes: u64,
     /// Source pixels gathered (sum over layers and pixels of the window area): the work.
@@ -125,44 +137,38 @@ impl DrBokehGpu {
                 total: layers * (read * READ_BYTES_PER_PIXEL + core * CORE_BYTES_PER_PIXEL) + core * VEC4,
             }
         };
-        run_tiled(&self.ctx, &params, options, footprint, |tile| self.render_tiles(stack, &params, &windows, tile, options))
+        let interior = self.kernel != LayerKernel::OptimisedNoInterior;
+        let frame = ForwardFrame::new(&self.ctx, stack, &params, &windows, interior)?;
+        run_tiled(&self.ctx, &params, options, footprint, |plan| self.render_tiles(&frame, plan, options))
     }
 
+    /// One attempt at the frame: its tiles in batches of `plan.tiles_per_batch`, each tile's
+    /// core read back into the image once its batch has run.
     fn render_tiles(
         &self,
-        stack: &LayerStack,
-        params: &Params,
-        windows: &[i32],
-        tile: usize,
+        frame: &ForwardFrame,
+        plan: TilePlan,
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
-        let ctx = &self.ctx;
-        let baseline = ctx.allocated_bytes();
-        let cores = frame_cores(params.width, params.height, tile);
+        let (ctx, params) = (&self.ctx, frame.params);
+        let cores = frame_cores(params.width, params.height, plan.tile);
         let mut image = Image::new(params.width, params.height);
-        let mut stats = RenderStats { tiles: cores.len(), tile_size: tile, ..RenderStats::default() };
-        let mut device_ns = Some(0.0);
-        for (done, &core) in cores.iter().enumerate() {
-            let read = core.grown(halo(params, windows, core), params.width, params.height);
-            let interior = self.kernel != LayerKernel::OptimisedNoInterior;
-            let buffers = ForwardBuffers::with_interior(ctx, stack, params, windows, core, read, interior)?;
-            stats.peak_device_bytes = stats.peak_device_bytes.max(ctx.allocated_bytes().saturating_sub(baseline));
-            let mut batch = CommandBatch::new(ctx)?;
-            self.record(&mut batch, params, &buffers)?;
-            batch.submit_and_wait()?;
-            device_ns = device_ns.zip(batch.last_device_time_ns()).map(|(a, b)| a + b);
-            let result: Vec<[f32; 4]> = buffers.result.read(ctx)?;
-            stats.taps += taps(params, windows, core);
-            for y in 0..core.height() {
-                let row = &result[y * core.width()..(y + 1) * core.width()];
+        let record = |batch: &mut CommandBatch, core: Rect| {
+            let read = core.grown(halo(params, frame.windows, core), params.width, params.height);
+            let buffers = ForwardBuffers::new(ctx, batch, frame, core, read)?;
+            self.record(batch, params, &buffers)?;
+            buffers.result.readable_in(ctx, batch)
+        };
+        let collect = |core: Rect, result: Buffer| {
+            let result: Vec<[f32; 4]> = result.read(ctx)?;
+            for (y, row) in result.chunks_exact(core.width()).take(core.height()).enumerate() {
                 let start = (core.y0 + y) * params.width + core.x0;
                 image.pixels[start..start + core.width()].copy_from_slice(row);
             }
-            if let Some(progress) = options.progress {
-                progress(done + 1, cores.len());
-            }
-        }
-        stats.device_ns = device_ns;
+            Ok(())
+        };
+        let mut stats = run_batches(ctx, &cores, plan, options, record, collect)?;
+        stats.taps = cores.iter().map(|&core| taps(params, frame.windows, core)).sum();
         Ok((image, stats))
     }
 
@@ -173,7 +179,8 @@ impl DrBokehGpu {
         // A layer workgroup covers one 16x16 search tile: the optimised kernels write a run of
         // TILE / local_size_x adjacent pixels per invocation.
         let per_invocation = TILE as u32 / self.layer.shader().local_size[0];
-        let layer_groups = self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
+        let layer_groups =
+            self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
         let (layer_pipeline, disk) = match &self.layer_disk {
             Some(disk) if disk_path(params) => (disk, true),
             _ => (&self.layer, false),
@@ -246,43 +253,77 @@ pub(crate) struct ForwardBuffers {
 }
 
 impl ForwardBuffers {
-    pub fn new(ctx: &Context, stack: &LayerStack, params: &Params, windows: &[i32], core: Rect, read: Rect) -> Result<Self> {
-        Self::with_interior(ctx, stack, params, windows, core, read, true)
-    }
-
-    /// `interior = false` uploads bounds of 0: every disk-path tap is then evaluated in full.
-    pub fn with_interior(
-        ctx: &Context,
-        stack: &LayerStack,
-        params: &Params,
-        windows: &[i32],
-        core: Rect,
-        read: Rect,
-        interior: bool,
-    ) -> Result<Self> {
-        let tile_interior = if interior { interior_bounds(params, stack, windows, core) } else { vec![0.0; windows.len()] };
+    /// Allocates a tile's buffers, uploads its `read` rect and records their zero fills into
+    /// `batch`; the frame's tables are shared, not copied.
+    pub fn new(ctx: &Context, batch: &mut CommandBatch, frame: &ForwardFrame, core: Rect, read: Rect) -> Result<Self> {
+        let (stack, params) = (frame.stack, frame.params);
+        let tile_interior = match frame.interior {
+            true => interior_bounds(params, stack, frame.windows, core),
+            false => vec![0.0; frame.windows.len()],
+        };
         let layers = params.layer_count as u64;
         let core_pixels = core.area() as u64;
         let read_pixels = read.area() as u64;
-        let rgba: Vec<[f32; 4]> = stack.layers.iter().flat_map(|l| crop(&l.rgba.pixels, params.width, read)).collect();
-        let disparity: Vec<f32> = stack.layers.iter().flat_map(|l| crop(&l.disparity, params.width, read)).collect();
+        let read_n = params.layer_count * read.area();
+        let rgba = stack.layers.iter().flat_map(|l| crop(&l.rgba.pixels, params.width, read));
+        let disparity = stack.layers.iter().flat_map(|l| crop(&l.disparity, params.width, read));
+        let mut zeroed = |name: &str, bytes: u64| Buffer::zeroed_in(ctx, batch, name, bytes);
         Ok(Self {
             core,
             read,
-            rgba: Buffer::from_slice(ctx, "drbokeh rgba", &rgba)?,
-            disparity: Buffer::from_slice(ctx, "drbokeh disparity", &disparity)?,
+            layer_cw: zeroed("drbokeh layer_cw", layers * core_pixels * VEC4)?,
+            layer_vis: zeroed("drbokeh layer_vis", layers * core_pixels * 4)?,
+            result: zeroed("drbokeh result", core_pixels * VEC4)?,
+            source_pa: zeroed("drbokeh source_pa", layers * read_pixels * VEC4)?,
+            source_sa: zeroed("drbokeh source_sa", layers * read_pixels * 8)?,
+            block_prefix: zeroed("drbokeh block_prefix", layers * read_pixels * VEC4)?,
+            block_suffix: zeroed("drbokeh block_suffix", layers * read_pixels * VEC4)?,
+            block_alpha: zeroed("drbokeh block_alpha", layers * read_pixels * 8)?,
+            rgba: Buffer::from_iter_in(ctx, batch, "drbokeh rgba", read_n, rgba)?,
+            disparity: Buffer::from_iter_in(ctx, batch, "drbokeh disparity", read_n, disparity)?,
+            tile_interior: Buffer::from_iter_in(
+                ctx,
+                batch,
+                "drbokeh tile_interior",
+                tile_interior.len(),
+                tile_interior,
+            )?,
+            tile_window: frame.tile_window.clone(),
+            area_lut: frame.area_lut.clone(),
+            kernel: frame.kernel.clone(),
+        })
+    }
+}
+
+/// What every tile of a frame shares: the inputs, the search windows, and the device tables
+/// every tile binds (uploaded once per frame).
+pub(crate) struct ForwardFrame<'a> {
+    pub stack: &'a LayerStack,
+    pub params: &'a Params,
+    pub windows: &'a [i32],
+    tile_window: Buffer,
+    area_lut: Buffer,
+    kernel: Buffer,
+    /// False: tiles upload interior bounds of 0 ([`LayerKernel::OptimisedNoInterior`]).
+    interior: bool,
+}
+
+impl<'a> ForwardFrame<'a> {
+    pub fn new(
+        ctx: &Context,
+        stack: &'a LayerStack,
+        params: &'a Params,
+        windows: &'a [i32],
+        interior: bool,
+    ) -> Result<Self> {
+        Ok(Self {
+            stack,
+            params,
+            windows,
             tile_window: Buffer::from_slice(ctx, "drbokeh tile_window", windows)?,
             area_lut: Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?,
             kernel: Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?,
-            layer_cw: Buffer::zeroed(ctx, "drbokeh layer_cw", layers * core_pixels * VEC4)?,
-            layer_vis: Buffer::zeroed(ctx, "drbokeh layer_vis", layers * core_pixels * 4)?,
-            result: Buffer::zeroed(ctx, "drbokeh result", core_pixels * VEC4)?,
-            source_pa: Buffer::zeroed(ctx, "drbokeh source_pa", layers * read_pixels * VEC4)?,
-            source_sa: Buffer::zeroed(ctx, "drbokeh source_sa", layers * read_pixels * 8)?,
-            tile_interior: Buffer::from_slice(ctx, "drbokeh tile_interior", &tile_interior)?,
-            block_prefix: Buffer::zeroed(ctx, "drbokeh block_prefix", layers * read_pixels * VEC4)?,
-            block_suffix: Buffer::zeroed(ctx, "drbokeh block_suffix", layers * read_pixels * VEC4)?,
-            block_alpha: Buffer::zeroed(ctx, "drbokeh block_alpha", layers * read_pixels * 8)?,
+            interior,
         })
     }
 }
@@ -292,73 +333,6 @@ impl ForwardBuffers {
 fn disk_path(params: &Params) -> bool {
     let [blades, _, _, kernel] = params.lens.aperture;
     params.model == Model::DrBokeh && blades < 3.0 && (kernel < 0.5 || params.lens.kernel_size == 0)
-}
-
-pub(crate) fn round_to_tile(pixels: usize) -> usize {
-    pixels.max(1).div_ceil(TILE) * TILE
-}
-
-/// Device bytes of one frame tile, assuming the worst halo everywhere.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Footprint {
-    /// The largest single buffer (bound as one storage buffer: at most the device's range).
-    pub largest_binding: u64,
-    /// All the tile's buffers together.
-    pub total: u64,
-}
-
-/// Runs `attempt` on tiles of the options' side, or else the largest whose `footprint` fits
-/// the device; while it runs out of device memory, again with tiles half as large. Shared by
-/// the forward and the backward, so both cut frames by the same policy.
-pub(crate) fn run_tiled<T>(
-    ctx: &Context,
-    params: &Params,
-    options: &RenderOptions,
-    footprint: impl Fn(usize) -> Footprint,
-    mut attempt: impl FnMut(usize) -> Result<T>,
-) -> Result<T> {
-    let mut tile = match options.tile {
-        Some(tile) => round_to_tile(tile),
-        None => auto_tile_size(ctx, params, footprint),
-    };
-    loop {
-        match attempt(tile) {
-            // Drivers report a budget they cannot always honour: retry with smaller tiles.
-            Err(error) if error.is_out_of_memory() && tile > TILE => {
-                log::warn!("out of device memory with {tile} px tiles; retrying with {} px", tile / 2);
-                tile = round_to_tile(tile / 2);
-            }
-            result => return result,
-        }
-    }
-}
-
-/// The largest tile (multiple of 16, at most the frame) whose buffers fit the device's
-/// storage-buffer range and a quarter of its memory.
-fn auto_tile_size(ctx: &Context, params: &Params, footprint: impl Fn(usize) -> Footprint) -> usize {
-    let info = ctx.info();
-    let range = info.max_storage_buffer_range as u64;
-    let budget = info.device_local_bytes.min(info.max_allocation_bytes) / 4;
-    let fits = |tile: usize| {
-        let f = footprint(tile);
-        f.largest_binding <= range && f.total <= budget
-    };
-    let mut tile = round_to_tile(params.width.max(params.height));
-    while tile > TILE && !fits(tile) {
-        tile = round_to_tile(tile * 3 / 4);
-    }
-    tile
-}
-
-/// `tile x tile` cores in row-major order, the last row and column cut by the frame.
-pub fn frame_cores(width: usize, height: usize, tile: usize) -> Vec<Rect> {
-    let mut cores = Vec::new();
-    for y0 in (0..height).step_by(tile) {
-        for x0 in (0..width).step_by(tile) {
-            cores.push(Rect { x0, y0, x1: (x0 + tile).min(width), y1: (y0 + tile).min(height) });
-        }
-    }
-    cores
 }
 
 /// The 16x16 search tiles a frame core overlaps (cores start on multiples of 16).
@@ -387,7 +361,12 @@ pub(crate) fn taps(params: &Params, windows: &[i32], core: Rect) -> u64 {
     for layer in 0..params.layer_count {
         for t in search_tiles(params, core) {
             let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
-            let tile = Rect { x0: tx * TILE, y0: ty * TILE, x1: ((tx + 1) * TILE).min(params.width), y1: ((ty + 1) * TILE).min(params.height) };
+            let tile = Rect {
+                x0: tx * TILE,
+                y0: ty * TILE,
+                x1: ((tx + 1) * TILE).min(params.width),
+                y1: ((ty + 1) * TILE).min(params.height),
+            };
             // An empty window (-1) gathers nothing.
             let side = (2 * windows[layer * per_layer + t] + 1).max(0) as u64;
             taps += tile.area() as u64 * side * side;

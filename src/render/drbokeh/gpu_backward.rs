@@ -1,8 +1,8 @@
 //! GPU host code of the Dr.Bokeh backward pass: the four forward passes, then the three
 //! gather passes of `glsl/drbokeh_backward_*.comp` (composite, own, source; pass 3, the tile
 //! reach, is computed on the host, which needs it to cut the tiles anyway, and uploaded) over
-//! the forward's intermediates, in one command batch per frame tile. The f64 reference of the
-//! same passes is [`super::backward_cpu`].
+//! the forward's intermediates, recorded per frame tile, several tiles to a submission
+//! ([`super::tiled`]). The f64 reference of the same passes is [`super::backward_cpu`].
 //!
 //! A tile is a core C of *source* pixels, whose gradients it writes. They gather over the
 //! receivers O whose windows hold a source of C (C grown by the tile reach, pass 3); O's
@@ -15,7 +15,8 @@
 use super::backward::BackwardOptions;
 use super::backward_cpu::tile_reach_cpu;
 use super::bounds::{grow_windows, search_windows};
-use super::gpu::{crop, frame_cores, halo, round_to_tile, run_tiled, taps, Footprint, ForwardBuffers, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
+use super::gpu::{crop, halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
+use super::tiled::{frame_cores, round_to_tile, run_batches, run_tiled, Footprint, TilePlan};
 use super::{DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
@@ -40,7 +41,7 @@ pub struct DrBokehGpuGrad {
     pub options: BackwardOptions,
 }
 
-/// The backward's device buffers (all layer-major, one element per layer pixel).
+/// The backward's device buffers of one tile (all layer-major, one element per layer pixel).
 struct BackwardBuffers {
     grad_output: Buffer,
     adj_cw: Buffer,
@@ -48,9 +49,17 @@ struct BackwardBuffers {
     own: Buffer,
     /// Pass 2's per-receiver (rel, alpha, dL/dV / sum D, window) for pass 4: one load a tap.
     receiver: Buffer,
+    /// The frame's tile reach (shared by every tile).
     tile_reach: Buffer,
     grad_rgba: Buffer,
     grad_disparity: Buffer,
+    k_partial: Buffer,
+}
+
+/// A tile's per-source gradients over its core, host-readable once its batch has run.
+struct TileGradients {
+    rgba: Buffer,
+    disparity: Buffer,
     k_partial: Buffer,
 }
 
@@ -74,7 +83,12 @@ impl DrBokehGpuGrad {
     }
 
     /// [`Differentiable::backward`] plus what the passes measured, on automatically sized tiles.
-    pub fn backward_with_stats(&self, stack: &LayerStack, lens: &Lens, grad_output: &Image) -> Result<(StackGradients, RenderStats)> {
+    pub fn backward_with_stats(
+        &self,
+        stack: &LayerStack,
+        lens: &Lens,
+        grad_output: &Image,
+    ) -> Result<(StackGradients, RenderStats)> {
         self.backward_with(stack, lens, grad_output, &RenderOptions::default())
     }
 
@@ -100,68 +114,99 @@ impl DrBokehGpuGrad {
         let windows = grow_windows(search_windows(&params, stack), self.options.window_margin());
         let per_layer = params.tiles_x * params.tiles_y;
         let reach: Vec<i32> = windows.chunks(per_layer.max(1)).flat_map(|w| tile_reach_cpu(&params, w)).collect();
-        let frame = Frame { stack, params: &params, windows: &windows, reach: &reach, grad_output };
-        let footprint = backward_footprint(&params, windows.iter().copied().max().unwrap_or(0), reach.iter().copied().max().unwrap_or(0));
-        run_tiled(self.context(), &params, options, footprint, |tile| self.backward_tiles(&frame, tile, options))
+        let ctx = self.context();
+        let frame = Frame {
+            forward: ForwardFrame::new(ctx, stack, &params, &windows, true)?,
+            reach: &reach,
+            tile_reach: Buffer::from_slice(ctx, "drbokeh tile_reach", &reach)?,
+            grad_output,
+        };
+        let footprint = backward_footprint(
+            &params,
+            windows.iter().copied().max().unwrap_or(0),
+            reach.iter().copied().max().unwrap_or(0),
+        );
+        run_tiled(ctx, &params, options, footprint, |plan| self.backward_tiles(&frame, plan, options))
     }
 
-    fn backward_tiles(&self, frame: &Frame, tile: usize, options: &RenderOptions) -> Result<(StackGradients, RenderStats)> {
+    /// One attempt at the frame: its tiles in batches of `plan.tiles_per_batch`, each tile's
+    /// gradients stored into the frame's once its batch has run.
+    fn backward_tiles(
+        &self,
+        frame: &Frame,
+        plan: TilePlan,
+        options: &RenderOptions,
+    ) -> Result<(StackGradients, RenderStats)> {
         let ctx = self.context();
-        let params = frame.params;
-        let baseline = ctx.allocated_bytes();
-        let cores = frame_cores(params.width, params.height, tile);
+        let params = frame.forward.params;
+        let cores = frame_cores(params.width, params.height, plan.tile);
         let mut grads = FrameGradients::new(params);
-        let mut stats = RenderStats { tiles: cores.len(), tile_size: tile, ..RenderStats::default() };
-        let mut device_ns = Some(0.0);
-        for (done, &core) in cores.iter().enumerate() {
+        let record = |batch: &mut CommandBatch, core: Rect| {
             let receivers = frame.receivers(core);
-            let read = receivers.grown(halo(params, frame.windows, receivers), params.width, params.height);
-            let fwd = ForwardBuffers::new(ctx, frame.stack, params, frame.windows, receivers, read)?;
-            let bwd = self.buffers(params, frame.grad_output, frame.reach, core, receivers, read)?;
-            stats.peak_device_bytes = stats.peak_device_bytes.max(ctx.allocated_bytes().saturating_sub(baseline));
-            let mut batch = CommandBatch::new(ctx)?;
-            self.forward.record(&mut batch, params, &fwd)?;
-            self.record(&mut batch, params, &fwd, &bwd, core)?;
-            batch.submit_and_wait()?;
-            device_ns = device_ns.zip(batch.last_device_time_ns()).map(|(a, b)| a + b);
-            stats.taps += taps(params, frame.windows, receivers);
-            grads.store(ctx, params, &bwd, core)?;
-            if let Some(progress) = options.progress {
-                progress(done + 1, cores.len());
-            }
-        }
-        stats.device_ns = device_ns;
+            let read = receivers.grown(halo(params, frame.forward.windows, receivers), params.width, params.height);
+            let fwd = ForwardBuffers::new(ctx, batch, &frame.forward, receivers, read)?;
+            let bwd = self.buffers(batch, frame, core, receivers, read)?;
+            self.forward.record(batch, params, &fwd)?;
+            self.record(batch, params, &fwd, &bwd, core)?;
+            Ok(TileGradients {
+                rgba: bwd.grad_rgba.readable_in(ctx, batch)?,
+                disparity: bwd.grad_disparity.readable_in(ctx, batch)?,
+                k_partial: bwd.k_partial.readable_in(ctx, batch)?,
+            })
+        };
+        let collect = |core: Rect, tile: TileGradients| grads.store(ctx, params, &tile, core);
+        let mut stats = run_batches(ctx, &cores, plan, options, record, collect)?;
+        stats.taps = cores.iter().map(|&core| taps(params, frame.forward.windows, frame.receivers(core))).sum();
         Ok((grads.finish(params), stats))
     }
 
-    fn buffers(&self, params: &Params, grad_output: &Image, reach: &[i32], core: Rect, receivers: Rect, read: Rect) -> Result<BackwardBuffers> {
+    /// A tile's backward buffers, zero fills and uploads recorded into `batch`.
+    fn buffers(
+        &self,
+        batch: &mut CommandBatch,
+        frame: &Frame,
+        core: Rect,
+        receivers: Rect,
+        read: Rect,
+    ) -> Result<BackwardBuffers> {
         let ctx = self.context();
+        let params = frame.forward.params;
         let layers = params.layer_count as u64;
         let (read_n, core_n) = (layers * read.area() as u64, layers * core.area() as u64);
-        let gout: Vec<[f32; 4]> = crop(&grad_output.pixels, params.width, receivers).collect();
+        let gout = crop(&frame.grad_output.pixels, params.width, receivers);
+        let mut zeroed = |name: &str, bytes: u64| Buffer::zeroed_in(ctx, batch, name, bytes);
         Ok(BackwardBuffers {
-            grad_output: Buffer::from_slice(ctx, "drbokeh grad_output", &gout)?,
-            adj_cw: Buffer::zeroed(ctx, "drbokeh adj_cw", read_n * VEC4)?,
-            adj_vis: Buffer::zeroed(ctx, "drbokeh adj_vis", read_n * 4)?,
-            own: Buffer::zeroed(ctx, "drbokeh own", read_n * VEC4)?,
-            receiver: Buffer::zeroed(ctx, "drbokeh receiver", read_n * VEC4)?,
-            tile_reach: Buffer::from_slice(ctx, "drbokeh tile_reach", reach)?,
-            grad_rgba: Buffer::zeroed(ctx, "drbokeh grad_rgba", core_n * VEC4)?,
-            grad_disparity: Buffer::zeroed(ctx, "drbokeh grad_disparity", core_n * 4)?,
-            k_partial: Buffer::zeroed(ctx, "drbokeh k_partial", core_n * 4)?,
+            adj_cw: zeroed("drbokeh adj_cw", read_n * VEC4)?,
+            adj_vis: zeroed("drbokeh adj_vis", read_n * 4)?,
+            own: zeroed("drbokeh own", read_n * VEC4)?,
+            receiver: zeroed("drbokeh receiver", read_n * VEC4)?,
+            grad_rgba: zeroed("drbokeh grad_rgba", core_n * VEC4)?,
+            grad_disparity: zeroed("drbokeh grad_disparity", core_n * 4)?,
+            k_partial: zeroed("drbokeh k_partial", core_n * 4)?,
+            grad_output: Buffer::from_iter_in(ctx, batch, "drbokeh grad_output", receivers.area(), gout)?,
+            tile_reach: frame.tile_reach.clone(),
         })
     }
 
     /// Passes 1 and 2 over the receivers (the forward's core), pass 4 over the tile's `sources`.
-    fn record(&self, batch: &mut CommandBatch, params: &Params, f: &ForwardBuffers, b: &BackwardBuffers, sources: Rect) -> Result<()> {
+    fn record(
+        &self,
+        batch: &mut CommandBatch,
+        params: &Params,
+        f: &ForwardBuffers,
+        b: &BackwardBuffers,
+        sources: Rect,
+    ) -> Result<()> {
         let groups = self.own.groups_for([f.core.width() as u32, f.core.height() as u32, 1]);
         let leaky_slope = self.options.leaky_slope as f32;
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
-        let (own_pipeline, source_pipeline) = if disk_path(params) { (&self.own_disk, &self.source_disk) } else { (&self.own, &self.source) };
+        let (own_pipeline, source_pipeline) =
+            if disk_path(params) { (&self.own_disk, &self.source_disk) } else { (&self.own, &self.source) };
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
         let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];
-        let source_groups = source_pipeline.groups_for([(sources.width() as u32).div_ceil(per_invocation), sources.height() as u32, 1]);
+        let source_groups =
+            source_pipeline.groups_for([(sources.width() as u32).div_ceil(per_invocation), sources.height() as u32, 1]);
         let composite = [f.layer_cw.all(), f.layer_vis.all(), b.grad_output.all(), b.adj_cw.all(), b.adj_vis.all()];
         batch.dispatch(&self.composite, &composite, &push(0), groups)?;
         for layer in 0..params.layer_count {
@@ -204,12 +249,12 @@ fn disk_path(params: &Params) -> bool {
     params.model == Model::DrBokeh && blades < 3.0 && (kernel < 0.5 || params.lens.kernel_size == 0)
 }
 
-/// The frame the tiles cut: inputs, search windows and their transpose (layer-major).
+/// The frame the tiles cut: the forward's (inputs, grown search windows, device tables), the
+/// windows' transpose (layer-major) on the host and the device, and the output gradient.
 struct Frame<'a> {
-    stack: &'a LayerStack,
-    params: &'a Params,
-    windows: &'a [i32],
+    forward: ForwardFrame<'a>,
     reach: &'a [i32],
+    tile_reach: Buffer,
     grad_output: &'a Image,
 }
 
@@ -218,9 +263,14 @@ impl Frame<'_> {
     /// reach of its search tiles, widened to whole 16x16 search tiles (the forward's layer
     /// kernel runs one search window per workgroup), clipped to the image.
     fn receivers(&self, core: Rect) -> Rect {
-        let p = self.params;
+        let p = self.forward.params;
         let grown = core.grown(halo(p, self.reach, core), p.width, p.height);
-        Rect { x0: grown.x0 / TILE * TILE, y0: grown.y0 / TILE * TILE, x1: round_to_tile(grown.x1).min(p.width), y1: round_to_tile(grown.y1).min(p.height) }
+        Rect {
+            x0: grown.x0 / TILE * TILE,
+            y0: grown.y0 / TILE * TILE,
+            x1: round_to_tile(grown.x1).min(p.width),
+            y1: round_to_tile(grown.y1).min(p.height),
+        }
     }
 }
 
@@ -239,7 +289,10 @@ fn backward_footprint(params: &Params, max_window: i32, max_reach: i32) -> impl 
         let (adjoint_bytes, gradient_bytes) = (VEC4 + 4 + VEC4 + VEC4, VEC4 + 4 + 4);
         Footprint {
             largest_binding: layers * read * VEC4,
-            total: layers * (read * (READ_BYTES_PER_PIXEL + adjoint_bytes) + receivers * CORE_BYTES_PER_PIXEL + core * gradient_bytes)
+            total: layers
+                * (read * (READ_BYTES_PER_PIXEL + adjoint_bytes)
+                    + receivers * CORE_BYTES_PER_PIXEL
+                    + core * gradient_bytes)
                 + 2 * receivers * VEC4,
         }
     }
@@ -259,10 +312,10 @@ impl FrameGradients {
     }
 
     /// Copies a tile's core-local gradients into the frame.
-    fn store(&mut self, ctx: &Context, params: &Params, b: &BackwardBuffers, core: Rect) -> Result<()> {
-        let rgba: Vec<[f32; 4]> = b.grad_rgba.read(ctx)?;
-        let disparity: Vec<f32> = b.grad_disparity.read(ctx)?;
-        let k_partial: Vec<f32> = b.k_partial.read(ctx)?;
+    fn store(&mut self, ctx: &Context, params: &Params, tile: &TileGradients, core: Rect) -> Result<()> {
+        let rgba: Vec<[f32; 4]> = tile.rgba.read(ctx)?;
+        let disparity: Vec<f32> = tile.disparity.read(ctx)?;
+        let k_partial: Vec<f32> = tile.k_partial.read(ctx)?;
         let n = params.width * params.height;
         let w = core.width();
         for layer in 0..params.layer_count {
@@ -284,7 +337,10 @@ impl FrameGradients {
         let k_px = self.k_partial.iter().map(|&v| v as f64).sum();
         let focus_disparity = -self.disparity.iter().map(|&v| v as f64).sum::<f64>();
         let layers = (0..params.layer_count)
-            .map(|l| LayerGradients { rgba: self.rgba[l * n..(l + 1) * n].to_vec(), disparity: self.disparity[l * n..(l + 1) * n].to_vec() })
+            .map(|l| LayerGradients {
+                rgba: self.rgba[l * n..(l + 1) * n].to_vec(),
+                disparity: self.disparity[l * n..(l + 1) * n].to_vec(),
+            })
             .collect();
         StackGradients { layers, k_px, focus_disparity }
     }

@@ -21,7 +21,8 @@
 //!
 //! Large frames are rendered in frame tiles ([`gpu`]): each uploads its core plus halo, and
 //! since every pixel reads the same sources in the same order, the output is bit-identical
-//! whatever the tile size. The backward ([`DrBokehGpuGrad`]) tiles the frame the same way, by
+//! whatever the tile size. Several tiles share one submission; [`tiled`] plans tile side and
+//! batch size from the device's memory budget and retries smaller when memory runs out. The backward ([`DrBokehGpuGrad`]) tiles the frame the same way, by
 //! the same policy, with the same guarantee.
 use crate::camera::{Aperture, CocModel};
 
@@ -33,6 +34,7 @@ mod gpu;
 mod gpu_backward;
 pub mod math;
 mod params;
+mod tiled;
 
 #[cfg(test)]
 mod compat_direct;
@@ -84,8 +86,8 @@ impl Model {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct DrBokehPush {
-    pub width: i32, // 0
-    pub height: i32, // 4
+    pub width: i32,   // 0
+    pub height: i32,  // 4
     pub tiles_x: i32, // 8
     pub tiles_y: i32, // 12
     /// Layer this dispatch works on (0 = front); unused by `composite`.
@@ -95,7 +97,7 @@ pub struct DrBokehPush {
     pub model: i32, // 24
     /// Side of the kernel image buffer (0 = no kernel image).
     pub kernel_size: i32, // 28
-    pub k_px: f32, // 32
+    pub k_px: f32,    // 32
     pub focus_disparity: f32, // 36
     /// Largest scatter support / gather radius over the stack, bounds the dilation loop.
     pub max_support: f32, // 40
