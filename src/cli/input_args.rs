@@ -38,7 +38,8 @@ pub struct InputArgs {
     /// Auto-layering of a single image: most layers to cut it into.
     #[arg(long, value_name = "N", help_heading = "Input")]
     pub max_layers: Option<usize>,
-    /// Refuse EXR files whose header declares more pixels than this, before reading pixels.
+    /// Refuse inputs (EXR, PNG/JPEG and --depth images) whose header declares more pixels
+    /// than this, before reading pixels.
     #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_PIXELS, help_heading = "Input")]
     pub max_pixels: u64,
     /// Set NaN/Inf colour and alpha samples to 0 (with a warning) instead of refusing the file.
@@ -116,7 +117,7 @@ impl InputArgs {
                 );
             }
             let kind = self.depth_kind.unwrap_or(DepthKind::Disparity);
-            let ldr = read_ldr(path, depth_path, kind)?;
+            let ldr = read_ldr(path, depth_path, kind, self.max_pixels)?;
             let (w, h) = (ldr.image.width, ldr.image.height);
             let layer = Layer {
                 name: "image".into(),

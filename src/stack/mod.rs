@@ -22,6 +22,22 @@ pub use naming::Convention;
 use crate::image::Image;
 use crate::{Error, Result};
 
+/// Refuses a file whose header declares more than `max_pixels` pixels, before any pixel is
+/// decoded: a forged or damaged header must not make the reader allocate gigabytes.
+pub(crate) fn check_pixel_budget(path: &std::path::Path, width: u64, height: u64, max_pixels: u64) -> Result<()> {
+    // Saturating: a forged size must not wrap around to a product under the budget.
+    if width.saturating_mul(height) <= max_pixels {
+        return Ok(());
+    }
+    Err(Error::input(
+        path,
+        format!(
+            "the header declares {width}x{height} pixels, which exceeds the limit of {max_pixels}; if the file is \
+             genuine, raise the limit with --max-pixels"
+        ),
+    ))
+}
+
 /// How the depth channel of a file is encoded.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
