@@ -2,8 +2,8 @@
 //! before any blur (blurring encoded values darkens highlights) and encoded again on output.
 use std::path::Path;
 
-use super::exr_write::write_atomically;
 use super::DepthKind;
+use crate::atomic_file::write_atomically;
 use crate::image::Image;
 use crate::{Error, Result};
 
@@ -178,8 +178,8 @@ fn write_encoded(path: &Path, image: &Image, format: image::ImageFormat) -> Resu
         image::ExtendedColorType::Rgb8
     };
     let (w, h) = (image.width as u32, image.height as u32);
-    write_atomically(path, |tmp| {
-        image::save_buffer_with_format(tmp, &bytes, w, h, colour, format)
+    write_atomically(path, |file| {
+        image::write_buffer_with_format(file, &bytes, w, h, colour, format)
             .map_err(|e| Error::input(path, format!("cannot write {format:?}: {e}")))
     })
 }

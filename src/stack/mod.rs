@@ -14,7 +14,7 @@ pub mod naming;
 
 pub use autolayer::{split_into_layers, AutoLayerOptions};
 pub use exr_read::{read_parts, read_rgba, read_stack, ReadOptions, DEFAULT_MAX_PIXELS};
-pub use exr_write::{remove_partial_outputs, write_image, write_named_channels, write_stack, StackNaming, StackWriteOptions, WriteOptions};
+pub use exr_write::{write_image, write_named_channels, write_stack, StackNaming, StackWriteOptions, WriteOptions};
 pub use info::{ExtraChannel, LayerInfo, SampleType, StackFile, StackInfo, Window};
 pub use ldr::{is_ldr_path, read_ldr, write_ldr, write_png_preview, LdrInput};
 pub use naming::Convention;
