@@ -14,7 +14,7 @@ use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
 use super::character_args::CharacterArgs;
-use super::input_args::{check_output_path, InputArgs, LoadedInput};
+use super::input_args::{check_output_paths, input_files, InputArgs, LoadedInput};
 
 const EXAMPLES: &str = "\
 Examples:
@@ -108,10 +108,10 @@ struct Timings {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let total = Instant::now();
-    check_output_path(&args.output, &[&args.input])?;
-    if let Some(preview) = &args.preview {
-        check_output_path(preview, &[&args.input, &args.output])?;
-    }
+    let inputs = input_files(&args.input, &args.input_args, &args.camera);
+    let mut outputs = vec![("-o", args.output.as_path())];
+    outputs.extend(args.preview.as_deref().map(|p| ("--preview", p)));
+    check_output_paths(&outputs, &inputs)?;
     let spinner = spinner(&args);
     spinner.set_message(format!("reading {}", args.input.display()));
     let loaded = args
@@ -131,20 +131,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     };
     let options = RenderOptions { tile: args.tile, progress: Some(&progress) };
-    let (image, lens) = args
+    let rendered = args
         .character
         .render(args.method, ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options)
         .with_context(|| format!("rendering {} with {}", args.input.display(), args.method))?;
     let render_time = start.elapsed();
-    spinner.set_message(format!("writing {}", args.output.display()));
-    let start = Instant::now();
-    write_output(&args, &loaded, &image)?;
-    let write_time = start.elapsed();
-    spinner.finish_and_clear();
     let device = ctx.as_ref().map(|c| c.info().name.clone());
+    // The device is closed and its teardown validated before any file appears: a validation
+    // error fails the command with nothing written.
     if let Some(ctx) = ctx {
         ctx.finish()?;
     }
+    spinner.set_message(format!("writing {}", args.output.display()));
+    let start = Instant::now();
+    write_output(&args, &loaded, &rendered.image)?;
+    args.character.write_debug_views(&rendered)?;
+    let write_time = start.elapsed();
+    spinner.finish_and_clear();
     let timings = Timings {
         read: ms(loaded.read_time),
         layering: ms(loaded.layering_time),
@@ -152,7 +155,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         write: ms(write_time),
         total: ms(total.elapsed()),
     };
-    let report = report(&args, &loaded, &lens, device, timings);
+    let report = report(&args, &loaded, &rendered.lens, device, timings);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
