@@ -287,6 +287,28 @@ fn a_missing_output_directory_is_refused_before_rendering() {
     assert_eq!(listing(&dir), BTreeSet::from(["shot.exr".to_string()]));
 }
 
+/// Fuzzing finding (`params` target, remap to an infinite disparity): a CoC far beyond any frame
+/// (`--far-blur 1e38`, `--blur 1e30`) overflowed the search-window arithmetic of drbokeh,
+/// drbokeh-compat, multiview, scatter and oracle (a panic in debug builds, wrapped windows in
+/// release). Every method, and the backward pass, now refuses it before rendering.
+#[test]
+fn a_circle_of_confusion_no_renderer_can_draw_is_refused() {
+    let dir = common::temp_dir("bad-input", "huge-coc");
+    let valid = valid_stack(&dir);
+    for method in ["drbokeh", "drbokeh-compat", "multiview", "vdslr", "oracle", "gather", "scatter"] {
+        refused(&dir, &valid, &["--blur", "1e30", "--focus-disparity", "0.3", "--method", method], &["circle of confusion", "4096 px", "--max-blur"]);
+    }
+    refused(&dir, &valid, &["--blur", "8", "--focus-disparity", "0.3", "--far-blur", "1e38"], &["circle of confusion", "--max-blur"]);
+    refused(&dir, &valid, &["--blur", "8", "--focus-disparity", "3e38", "--far-blur", "3e38"], &["circle of confusion"]);
+    // The way out the message names: the same remap with the blur clamped renders.
+    rendered(&dir, &valid, &["--blur", "8", "--focus-disparity", "0.3", "--far-blur", "1e38", "--max-blur", "6"]);
+    let g = dir.join("g.exr");
+    write_image(&g, &Image::from_fn(W, H, |_, _| [0.1, -0.2, 0.3, 0.0]), &WriteOptions::default()).unwrap();
+    let grads = dir.join("grads.exr");
+    let args = ["grad", valid.to_str().unwrap(), "--grad-output", g.to_str().unwrap(), "-o", grads.to_str().unwrap(), "--blur", "1e30", "--focus-disparity", "0.3"];
+    command_refused(&dir, &args, &["circle of confusion"]);
+}
+
 /// Runs `args` (any subcommand) and checks the refusal: non-zero exit, no panic, every
 /// `needle` in the message, and the directory exactly as before (same names, same bytes).
 fn command_refused(dir: &Path, args: &[&str], needles: &[&str]) {

@@ -94,6 +94,12 @@ impl Method {
 
     /// [`Self::render`] with frame tiling and progress (honoured by the tiled methods: drbokeh).
     pub fn render_with(self, ctx: Option<&Context>, stack: &LayerStack, lens: &Lens, options: &RenderOptions) -> Result<Image> {
+        // Every method sizes windows or kernels from the largest CoC: refuse one no render can
+        // finish (or whose integer window arithmetic would overflow) before any work.
+        let (lo, hi) = stack.disparity_range();
+        if lo <= hi {
+            lens.coc.check_renderable(lo, hi)?;
+        }
         let single = || stack.flatten();
         match (self, ctx) {
             (Method::DrBokeh | Method::DrBokehCompat, Some(ctx)) => {
