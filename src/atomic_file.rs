@@ -83,7 +83,11 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) ->
     let committed = {
         let mut state = state();
         state.temporaries.retain(|p| p != &tmp);
-        let renamed = if state.interrupted { Err(interrupted(path)) } else { result.and_then(|()| std::fs::rename(&tmp, path).map_err(io)) };
+        let renamed = if state.interrupted {
+            Err(interrupted(path))
+        } else {
+            result.and_then(|()| std::fs::rename(&tmp, path).map_err(io))
+        };
         if renamed.is_ok() {
             state.written.push(path.to_path_buf());
         }
@@ -123,7 +127,8 @@ mod tests {
         });
         assert!(result.is_err());
         assert!(listing(&dir).is_empty(), "{:?}", listing(&dir));
-        write_atomically(&out, |w| w.write_all(b"whole").map_err(|e| Error::Io { path: out.clone(), source: e })).unwrap();
+        write_atomically(&out, |w| w.write_all(b"whole").map_err(|e| Error::Io { path: out.clone(), source: e }))
+            .unwrap();
         assert_eq!(std::fs::read(&out).unwrap(), b"whole");
         assert_eq!(listing(&dir), ["out.bin"], "the temporary was renamed, not copied");
     }
@@ -136,11 +141,15 @@ mod tests {
             let dir = scratch("interrupt");
             let exe = std::env::current_exe().unwrap();
             let child = std::process::Command::new(exe)
-                .args(["--exact", "atomic_file::tests::an_interrupt_mid_write_removes_the_temporary_and_forbids_the_rename"])
+                .args([
+                    "--exact",
+                    "atomic_file::tests::an_interrupt_mid_write_removes_the_temporary_and_forbids_the_rename",
+                ])
                 .env("LENSBLUR_ATOMIC_CHILD_DIR", &dir)
                 .output()
                 .unwrap();
-            let report = format!("{}{}", String::from_utf8_lossy(&child.stdout), String::from_utf8_lossy(&child.stderr));
+            let report =
+                format!("{}{}", String::from_utf8_lossy(&child.stdout), String::from_utf8_lossy(&child.stderr));
             assert!(child.status.success() && report.contains("1 passed"), "the child test failed: {report}");
             assert_eq!(listing(&dir), ["before.bin"], "only the output finished before the interrupt is left");
             return;
@@ -155,7 +164,7 @@ mod tests {
             // The writer has its temporary open and registered when the interrupt lands.
             assert_eq!(listing(&dir).len(), 2, "temporary not created");
             let interrupt = interrupt();
-            assert_eq!(interrupt.written(), [before.clone()]);
+            assert_eq!(interrupt.written(), std::slice::from_ref(&before));
             drop(interrupt); // a handler would hold it until exit; released here to let the writer finish
             claimed = Some(());
             w.write_all(b"more bytes after the interrupt").map_err(|e| Error::Io { path: out.clone(), source: e })

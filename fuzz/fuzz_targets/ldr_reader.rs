@@ -2,8 +2,8 @@
 //! pair of files with an input or an error, never a panic, an abort or a huge allocation, and
 //! an input it returns must be well formed.
 #![no_main]
-use libfuzzer_sys::fuzz_target;
 use lensblur::stack::{read_ldr, DepthKind};
+use libfuzzer_sys::fuzz_target;
 
 /// Two scratch files per process (libFuzzer runs inputs one after another in a process).
 fn scratch(name: &str) -> std::path::PathBuf {

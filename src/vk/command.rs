@@ -346,11 +346,11 @@ mod tests {
     enum Pair {
         /// Dispatch writes `a`; dispatch reads and writes `a` (a pass consuming the previous
         /// pass's output in place).
-        WriteThenReadWrite,
+        ReadAfterWrite,
         /// Dispatch reads `a`; dispatch reads and writes `a`.
-        ReadThenWrite,
+        WriteAfterRead,
         /// Fill zeroes `a`; dispatch writes `a` (an accumulator cleared before its pass).
-        FillThenWrite,
+        WriteAfterFill,
     }
 
     /// Records one pair on buffers `a` and `b` with or without the barrier between them and
@@ -369,9 +369,9 @@ mod tests {
         let groups = pipeline.groups_for([width, height, 1]);
         let mut batch = CommandBatch::new(&ctx)?;
         let (first, second) = match pair {
-            Pair::WriteThenReadWrite => ([Some(&b), Some(&a)], [&a, &a]),
-            Pair::ReadThenWrite => ([Some(&a), Some(&b)], [&a, &a]),
-            Pair::FillThenWrite => ([None, None], [&b, &a]),
+            Pair::ReadAfterWrite => ([Some(&b), Some(&a)], [&a, &a]),
+            Pair::WriteAfterRead => ([Some(&a), Some(&b)], [&a, &a]),
+            Pair::WriteAfterFill => ([None, None], [&b, &a]),
         };
         match first {
             [Some(source), Some(result)] => {
@@ -395,9 +395,9 @@ mod tests {
     }
 
     const PAIRS: [(Pair, &str); 3] = [
-        (Pair::WriteThenReadWrite, "SYNC-HAZARD-READ-AFTER-WRITE"),
-        (Pair::ReadThenWrite, "SYNC-HAZARD-WRITE-AFTER-READ"),
-        (Pair::FillThenWrite, "SYNC-HAZARD-WRITE-AFTER-WRITE"),
+        (Pair::ReadAfterWrite, "SYNC-HAZARD-READ-AFTER-WRITE"),
+        (Pair::WriteAfterRead, "SYNC-HAZARD-WRITE-AFTER-READ"),
+        (Pair::WriteAfterFill, "SYNC-HAZARD-WRITE-AFTER-WRITE"),
     ];
 
     /// Proves `LENSBLUR_VALIDATION=1` really runs synchronization validation. Not covered: two
