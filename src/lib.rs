@@ -6,11 +6,13 @@
 //! - [`camera`]: the circle-of-confusion model and aperture shapes, shared by CPU and GPU paths.
 //! - [`image`]: the in-memory RGBA float image.
 //! - [`stack`]: layer stacks and their file formats (EXR, PNG/JPEG) — I/O lives at the edges.
+//! - [`atomic_file`]: outputs appear whole (temporary file, rename) and interrupts remove parts.
 //! - [`render`]: one module per rendering method, each with GPU host code and a CPU reference.
 //! - [`character`]: lens character and artist controls layered on any method.
 //! - [`raytrace`]: the thin-lens ground-truth ray tracer and the built-in scenes.
 //! - [`metrics`]: image quality metrics used by the benchmark.
 //! - [`bench`]: the method registry, benchmark runner, report table and contact sheet.
+pub mod atomic_file;
 pub mod camera;
 pub mod character;
 pub mod error;

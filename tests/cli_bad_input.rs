@@ -287,6 +287,153 @@ fn a_missing_output_directory_is_refused_before_rendering() {
     assert_eq!(listing(&dir), BTreeSet::from(["shot.exr".to_string()]));
 }
 
+/// Fuzzing finding (`params` target, remap to an infinite disparity): a CoC far beyond any frame
+/// (`--far-blur 1e38`, `--blur 1e30`) overflowed the search-window arithmetic of drbokeh,
+/// drbokeh-compat, multiview, scatter and oracle (a panic in debug builds, wrapped windows in
+/// release). Every method, and the backward pass, now refuses it before rendering.
+#[test]
+fn a_circle_of_confusion_no_renderer_can_draw_is_refused() {
+    let dir = common::temp_dir("bad-input", "huge-coc");
+    let valid = valid_stack(&dir);
+    for method in ["drbokeh", "drbokeh-compat", "multiview", "vdslr", "oracle", "gather", "scatter"] {
+        refused(&dir, &valid, &["--blur", "1e30", "--focus-disparity", "0.3", "--method", method], &["circle of confusion", "4096 px", "--max-blur"]);
+    }
+    refused(&dir, &valid, &["--blur", "8", "--focus-disparity", "0.3", "--far-blur", "1e38"], &["circle of confusion", "--max-blur"]);
+    refused(&dir, &valid, &["--blur", "8", "--focus-disparity", "3e38", "--far-blur", "3e38"], &["circle of confusion"]);
+    // The way out the message names: the same remap with the blur clamped renders.
+    rendered(&dir, &valid, &["--blur", "8", "--focus-disparity", "0.3", "--far-blur", "1e38", "--max-blur", "6"]);
+    let g = dir.join("g.exr");
+    write_image(&g, &Image::from_fn(W, H, |_, _| [0.1, -0.2, 0.3, 0.0]), &WriteOptions::default()).unwrap();
+    let grads = dir.join("grads.exr");
+    let args = ["grad", valid.to_str().unwrap(), "--grad-output", g.to_str().unwrap(), "-o", grads.to_str().unwrap(), "--blur", "1e30", "--focus-disparity", "0.3"];
+    command_refused(&dir, &args, &["circle of confusion"]);
+}
+
+/// Runs `args` (any subcommand) and checks the refusal: non-zero exit, no panic, every
+/// `needle` in the message, and the directory exactly as before (same names, same bytes).
+fn command_refused(dir: &Path, args: &[&str], needles: &[&str]) {
+    let before: Vec<(String, Vec<u8>)> = listing(dir).into_iter().map(|n| (n.clone(), std::fs::read(dir.join(&n)).unwrap())).collect();
+    let output = lensblur(args);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success(), "{args:?} succeeded; stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?} panicked: {stderr}");
+    for needle in needles {
+        assert!(stderr.contains(needle), "{args:?}: message lacks '{needle}': {stderr}");
+    }
+    let after: Vec<(String, Vec<u8>)> = listing(dir).into_iter().map(|n| (n.clone(), std::fs::read(dir.join(&n)).unwrap())).collect();
+    assert!(before == after, "{args:?} changed the directory: {:?}", listing(dir));
+}
+
+/// A 16x12 PNG photo and its depth image in `dir`.
+fn ldr_pair(dir: &Path) -> (PathBuf, PathBuf) {
+    let (photo, depth) = (dir.join("photo.png"), dir.join("depth.png"));
+    image::RgbImage::from_fn(W as u32, H as u32, |x, y| image::Rgb([(x * 15) as u8, (y * 20) as u8, 90])).save(&photo).unwrap();
+    image::GrayImage::from_fn(W as u32, H as u32, |x, _| image::Luma([if x < 8 { 220 } else { 40 }])).save(&depth).unwrap();
+    (photo, depth)
+}
+
+#[test]
+fn an_output_on_any_input_or_on_another_output_is_refused() {
+    let dir = common::temp_dir("bad-input", "collide");
+    let shot = valid_stack(&dir);
+    let (photo, depth) = ldr_pair(&dir);
+    let kernel = dir.join("kernel.png");
+    std::fs::copy(&depth, &kernel).unwrap();
+    let (g, target) = (dir.join("g.exr"), dir.join("target.exr"));
+    std::fs::copy(&shot, &g).unwrap();
+    std::fs::copy(&shot, &target).unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    // The same file spelled another way (`dir/./depth.png`) is still the same file.
+    let depth_again = s(&dir.join(".").join("depth.png"));
+    let (photo, depth, shot, kernel, g, target) = (s(&photo), s(&depth), s(&shot), s(&kernel), s(&g), s(&target));
+    command_refused(&dir, &["render", &photo, "--depth", &depth, "-o", &depth_again, "--blur", "4", "--focus-disparity", "0.5"], &["-o", "depth.png", "is the --depth input file"]);
+    let aperture = format!("image:{kernel}");
+    command_refused(&dir, &["render", &shot, "-o", &kernel, "--aperture", &aperture], &["-o", "kernel.png", "is the --aperture kernel image"]);
+    let out_png = s(&dir.join("out.png"));
+    command_refused(&dir, &["render", &shot, "-o", &out_png, "--preview", &out_png], &["--preview", "out.png", "is the same file as -o"]);
+    command_refused(&dir, &["render", &shot, "-o", &shot], &["-o", "shot.exr", "is the input file"]);
+    command_refused(&dir, &["grad", &shot, "--grad-output", &g, "-o", &g], &["-o", "g.exr", "is the --grad-output input file"]);
+    command_refused(&dir, &["grad", &photo, "--depth", &depth, "--grad-output", &g, "-o", &depth], &["is the --depth input file"]);
+    command_refused(&dir, &["fit-depth", &shot, "--target", &target, "-o", &target], &["-o", "target.exr", "is the --target input file"]);
+    command_refused(&dir, &["fit-depth", &shot, "--target", &target, "-o", &shot], &["is the input file"]);
+}
+
+#[test]
+fn png_and_depth_images_over_the_pixel_budget_are_refused_from_their_headers() {
+    let dir = common::temp_dir("bad-input", "ldr-budget");
+    let (photo, depth) = ldr_pair(&dir);
+    let ldr_refused = |photo: &Path, depth: &Path, extra: &[&str], needles: &[&str]| {
+        let mut args = vec!["--depth", depth.to_str().unwrap(), "--blur", "4", "--focus-disparity", "0.5"];
+        args.extend_from_slice(extra);
+        refused(&dir, photo, &args, needles)
+    };
+    ldr_refused(&photo, &depth, &["--max-pixels", "100"], &["photo.png", "16x12", "--max-pixels"]);
+    // A small photo with a depth image over the budget: the depth header is checked too.
+    let small = dir.join("small.png");
+    image::RgbImage::new(4, 3).save(&small).unwrap();
+    ldr_refused(&small, &depth, &["--max-pixels", "100"], &["depth.png", "16x12", "--max-pixels"]);
+    // A PNG whose header declares 100000x100000 pixels and holds no pixel data: the budget
+    // refuses it from the header alone (decoding would fail on the data, or allocate 40 GB).
+    let huge = dir.join("huge.png");
+    std::fs::write(&huge, png_header_only(100_000, 100_000)).unwrap();
+    ldr_refused(&huge, &depth, &[], &["huge.png", "100000x100000", "--max-pixels"]);
+    let mut args = vec!["--depth", depth.to_str().unwrap(), "--blur", "4", "--focus-disparity", "0.5"];
+    args.extend(["--max-pixels", "192", "--method", "gather"]);
+    rendered(&dir, &photo, &args);
+}
+
+/// PNG signature, an IHDR chunk (8-bit RGB) of the given size, an IDAT chunk holding only a
+/// zlib header, then IEND: a valid header with no image data.
+fn png_header_only(width: u32, height: u32) -> Vec<u8> {
+    fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let start = out.len();
+        out.extend_from_slice(kind);
+        out.extend_from_slice(data);
+        out.extend_from_slice(&crc32(&out[start..]).to_be_bytes());
+    }
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&width.to_be_bytes());
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+    chunk(&mut png, b"IHDR", &ihdr);
+    chunk(&mut png, b"IDAT", &[0x78, 0x9c]);
+    chunk(&mut png, b"IEND", &[]);
+    png
+}
+
+/// CRC-32 (IEEE), as PNG chunks carry it.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 == 1 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
+        }
+    }
+    !crc
+}
+
+/// Starts `lensblur ARGS`, waits until `moment` returns true (polled every millisecond, at
+/// most 60 s), sends `signal` and returns what the process printed and its exit status.
+fn signalled(args: &[&str], signal: &str, moment: impl Fn() -> bool) -> Output {
+    let child = Command::new(env!("CARGO_BIN_EXE_lensblur"))
+        .args(args)
+        .env("LENSBLUR_VALIDATION", "1")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while !moment() && start.elapsed() < std::time::Duration::from_secs(60) {
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    let killed = Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status().unwrap();
+    assert!(killed.success());
+    child.wait_with_output().unwrap()
+}
+
 #[test]
 fn an_interrupted_render_exits_130_and_leaves_nothing() {
     let dir = common::temp_dir("bad-input", "interrupt");
@@ -295,15 +442,35 @@ fn an_interrupted_render_exits_130_and_leaves_nothing() {
     let input = dir.join("big.exr");
     write_stack(&input, &LayerStack::new(w, h, layers).unwrap(), &StackWriteOptions::default()).unwrap();
     let out = dir.join("out.exr");
-    // The f64 CPU reference at a 54 px CoC needs ~3 s of CPU time (measured): the interrupt lands mid-render.
+    // The f64 CPU reference at a 54 px CoC needs ~3 s of CPU time (measured): a signal 300 ms
+    // after the start lands mid-render. SIGTERM and SIGHUP are what a job system or a closed
+    // terminal sends; they must clean up like Ctrl-C.
     let args = ["render", input.to_str().unwrap(), "-o", out.to_str().unwrap(), "--device", "cpu", "--blur", "60", "--focus-disparity", "0"];
-    let child = Command::new(env!("CARGO_BIN_EXE_lensblur")).args(args).stderr(std::process::Stdio::piped()).spawn().unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(300));
-    let killed = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
-    assert!(killed.success());
-    let output = child.wait_with_output().unwrap();
+    for signal in ["INT", "TERM", "HUP"] {
+        let start = std::time::Instant::now();
+        let output = signalled(&args, signal, || start.elapsed() > std::time::Duration::from_millis(300));
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(130), "SIG{signal}: finished before the signal? {stderr}");
+        assert!(stderr.contains("interrupted; no output written"), "SIG{signal}: {stderr}");
+        assert_eq!(listing(&dir), BTreeSet::from(["big.exr".to_string()]), "SIG{signal}");
+    }
+}
+
+#[test]
+fn an_interrupt_while_the_output_is_written_leaves_nothing() {
+    let dir = common::temp_dir("bad-input", "interrupt-write");
+    // 2048 x 2048 float RGBA: a 64 MiB EXR whose ZIP compression takes far longer than the
+    // millisecond between polls, so the signal lands while the temporary file is being written.
+    let (w, h) = (2048, 2048);
+    let layers = vec![Layer { name: "wall".into(), rgba: Image::from_fn(w, h, |x, y| [((x * 31 + y * 17) % 256) as f32 / 255.0, 0.5, 0.2, 1.0]), disparity: vec![0.5; w * h] }];
+    let input = dir.join("big.exr");
+    write_stack(&input, &LayerStack::new(w, h, layers).unwrap(), &StackWriteOptions::default()).unwrap();
+    let out = dir.join("out.exr");
+    let args = ["render", input.to_str().unwrap(), "-o", out.to_str().unwrap(), "--method", "oracle", "--blur", "0", "--focus-disparity", "0"];
+    let writing = || listing(&dir).iter().any(|n| n.starts_with(".out.exr.") && n.ends_with(".tmp"));
+    let output = signalled(&args, "INT", writing);
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(130), "finished before the interrupt? {stderr}");
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
     assert!(stderr.contains("interrupted; no output written"), "{stderr}");
     assert_eq!(listing(&dir), BTreeSet::from(["big.exr".to_string()]));
 }

@@ -1,6 +1,7 @@
 //! `lensblur render --device`: the CPU path renders what the Vulkan path renders (within the
 //! GPU-vs-CPU tolerances of each method), a machine without Vulkan falls back to the CPU with
-//! a warning, and a device that cannot be opened is a clear error that writes nothing.
+//! a warning, and a device that cannot be opened is a clear error that writes nothing. Also:
+//! every output is byte-identical from run to run, and `lensblur devices` / `--version`.
 mod common;
 use std::path::{Path, PathBuf};
 
@@ -17,24 +18,29 @@ const H: usize = 20;
 
 /// A square subject at 2 m over a checkered wall at 4 m (in focus).
 fn write_input(dir: &Path) -> PathBuf {
-    let subject = Image::from_fn(W, H, |x, y| {
-        if (7..16).contains(&x) && (5..15).contains(&y) {
-            [0.9, 0.2 + 0.02 * y as f32, 0.1, 1.0]
+    write_frame(dir, "shot.exr", W, H)
+}
+
+/// [`write_input`]'s scene on a `w` x `h` frame (the subject covers the middle third).
+fn write_frame(dir: &Path, name: &str, w: usize, h: usize) -> PathBuf {
+    let subject = Image::from_fn(w, h, |x, y| {
+        if (w * 7 / 24..w * 2 / 3).contains(&x) && (h / 4..h * 3 / 4).contains(&y) {
+            [0.9, 0.2 + 0.02 * (y % 20) as f32, 0.1, 1.0]
         } else {
             [0.0; 4]
         }
     });
-    let wall = Image::from_fn(W, H, |x, y| {
+    let wall = Image::from_fn(w, h, |x, y| {
         let c = if (x / 3 + y / 3) % 2 == 0 { 0.8 } else { 0.1 };
         [c, c, 1.0 - c, 1.0]
     });
     let layers = vec![
-        Layer { name: "subject".into(), rgba: subject, disparity: vec![0.5; W * H] },
-        Layer { name: "wall".into(), rgba: wall, disparity: vec![0.25; W * H] },
+        Layer { name: "subject".into(), rgba: subject, disparity: vec![0.5; w * h] },
+        Layer { name: "wall".into(), rgba: wall, disparity: vec![0.25; w * h] },
     ];
-    let path = dir.join("shot.exr");
+    let path = dir.join(name);
     let options = StackWriteOptions { camera: Some(CAMERA), ..StackWriteOptions::default() };
-    write_stack(&path, &LayerStack::new(W, H, layers).unwrap(), &options).unwrap();
+    write_stack(&path, &LayerStack::new(w, h, layers).unwrap(), &options).unwrap();
     path
 }
 
@@ -151,4 +157,93 @@ fn every_method_renders_bit_identical_files_twice() {
     }
     assert!(std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap(), "half output differs between runs");
     assert!(std::fs::read(a.with_extension("png")).unwrap() == std::fs::read(b.with_extension("png")).unwrap());
+}
+
+/// Runs `lensblur ARGS` twice (`{run}` in an argument becomes the run's number) and returns
+/// the bytes of `output(run)` for both runs.
+fn twice(args: &[&str], output: impl Fn(usize) -> PathBuf) -> [Vec<u8>; 2] {
+    [0, 1].map(|run| {
+        let args: Vec<String> = args.iter().map(|a| a.replace("{run}", &run.to_string())).collect();
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let result = common::lensblur(&args, &[]);
+        assert!(result.status.success(), "{args:?} failed: {}", String::from_utf8_lossy(&result.stderr));
+        std::fs::read(output(run)).unwrap()
+    })
+}
+
+#[test]
+fn tiled_cpu_and_gradient_outputs_are_bit_identical_twice() {
+    let dir = common::temp_dir("cli-device", "determinism-more");
+    // 80 x 56 in 16 px tiles: 5 x 4 tiles with halos, so tile order and seams are exercised.
+    let (w, h) = (80, 56);
+    let frame = write_frame(&dir, "frame.exr", w, h);
+    let frame = frame.to_str().unwrap();
+    let out = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    for method in ["drbokeh", "drbokeh-compat"] {
+        let pattern = out(&format!("{method}-tiled-{{run}}.exr"));
+        let [a, b] = twice(&["render", frame, "-o", &pattern, "--method", method, "--tile", "16"], |run| {
+            dir.join(format!("{method}-tiled-{run}.exr"))
+        });
+        assert!(a == b, "{method} --tile 16: the two runs wrote different bytes");
+    }
+    let input = write_input(&dir);
+    for method in ["drbokeh", "drbokeh-compat", "multiview", "vdslr"] {
+        let pattern = out(&format!("{method}-cpu-{{run}}.exr"));
+        let [a, b] = twice(&["render", input.to_str().unwrap(), "-o", &pattern, "--method", method, "--device", "cpu"], |run| {
+            dir.join(format!("{method}-cpu-{run}.exr"))
+        });
+        assert!(a == b, "{method} --device cpu: the two runs wrote different bytes");
+    }
+    // dL/dB with every sign and several magnitudes, on the tiled frame.
+    let g = dir.join("g.exr");
+    let gradient = Image::from_fn(w, h, |x, y| [((x * 3 + y) % 7) as f32 / 7.0 - 0.4, 0.3, -0.2 + (y % 3) as f32 * 0.1, 0.0]);
+    lensblur::stack::write_image(&g, &gradient, &lensblur::stack::WriteOptions::default()).unwrap();
+    let pattern = out("grads-{run}.exr");
+    let [a, b] = twice(&["grad", frame, "--grad-output", g.to_str().unwrap(), "-o", &pattern, "--tile", "16"], |run| {
+        dir.join(format!("grads-{run}.exr"))
+    });
+    assert!(a == b, "lensblur grad: the two runs wrote different bytes");
+    assert!(a.len() > 1000, "a gradient file of {} bytes holds nothing", a.len());
+}
+
+/// `lensblur devices` output: (index, name, marked) per device line.
+fn device_lines(env: &[(&str, &str)]) -> (Vec<(usize, String, bool)>, String) {
+    let output = common::lensblur(&["devices"], env);
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let devices = stdout
+        .lines()
+        .filter_map(|line| {
+            let (mark, rest) = line.split_at_checked(2)?;
+            let (index, name) = rest.split_once(": ")?;
+            Some((index.parse().ok()?, name.to_string(), mark == "* "))
+        })
+        .collect();
+    (devices, stdout)
+}
+
+#[test]
+fn devices_lists_llvmpipe_marks_the_chosen_one_and_follows_lensblur_device() {
+    let (devices, listing) = device_lines(&[]);
+    let llvmpipe = devices.iter().find(|(_, name, _)| name.contains("llvmpipe")).unwrap_or_else(|| panic!("no llvmpipe: {listing}"));
+    assert_eq!(devices.iter().filter(|d| d.2).count(), 1, "exactly one device is marked: {listing}");
+    for needle in ["driver:", "workgroup:", "storage buffer range", "push constants", "chosen:"] {
+        assert!(listing.contains(needle), "'{needle}' missing: {listing}");
+    }
+    let index = llvmpipe.0.to_string();
+    for wanted in [index.as_str(), "llvmpipe", "LLVMPIPE"] {
+        let (devices, listing) = device_lines(&[("LENSBLUR_DEVICE", wanted)]);
+        let marked: Vec<_> = devices.iter().filter(|d| d.2).collect();
+        assert!(marked.len() == 1 && marked[0].1.contains("llvmpipe"), "LENSBLUR_DEVICE={wanted}: {listing}");
+        assert!(listing.contains(&format!("chosen: {index}")), "LENSBLUR_DEVICE={wanted}: {listing}");
+    }
+    let (devices, listing) = device_lines(&[("LENSBLUR_DEVICE", "nonesuch-gpu")]);
+    assert!(devices.iter().all(|d| !d.2) && listing.contains("no device matches LENSBLUR_DEVICE"), "{listing}");
+}
+
+#[test]
+fn version_names_the_crate_version() {
+    let output = common::lensblur(&["--version"], &[]);
+    assert!(output.status.success());
+    assert_eq!(String::from_utf8_lossy(&output.stdout).trim(), format!("lensblur {}", env!("CARGO_PKG_VERSION")));
 }

@@ -10,6 +10,7 @@ use lensblur::stack::naming::Convention;
 use lensblur::stack::{
     read_ldr, read_stack, write_image, write_png_preview, write_stack, DepthKind, ExtraChannel,
     Layer, LayerStack, ReadOptions, SampleType, StackNaming, StackWriteOptions, WriteOptions,
+    DEFAULT_MAX_PIXELS,
 };
 
 const W: usize = 8;
@@ -795,6 +796,7 @@ fn ldr_inputs_are_decoded_to_linear_and_depth_images_follow_the_depth_kind() {
         &dir.join("photo.png"),
         &dir.join("depth.png"),
         DepthKind::Disparity,
+        DEFAULT_MAX_PIXELS,
     )
     .unwrap();
     // sRGB 128/255 is 0.2158 linear (IEC 61966-2-1).
@@ -807,13 +809,13 @@ fn ldr_inputs_are_decoded_to_linear_and_depth_images_follow_the_depth_kind() {
         (input.disparity[3] - 60000.0 / 65535.0).abs() < 1e-6,
         "16-bit precision is kept"
     );
-    let as_z = read_ldr(&dir.join("photo.png"), &dir.join("depth.png"), DepthKind::Z).unwrap();
+    let as_z = read_ldr(&dir.join("photo.png"), &dir.join("depth.png"), DepthKind::Z, DEFAULT_MAX_PIXELS).unwrap();
     assert_eq!(as_z.disparity[0], 0.0, "z = 0 (no data) is far");
     assert!((as_z.disparity[1] - 65535.0 / 20000.0).abs() < 1e-3);
 
     let small = image::GrayImage::new(3, 2);
     small.save(dir.join("small.png")).unwrap();
-    let message = read_ldr(&dir.join("photo.png"), &dir.join("small.png"), DepthKind::Z)
+    let message = read_ldr(&dir.join("photo.png"), &dir.join("small.png"), DepthKind::Z, DEFAULT_MAX_PIXELS)
         .unwrap_err()
         .to_string();
     assert!(

@@ -54,6 +54,12 @@ impl PhysicalCamera {
     }
 }
 
+/// Largest CoC radius the renderers accept, in pixels. A larger blur spreads a pixel far past
+/// any frame (a 16K frame is 15360 px wide), and its search windows and kernels ((2r + 1)^2
+/// taps per pixel) would overflow 32-bit window arithmetic and exhaust memory long before a
+/// render could finish; such a radius comes from a unit mistake, not from a real lens.
+pub const MAX_COC_RADIUS_PX: f32 = 4096.0;
+
 /// Circle-of-confusion model: `r(d) = K |d - d_f|` pixels.
 ///
 /// With a physical camera `d = 1/z` (z in metres) and
@@ -107,6 +113,26 @@ impl CocModel {
     #[inline]
     pub fn radius(&self, disparity: f32) -> f32 {
         self.signed_radius(disparity).abs()
+    }
+
+    /// Refuses a disparity range `[lo, hi]` whose largest CoC is not finite or exceeds
+    /// [`MAX_COC_RADIUS_PX`] (computed in f64, so an f32 overflow is caught too).
+    pub fn check_renderable(&self, lo: f32, hi: f32) -> Result<()> {
+        let radius = |d: f32| (f64::from(self.k_px) * (f64::from(d) - f64::from(self.focus_disparity))).abs();
+        let (d, r) = if radius(lo).total_cmp(&radius(hi)).is_ge() { (lo, radius(lo)) } else { (hi, radius(hi)) };
+        if r.is_finite() && r <= f64::from(MAX_COC_RADIUS_PX) {
+            return Ok(());
+        }
+        // Plain notation for everyday values, exponents for the absurd ones that land here.
+        let show = |v: f32| if v == 0.0 || (1e-3..1e6).contains(&v.abs()) { format!("{v}") } else { format!("{v:e}") };
+        Err(Error::param(format!(
+            "a circle of confusion of {r:.3e} px (disparity {}, K = {} px per unit, focus disparity {}) is larger than \
+             the {MAX_COC_RADIUS_PX} px the renderers handle; check the depth's scene units and the camera \
+             (--focus-distance, --blur), or limit it with --max-blur",
+            show(d),
+            show(self.k_px),
+            show(self.focus_disparity)
+        )))
     }
 
     /// Largest CoC radius over a disparity range.
@@ -167,5 +193,19 @@ mod tests {
         };
         assert!(CocModel::from_physical(&cam, 100).is_err());
         assert!(CocModel::new(f32::NAN, 0.0).is_err());
+    }
+
+    #[test]
+    fn only_a_finite_coc_up_to_the_limit_is_renderable() {
+        // K = 1024 px per unit: disparity 4 above focus is exactly the 4096 px limit.
+        let coc = CocModel::new(1024.0, 0.0).unwrap();
+        assert!(coc.check_renderable(-4.0, 4.0).is_ok());
+        assert!(coc.check_renderable(0.0, 4.01).is_err());
+        assert!(coc.check_renderable(-4.01, 0.0).is_err(), "the near side counts too");
+        assert!(coc.check_renderable(0.0, f32::INFINITY).is_err());
+        // 3e38 * 3e38 overflows f32; the check computes in f64 and still refuses it.
+        let huge = CocModel::new(3e38, 0.0).unwrap();
+        let message = huge.check_renderable(0.0, 3e38).unwrap_err().to_string();
+        assert!(message.contains("9.000e76 px") && message.contains("--max-blur"), "{message}");
     }
 }

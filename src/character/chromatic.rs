@@ -30,16 +30,45 @@ pub fn render_chromatic(
     if lens.coc.k_px == 0.0 || offsets_px == [0.0; 3] {
         return render(stack, lens);
     }
-    let mut channels = Vec::with_capacity(3);
+    let mut shifted = Vec::with_capacity(3);
     for offset in offsets_px {
-        let mut shifted = lens.clone();
-        shifted.coc.focus_disparity += offset / lens.coc.k_px;
-        channels.push(render(stack, &shifted)?);
+        let mut lens = lens.clone();
+        lens.coc.focus_disparity += offset / lens.coc.k_px;
+        // A tiny K turns a pixel of offset into an infinite focus shift: no focal plane moves
+        // that far, so say which flag cannot work (before any render) instead of rendering
+        // a meaningless lens.
+        if !lens.coc.focus_disparity.is_finite() {
+            return Err(Error::param(format!(
+                "chromatic focus offset of {offset} px needs an infinite focus shift at K = {:e} px per unit; \
+                 use smaller --chromatic offsets or a larger blur",
+                lens.coc.k_px
+            )));
+        }
+        shifted.push(lens);
     }
+    let channels = shifted.iter().map(|lens| render(stack, lens)).collect::<Result<Vec<_>>>()?;
     let mut out = channels[1].clone();
     for (i, p) in out.pixels.iter_mut().enumerate() {
         p[0] = channels[0].pixels[i][0];
         p[2] = channels[2].pixels[i][2];
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Aperture, CocModel};
+    use crate::stack::Layer;
+
+    #[test]
+    fn an_offset_needing_an_infinite_focus_shift_is_refused_before_rendering() {
+        let layer = Layer { name: "only".into(), rgba: Image::from_fn(2, 2, |_, _| [0.5; 4]), disparity: vec![0.5; 4] };
+        let stack = LayerStack::new(2, 2, vec![layer]).unwrap();
+        // The smallest positive K: 1 px of offset is a focus shift of 1 / 1e-45 = inf in f32.
+        let lens = Lens { coc: CocModel::new(1e-45, 0.5).unwrap(), aperture: Aperture::Disk };
+        let render = |_: &LayerStack, l: &Lens| -> Result<Image> { panic!("rendered with focus {}", l.coc.focus_disparity) };
+        let message = render_chromatic(&render, &stack, &lens, [0.0, 0.0, -1.0]).unwrap_err().to_string();
+        assert!(message.contains("infinite focus shift") && message.contains("--chromatic"), "{message}");
+    }
 }

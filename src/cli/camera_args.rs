@@ -59,6 +59,12 @@ pub struct ResolvedCamera {
 const DEFAULT_SENSOR_WIDTH_MM: f32 = 36.0;
 
 impl CameraArgs {
+    /// The kernel image of `--aperture image:FILE`, described for `check_output_paths`.
+    pub fn files(&self) -> Vec<(&'static str, &std::path::Path)> {
+        let kernel = self.aperture.strip_prefix("image:").filter(|f| !f.is_empty());
+        kernel.map(|f| ("the --aperture kernel image", std::path::Path::new(f))).into_iter().collect()
+    }
+
     /// The lens for an image `width_px` wide. `header` fills physical parameters the flags
     /// leave out (camera attributes found in the input file); flags win.
     pub fn resolve(&self, width_px: usize, header: &CameraHints) -> anyhow::Result<ResolvedCamera> {

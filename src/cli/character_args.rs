@@ -1,11 +1,13 @@
 //! Lens character flags of `lensblur render` (issue 12), resolved to a
 //! [`lensblur::character::Character`]; `--debug-out` writes the debug views after the render.
+use std::borrow::Cow;
 use std::path::PathBuf;
 
 use anyhow::Context as _;
 use lensblur::character::{chromatic, focus, Bloom, BlurRemap, CatsEye, Character};
 use lensblur::image::Image;
 use lensblur::render::drbokeh::RenderOptions;
+use lensblur::render::vdslr::FocusField;
 use lensblur::render::{Lens, Method, MethodSettings};
 use lensblur::stack::LayerStack;
 use lensblur::vk::Context;
@@ -51,22 +53,36 @@ impl CharacterArgs {
         })
     }
 
-    /// Renders with every control applied and writes the debug views if asked; returns the
-    /// image and the lens actually used (after `--focus-at`), which is what the report states.
-    pub fn render(
+    /// Renders with every control applied; returns the image, and the lens actually used
+    /// (after `--focus-at`, which is what the report states) with the stack it rendered.
+    pub fn render<'a>(
         &self,
         method: Method,
         ctx: Option<&Context>,
-        stack: &LayerStack,
+        stack: &'a LayerStack,
         lens: &Lens,
         options: &RenderOptions,
         settings: &MethodSettings,
-    ) -> anyhow::Result<(Image, Lens)> {
+    ) -> anyhow::Result<Rendered<'a>> {
         let (image, prepared, lens) = self.resolve()?.render(method, ctx, stack, lens, options, settings)?;
+        Ok(Rendered { image, prepared, lens })
+    }
+
+    /// Writes the `--debug-out` views of a render, if asked (after the device work is done and
+    /// validated, like every other output); `focus` is the focus field the method rendered.
+    pub fn write_debug_views(&self, rendered: &Rendered, focus: &FocusField) -> anyhow::Result<()> {
         if let Some(dir) = &self.debug_out {
-            lensblur::character::write_debug_views(dir, &prepared, &lens, settings.focus(method), &image)
+            lensblur::character::write_debug_views(dir, &rendered.prepared, &rendered.lens, focus, &rendered.image)
                 .context("--debug-out")?;
         }
-        Ok((image, lens))
+        Ok(())
     }
+}
+
+/// A render with its lens character applied, and what the debug views describe.
+pub struct Rendered<'a> {
+    pub image: Image,
+    /// The stack as rendered (after the blur remap and bloom).
+    pub prepared: Cow<'a, LayerStack>,
+    pub lens: Lens,
 }

@@ -82,13 +82,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let ctx = Context::from_env().context("opening the Vulkan device")?;
     println!("device: {}", ctx.info().name);
     let render_path = args.output.join("render.exr");
-    for (method, png) in [
-        (Method::DrBokeh, "render.png"),
-        (Method::Gather, "gather.png"),
-    ] {
+    let mut renders = Vec::new();
+    for (method, png) in [(Method::DrBokeh, "render.png"), (Method::Gather, "gather.png")] {
         let start = Instant::now();
         let image = method.render(Some(&ctx), &file.stack, &camera.lens)?;
-        let seconds = start.elapsed().as_secs_f64();
+        renders.push((method, png, image, start.elapsed().as_secs_f64()));
+    }
+    // Teardown validated before the renders are written: a validation error leaves none.
+    ctx.finish()?;
+    for (method, png, image, seconds) in renders {
         if method == Method::DrBokeh {
             let options = WriteOptions {
                 sample_type: SampleType::Float,
@@ -107,7 +109,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             seconds
         );
     }
-    ctx.finish()?;
     report_lens(&camera.lens);
     println!(
         "same render from the command line: lensblur render {} -o {}",

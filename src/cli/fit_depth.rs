@@ -20,7 +20,7 @@ use lensblur::stack::{
 use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
-use super::input_args::{check_output_path, InputArgs};
+use super::input_args::{check_output_paths, input_files, InputArgs};
 
 const EXAMPLES: &str = "\
 Examples:
@@ -74,10 +74,12 @@ pub struct Args {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
-    check_output_path(&args.output, &[&args.input, &args.target])?;
+    let mut inputs = input_files(&args.input, &args.input_args, &args.camera);
+    inputs.push(("the --target input file", &args.target));
+    check_output_paths(&[("-o", &args.output)], &inputs)?;
     let loaded = args.input_args.load(&args.input, &args.camera, InputKind::SingleImage)?;
     let Some(info) = &loaded.info else { bail!("{}: fit-depth needs an EXR stack", args.input.display()) };
-    let target = read_rgba(&args.target, None, 1 << 28).with_context(|| format!("reading the target {}", args.target.display()))?;
+    let target = read_rgba(&args.target, None, args.input_args.max_pixels).with_context(|| format!("reading the target {}", args.target.display()))?;
     let ctx = Context::from_env().context("opening the Vulkan device")?;
     let renderer: Box<dyn Differentiable> = match args.renderer.as_str() {
         "drbokeh" => Box::new(DrBokehGpuGrad::new(&ctx, Model::DrBokeh, BackwardOptions::leaky())?),
@@ -100,13 +102,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     })?;
     bar.finish_and_clear();
     drop(renderer);
+    // Teardown validated before the file appears: a validation error leaves no output.
+    ctx.finish()?;
 
     let focus = FittedFocus::new(&fitted.lens, loaded.camera.physical.is_some());
     let replacements = depth_replacements(info, &fitted.stack, loaded.depth_kind);
     let edits = HeaderEdits { focus: focus.distance.filter(|_| args.fit_focus) };
     replace_channels(&args.input, &args.output, &replacements, edits, args.input_args.max_pixels)
         .with_context(|| format!("writing {}", args.output.display()))?;
-    ctx.finish()?;
     let (first, best) = (fitted.history.first().copied().unwrap_or(f64::NAN), fitted.history.iter().copied().fold(f64::INFINITY, f64::min));
     if args.json {
         let report = serde_json::json!({

@@ -17,7 +17,7 @@ use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
 use super::file_channels::FileChannels;
-use super::input_args::{check_output_path, InputArgs, LoadedInput};
+use super::input_args::{check_output_paths, input_files, InputArgs, LoadedInput};
 use super::progress;
 
 const EXAMPLES: &str = "\
@@ -75,7 +75,9 @@ struct CameraGradients {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
-    check_output_path(&args.output, &[&args.input, &args.grad_output])?;
+    let mut inputs = input_files(&args.input, &args.input_args, &args.camera);
+    inputs.push(("the --grad-output input file", &args.grad_output));
+    check_output_paths(&[("-o", &args.output)], &inputs)?;
     let model = match args.method {
         Method::DrBokeh => Model::DrBokeh,
         Method::DrBokehCompat => Model::Compat,
@@ -86,7 +88,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // No auto-layering: gradients must map back onto the file's own channels.
     let loaded = args.input_args.load(&args.input, &args.camera, InputKind::SingleImage)?;
     let Some(info) = &loaded.info else { bail!("{}: grad needs an EXR stack", args.input.display()) };
-    let grad_output = read_grad_output(&args.grad_output, &loaded)?;
+    let grad_output = read_grad_output(&args.grad_output, &loaded, args.input_args.max_pixels)?;
     let ctx = Context::from_env().context("opening the Vulkan device")?;
     let options = if args.leaky { BackwardOptions::leaky() } else { BackwardOptions::exact() };
     let renderer = DrBokehGpuGrad::new(&ctx, model, options)?;
@@ -95,13 +97,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let tiling = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
     let (grads, stats) = renderer.backward_with(&loaded.stack, &loaded.camera.lens, &grad_output, &tiling)?;
     drop(renderer);
+    // Teardown validated before the file appears: a validation error leaves no output.
+    ctx.finish()?;
     spinner.set_message(format!("writing {}", args.output.display()));
     let channels = gradient_channels(info, &loaded, &grads)?;
     let origin = (info.display_window.x, info.display_window.y);
     write_named_channels(&args.output, (loaded.stack.width, loaded.stack.height), origin, channels)
         .with_context(|| format!("writing {}", args.output.display()))?;
     spinner.finish_and_clear();
-    ctx.finish()?;
     let camera = camera_gradients(&loaded, &grads);
     if args.json {
         let report = serde_json::json!({
@@ -121,9 +124,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn read_grad_output(path: &Path, loaded: &LoadedInput) -> anyhow::Result<Image> {
-    let mut g =
-        read_rgba(path, None, 1 << 28).with_context(|| format!("reading the output gradient {}", path.display()))?;
+fn read_grad_output(path: &Path, loaded: &LoadedInput, max_pixels: u64) -> anyhow::Result<Image> {
+    let mut g = read_rgba(path, None, max_pixels).with_context(|| format!("reading the output gradient {}", path.display()))?;
     if (g.width, g.height) != (loaded.stack.width, loaded.stack.height) {
         bail!(
             "{}: the output gradient is {}x{} but the stack is {}x{}",

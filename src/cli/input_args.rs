@@ -38,7 +38,8 @@ pub struct InputArgs {
     /// Auto-layering of a single image: most layers to cut it into.
     #[arg(long, value_name = "N", help_heading = "Input")]
     pub max_layers: Option<usize>,
-    /// Refuse EXR files whose header declares more pixels than this, before reading pixels.
+    /// Refuse inputs (EXR, PNG/JPEG and --depth images) whose header declares more pixels
+    /// than this, before reading pixels.
     #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_PIXELS, help_heading = "Input")]
     pub max_pixels: u64,
     /// Set NaN/Inf colour and alpha samples to 0 (with a warning) instead of refusing the file.
@@ -116,7 +117,7 @@ impl InputArgs {
                 );
             }
             let kind = self.depth_kind.unwrap_or(DepthKind::Disparity);
-            let ldr = read_ldr(path, depth_path, kind)?;
+            let ldr = read_ldr(path, depth_path, kind, self.max_pixels)?;
             let (w, h) = (ldr.image.width, ldr.image.height);
             let layer = Layer {
                 name: "image".into(),
@@ -146,6 +147,11 @@ impl InputArgs {
         Ok((file.stack, Some(file.info), kind))
     }
 
+    /// Files these flags read besides the input itself, described for [`check_output_paths`].
+    pub fn files(&self) -> Vec<(&'static str, &Path)> {
+        self.depth.iter().map(|p| ("the --depth input file", p.as_path())).collect()
+    }
+
     fn auto_layer_options(&self) -> AutoLayerOptions {
         let defaults = AutoLayerOptions::default();
         AutoLayerOptions {
@@ -156,25 +162,52 @@ impl InputArgs {
     }
 }
 
-/// Refuses an output whose directory does not exist (before a long render, not after it) and
-/// an output that is an input: compositors call us with generated paths, and a typo that
-/// points the output at the source would destroy it.
-pub fn check_output_path(output: &Path, inputs: &[&Path]) -> anyhow::Result<()> {
-    let canonical = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
-    let dir = output.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    if !dir.is_dir() {
-        bail!(
-            "output directory {} does not exist; create it first (nothing was rendered)",
-            dir.display()
-        );
-    }
-    for input in inputs {
-        if output.exists() && canonical(output) == canonical(input) {
-            bail!(
-                "output {} is the input file; choose another -o path",
-                output.display()
-            );
+/// Refuses, before any work: an output whose directory does not exist, an output that is one
+/// of the inputs (compositors call us with generated paths, and a typo that points an output
+/// at a source would destroy it), and two outputs on one path (the second would replace the
+/// first). Outputs are named by their flag (`-o`), inputs by what they are ("the input file",
+/// "the --depth input file"), so the message says which two collide.
+pub fn check_output_paths(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> anyhow::Result<()> {
+    for (i, &(flag, output)) in outputs.iter().enumerate() {
+        let dir = output.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        if !dir.is_dir() {
+            bail!("{flag} {}: output directory {} does not exist; create it first (nothing was rendered)", output.display(), dir.display());
+        }
+        if let Some((input, _)) = inputs.iter().find(|(_, input)| same_file(output, input)) {
+            bail!("{flag} {} is {input}; choose another {flag} path (nothing was written)", output.display());
+        }
+        if let Some((other, _)) = outputs[..i].iter().find(|(_, other)| same_file(output, other)) {
+            bail!("{flag} {} is the same file as {other}; give each output its own path (nothing was written)", output.display());
         }
     }
     Ok(())
+}
+
+/// Every file a command reads through the shared flags: the input itself, `--depth`, and an
+/// `--aperture image:FILE` kernel, described for [`check_output_paths`].
+pub fn input_files<'a>(input: &'a Path, input_args: &'a InputArgs, camera: &'a CameraArgs) -> Vec<(&'static str, &'a Path)> {
+    let mut files = vec![("the input file", input)];
+    files.extend(input_args.files());
+    files.extend(camera.files());
+    files
+}
+
+/// Whether two paths name one file: the same inode when both exist (symlinks, hard links,
+/// `./a` vs `a`), else the same canonical directory and file name (a file not written yet).
+fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    if let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+        use std::os::unix::fs::MetadataExt;
+        return (ma.dev(), ma.ino()) == (mb.dev(), mb.ino());
+    }
+    let resolved = |p: &Path| {
+        std::fs::canonicalize(p).ok().or_else(|| {
+            let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            Some(std::fs::canonicalize(dir).ok()?.join(p.file_name()?))
+        })
+    };
+    match (resolved(a), resolved(b)) {
+        (Some(a), Some(b)) => a == b,
+        _ => a == b,
+    }
 }

@@ -68,10 +68,17 @@ enum Command {
 
 pub fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    // Ctrl-C: outputs appear by rename only when complete; remove any temporary being written.
+    // Ctrl-C, SIGTERM, SIGHUP: outputs appear by rename only when complete; remove any
+    // temporary being written, and keep every writer from renaming until the process exits.
     let _ = ctrlc::set_handler(|| {
-        lensblur::stack::remove_partial_outputs();
-        eprintln!("lensblur: interrupted; no output written");
+        let interrupted = lensblur::atomic_file::interrupt();
+        match interrupted.written() {
+            [] => eprintln!("lensblur: interrupted; no output written"),
+            done => {
+                let done: Vec<String> = done.iter().map(|p| p.display().to_string()).collect();
+                eprintln!("lensblur: interrupted; complete before the interrupt: {}; nothing else written", done.join(", "));
+            }
+        }
         std::process::exit(130);
     });
     let result = match cli.command {

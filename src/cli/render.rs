@@ -13,7 +13,8 @@ use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
 use super::character_args::CharacterArgs;
-use super::input_args::{check_output_path, InputArgs, LoadedInput};
+use super::character_args::Rendered;
+use super::input_args::{check_output_paths, input_files, InputArgs, LoadedInput};
 use super::method_args::MethodArgs;
 use super::progress;
 
@@ -118,16 +119,16 @@ struct Timings {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let total = Instant::now();
-    check_output_path(&args.output, &[&args.input])?;
+    let inputs = input_files(&args.input, &args.input_args, &args.camera);
+    let mut outputs = vec![("-o", args.output.as_path())];
+    outputs.extend(args.preview.as_deref().map(|p| ("--preview", p)));
+    check_output_paths(&outputs, &inputs)?;
     if args.keep_channels && is_ldr_path(&args.input) {
         anyhow::bail!(
             "--keep-channels copies the other channels of an EXR input; {} is a PNG/JPEG and has none \
              (drop the flag)",
             args.input.display()
         );
-    }
-    if let Some(preview) = &args.preview {
-        check_output_path(preview, &[&args.input, &args.output])?;
     }
     args.method_args.check(args.method)?;
     let mut camera = args.camera.clone();
@@ -145,24 +146,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let what = format!("rendering {layer_count} layer(s) with {}", args.method);
     let tile_progress = progress::tiles(&spinner, what);
     let options = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
-    let (image, lens) = args
+    let rendered = args
         .character
         .render(args.method, ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options, &settings)
         .with_context(|| format!("rendering {} with {}", args.input.display(), args.method))?;
     let render_time = start.elapsed();
-    let layers = layer_reports(&loaded.stack, &lens);
-    // The stack is done with: free it before the write copies the image into EXR channels,
-    // so the host never holds the stack, the image and the channels at once.
-    drop(std::mem::take(&mut loaded.stack.layers));
-    spinner.set_message(format!("writing {}", args.output.display()));
-    let start = Instant::now();
-    write_output(&args, &loaded, &image)?;
-    let write_time = start.elapsed();
-    spinner.finish_and_clear();
     let device = ctx.as_ref().map(|c| c.info().name.clone());
+    // The device is closed and its teardown validated before any file appears: a validation
+    // error fails the command with nothing written.
     if let Some(ctx) = ctx {
         ctx.finish()?;
     }
+    let start = Instant::now();
+    let layers = layer_reports(&loaded.stack, &rendered.lens);
+    args.character.write_debug_views(&rendered, settings.focus(args.method))?;
+    // The stack is done with: free it before the write copies the image into EXR channels,
+    // so the host never holds the stack, the image and the channels at once.
+    let Rendered { image, lens, prepared } = rendered;
+    drop(prepared);
+    drop(std::mem::take(&mut loaded.stack.layers));
+    spinner.set_message(format!("writing {}", args.output.display()));
+    write_output(&args, &loaded, &image)?;
+    let write_time = start.elapsed();
+    spinner.finish_and_clear();
     let timings = Timings {
         read: ms(loaded.read_time),
         layering: ms(loaded.layering_time),

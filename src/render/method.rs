@@ -102,6 +102,12 @@ impl Method {
         options: &RenderOptions,
         settings: &MethodSettings,
     ) -> Result<Image> {
+        // Every method sizes windows or kernels from the largest CoC: refuse one no render can
+        // finish (or whose integer window arithmetic would overflow) before any work.
+        let (lo, hi) = stack.disparity_range();
+        if lo <= hi {
+            lens.coc.check_renderable(lo, hi)?;
+        }
         let single = || stack.flatten();
         let (vdslr, multiview) = (&settings.vdslr, &settings.multiview);
         match (self, ctx) {

@@ -194,19 +194,7 @@ pub(super) fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
             ));
         }
         for size in [display.size, header.layer_size] {
-            // u64 product: a forged header can claim sizes whose area overflows usize math.
-            let area = size.x() as u64 * size.y() as u64;
-            if area > max_pixels {
-                return Err(Error::input(
-                    path,
-                    format!(
-                        "the header declares {}x{} pixels, which exceeds the limit of {max_pixels}; if the file is \
-                         genuine, raise the limit with --max-pixels",
-                        size.x(),
-                        size.y()
-                    ),
-                ));
-            }
+            super::check_pixel_budget(path, size.x() as u64, size.y() as u64, max_pixels)?;
         }
     }
     Ok(meta)

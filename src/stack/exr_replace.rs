@@ -6,7 +6,7 @@ use std::path::Path;
 use exr::prelude::{f16, FlatSamples, WritableImage};
 
 use super::exr_read::{data_in_display, part_window, read_headers, read_pixels, window_of};
-use super::exr_write::write_atomically;
+use crate::atomic_file::write_atomically;
 use crate::{Error, Result};
 
 /// New samples for one channel of the input.
@@ -76,7 +76,7 @@ pub fn replace_channels(
             part.attributes.focus = Some(focus);
         }
     }
-    write_atomically(output, |tmp| {
-        image.write().to_file(tmp).map_err(|e| Error::input(output, format!("cannot write EXR: {e}")))
+    write_atomically(output, |file| {
+        image.write().to_buffered(file).map_err(|e| Error::input(output, format!("cannot write EXR: {e}")))
     })
 }

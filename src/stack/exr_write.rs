@@ -1,7 +1,7 @@
 //! Writing images and stacks as EXR: single part, ZIP scanline compression (what Blender
 //! and OIIO write by default), channel names in the convention the input used.
 //! Files appear atomically: written to a temporary file beside the target, then renamed.
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use exr::meta::attribute::{AttributeValue, Text};
 use exr::prelude::{
@@ -12,6 +12,7 @@ use exr::prelude::{
 use super::info::{ExtraChannel, SampleType};
 use super::{DepthKind, LayerStack};
 use crate::camera::hints::{FOCAL_LENGTH_ATTRIBUTE, SENSOR_WIDTH_ATTRIBUTE};
+use crate::atomic_file::write_atomically;
 use crate::camera::PhysicalCamera;
 use crate::image::Image;
 use crate::{Error, Result};
@@ -263,42 +264,10 @@ fn write_parts(path: &Path, frame: Frame, parts: Vec<PartChannels>, camera: Opti
         .collect();
     shared.display_window = IntegerBounds::new(origin, (frame.width, frame.height));
     let image = exr::prelude::Image::from_layers(shared, layers);
-    write_atomically(path, |tmp| {
+    write_atomically(path, |file| {
         image
             .write()
-            .to_file(tmp)
+            .to_buffered(file)
             .map_err(|e| Error::input(path, format!("cannot write EXR: {e}")))
     })
-}
-
-/// Temporary files being written right now, so an interrupt can remove them.
-static IN_FLIGHT: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
-
-/// Removes every temporary output still being written (for a Ctrl-C handler that is about to
-/// exit): a killed command leaves neither a partial output nor a stray temporary file.
-pub fn remove_partial_outputs() {
-    let paths = IN_FLIGHT.lock().map(|mut p| std::mem::take(&mut *p)).unwrap_or_default();
-    for path in paths {
-        let _ = std::fs::remove_file(path);
-    }
-}
-
-/// Runs `write` on a temporary path in the target's directory and renames it into place,
-/// so readers never see a half-written file and failures leave nothing behind.
-pub(crate) fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let file_name = path.file_name().ok_or_else(|| Error::input(path, "output path has no file name"))?;
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let tmp: PathBuf = dir.join(format!(".{}.{}.tmp", file_name.to_string_lossy(), std::process::id()));
-    if let Ok(mut in_flight) = IN_FLIGHT.lock() {
-        in_flight.push(tmp.clone());
-    }
-    let result = write(&tmp)
-        .and_then(|()| std::fs::rename(&tmp, path).map_err(|source| Error::Io { path: path.to_path_buf(), source }));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    if let Ok(mut in_flight) = IN_FLIGHT.lock() {
-        in_flight.retain(|p| p != &tmp);
-    }
-    result
 }

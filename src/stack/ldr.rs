@@ -2,8 +2,8 @@
 //! before any blur (blurring encoded values darkens highlights) and encoded again on output.
 use std::path::Path;
 
-use super::exr_write::write_atomically;
 use super::DepthKind;
+use crate::atomic_file::write_atomically;
 use crate::image::Image;
 use crate::{Error, Result};
 
@@ -36,22 +36,30 @@ pub fn linear_to_srgb(v: f32) -> f32 {
     }
 }
 
-fn open(path: &Path) -> Result<image::DynamicImage> {
+fn reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>> {
     if !path.exists() {
         return Err(Error::input(path, "file not found"));
     }
-    image::ImageReader::open(path)
-        .map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?
-        .with_guessed_format()
-        .map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?
-        .decode()
-        .map_err(|e| Error::input(path, format!("cannot decode image: {e}")))
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    image::ImageReader::open(path).map_err(io)?.with_guessed_format().map_err(io)
+}
+
+/// Width and height from the file's header alone, refused above `max_pixels`.
+fn header_size(path: &Path, max_pixels: u64) -> Result<(u32, u32)> {
+    let (w, h) = reader(path)?
+        .into_dimensions()
+        .map_err(|e| Error::input(path, format!("cannot read the image header: {e}")))?;
+    super::check_pixel_budget(path, w.into(), h.into(), max_pixels)?;
+    Ok((w, h))
+}
+
+/// Decodes the whole image, which must have the size its header declared (checked above).
+fn decode(path: &Path, size: (u32, u32)) -> Result<image::DynamicImage> {
+    let image = reader(path)?.decode().map_err(|e| Error::input(path, format!("cannot decode image: {e}")))?;
+    if (image.width(), image.height()) != size {
+        return Err(Error::input(path, "decoded size differs from the header's; the file is damaged"));
+    }
+    Ok(image)
 }
 
 /// Depth image samples normalised to [0, 1] (8- or 16-bit, first channel of grey images).
@@ -73,21 +81,17 @@ fn depth_values(depth: &image::DynamicImage) -> Vec<f32> {
 
 /// Reads a PNG/JPEG and its depth image. Depth values `v` in [0, 1] mean, by kind:
 /// `disparity` (1 = near, 0 = far), `inverse-z` (1/z, 0 = far), `z` (z = v; 0 = no data,
-/// treated as infinitely far).
-pub fn read_ldr(path: &Path, depth_path: &Path, depth_kind: DepthKind) -> Result<LdrInput> {
-    let colour = open(path)?.to_rgba32f();
-    let depth = open(depth_path)?;
-    let (w, h) = (colour.width() as usize, colour.height() as usize);
-    if (depth.width() as usize, depth.height() as usize) != (w, h) {
-        return Err(Error::input(
-            depth_path,
-            format!(
-                "depth is {}x{} but the image is {w}x{h}",
-                depth.width(),
-                depth.height()
-            ),
-        ));
+/// treated as infinitely far). Both headers are checked (size under `max_pixels`, the same
+/// size) before either image is decoded.
+pub fn read_ldr(path: &Path, depth_path: &Path, depth_kind: DepthKind, max_pixels: u64) -> Result<LdrInput> {
+    let (w, h) = header_size(path, max_pixels)?;
+    let (dw, dh) = header_size(depth_path, max_pixels)?;
+    if (dw, dh) != (w, h) {
+        return Err(Error::input(depth_path, format!("depth is {dw}x{dh} but the image is {w}x{h}")));
     }
+    let colour = decode(path, (w, h))?.to_rgba32f();
+    let depth = decode(depth_path, (w, h))?;
+    let (w, h) = (w as usize, h as usize);
     let pixels = colour
         .pixels()
         .map(|p| {
@@ -174,8 +178,8 @@ fn write_encoded(path: &Path, image: &Image, format: image::ImageFormat) -> Resu
         image::ExtendedColorType::Rgb8
     };
     let (w, h) = (image.width as u32, image.height as u32);
-    write_atomically(path, |tmp| {
-        image::save_buffer_with_format(tmp, &bytes, w, h, colour, format)
+    write_atomically(path, |file| {
+        image::write_buffer_with_format(file, &bytes, w, h, colour, format)
             .map_err(|e| Error::input(path, format!("cannot write {format:?}: {e}")))
     })
 }

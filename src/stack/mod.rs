@@ -17,13 +17,29 @@ pub mod naming;
 pub use autolayer::{split_into_layers, AutoLayerOptions};
 pub use exr_read::{known_depth_weight, read_parts, read_rgba, read_stack, ReadOptions, DEFAULT_MAX_PIXELS};
 pub use exr_replace::{replace_channels, ChannelReplacement, HeaderEdits};
-pub use exr_write::{remove_partial_outputs, write_image, write_named_channels, write_stack, StackNaming, StackWriteOptions, WriteOptions};
+pub use exr_write::{write_image, write_named_channels, write_stack, StackNaming, StackWriteOptions, WriteOptions};
 pub use info::{ExtraChannel, LayerInfo, SampleType, StackFile, StackInfo, Window};
 pub use ldr::{is_ldr_path, read_ldr, write_ldr, write_png_preview, LdrInput};
 pub use naming::Convention;
 
 use crate::image::Image;
 use crate::{Error, Result};
+
+/// Refuses a file whose header declares more than `max_pixels` pixels, before any pixel is
+/// decoded: a forged or damaged header must not make the reader allocate gigabytes.
+pub(crate) fn check_pixel_budget(path: &std::path::Path, width: u64, height: u64, max_pixels: u64) -> Result<()> {
+    // Saturating: a forged size must not wrap around to a product under the budget.
+    if width.saturating_mul(height) <= max_pixels {
+        return Ok(());
+    }
+    Err(Error::input(
+        path,
+        format!(
+            "the header declares {width}x{height} pixels, which exceeds the limit of {max_pixels}; if the file is \
+             genuine, raise the limit with --max-pixels"
+        ),
+    ))
+}
 
 /// How the depth channel of a file is encoded.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

@@ -195,12 +195,14 @@ pub fn glob_match(pattern: &str, text: &str) -> bool {
     let (mut pi, mut ti) = (0, 0);
     let mut star: Option<(usize, usize)> = None;
     while ti < t.len() {
-        if pi < p.len() && (p[pi] == '?' || p[pi] == t[ti]) {
-            pi += 1;
-            ti += 1;
-        } else if pi < p.len() && p[pi] == '*' {
+        // `*` is a wildcard even where the name holds a literal `*`: tried first, so matching
+        // it as a literal cannot use it up.
+        if pi < p.len() && p[pi] == '*' {
             star = Some((pi, ti));
             pi += 1;
+        } else if pi < p.len() && (p[pi] == '?' || p[pi] == t[ti]) {
+            pi += 1;
+            ti += 1;
         } else if let Some((sp, st)) = star {
             pi = sp + 1;
             ti = st + 1;
@@ -259,6 +261,18 @@ mod tests {
         assert_eq!(groups[1].layer, "");
         assert_eq!(groups[1].convention, Convention::Unprefixed);
         assert!(groups[1].channels.is_complete() && groups[1].channels.alpha.is_none());
+    }
+
+    /// Fuzzing finding (`params` target): a literal `*` in the name matched the pattern's `*`
+    /// as a character, so `*` did not match `*ir` and `fg*` did not match `fg*x`.
+    #[test]
+    fn a_star_stays_a_wildcard_over_a_literal_star_in_the_name() {
+        assert!(glob_match("*", "*ir"));
+        assert!(glob_match("fg*", "fg*x"));
+        assert!(glob_match("*x", "a*x"));
+        let odd = "\0\0@\u{fffd}\u{fffd}\0\u{fffd}?\0\0\u{fffd}Cfg*";
+        assert!(glob_match(odd, odd), "a name matches itself used as a pattern");
+        assert!(!glob_match("fg*", "bg*x"));
     }
 
     #[test]

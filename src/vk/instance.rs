@@ -29,6 +29,7 @@ impl Instance {
         })?;
         if validation {
             require_validation_layer(&entry)?;
+            require_layer_extension(&entry, vk::EXT_VALIDATION_FEATURES_NAME)?;
         }
         let log = Box::<MessageLog>::default();
         let app = vk::ApplicationInfo::default()
@@ -36,9 +37,13 @@ impl Instance {
             .engine_name(c"lensblur")
             .api_version(vk::API_VERSION_1_2);
         let layers = [VALIDATION_LAYER.as_ptr()];
-        let extensions = [ash::ext::debug_utils::NAME.as_ptr()];
+        // VK_EXT_validation_features is the layer's own instance extension: the spec allows the
+        // chained `ValidationFeaturesEXT` only with it enabled (layer 1.3.239 happens to honour
+        // the struct without it; a stricter layer or loader need not).
+        let extensions = [ash::ext::debug_utils::NAME.as_ptr(), vk::EXT_VALIDATION_FEATURES_NAME.as_ptr()];
         let mut messenger = messenger_info(&log);
-        // Synchronization validation catches missing barriers, which lavapipe would forgive.
+        // Synchronization validation catches missing barriers, which lavapipe would forgive
+        // (it runs one command at a time); a unit test in command.rs proves it reports them.
         let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
         let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
         let mut info = vk::InstanceCreateInfo::default().application_info(&app);
@@ -90,6 +95,22 @@ fn require_validation_layer(entry: &ash::Entry) -> Result<()> {
             "LENSBLUR_VALIDATION=1 needs VK_LAYER_KHRONOS_validation: `apt-get install vulkan-validationlayers`".into(),
         ))
     }
+}
+
+/// Fails unless the validation layer provides `extension` (an instance extension of the layer,
+/// not of the loader, so it is listed under the layer's name).
+fn require_layer_extension(entry: &ash::Entry, extension: &CStr) -> Result<()> {
+    // SAFETY: a global query; the layer name is a valid NUL-terminated string.
+    let extensions = unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }
+        .call("vkEnumerateInstanceExtensionProperties")?;
+    if extensions.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == extension)) {
+        return Ok(());
+    }
+    Err(Error::NoVulkan(format!(
+        "LENSBLUR_VALIDATION=1 needs {} from VK_LAYER_KHRONOS_validation (synchronization validation); \
+         install a newer vulkan-validationlayers",
+        extension.to_string_lossy()
+    )))
 }
 
 impl Drop for Instance {

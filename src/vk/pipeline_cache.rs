@@ -8,13 +8,15 @@
 //! by the same vendor, device and cache UUID (drivers should reject foreign data themselves, but
 //! some crash on it), and it is replaced by rename, so a crash or a concurrent process never
 //! leaves a half-written file behind.
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use ash::vk;
 
 use super::error::VkCall;
-use crate::Result;
+use crate::atomic_file::write_atomically;
+use crate::{Error, Result};
 
 /// `VkPipelineCacheHeaderVersionOne`: header size, version, vendor id, device id, cache UUID.
 const HEADER_BYTES: usize = 32;
@@ -105,7 +107,7 @@ impl PipelineCache {
                 // Lavapipe (Mesa 22.3) returns the header alone and keeps its own disk cache;
                 // the file is still written so drivers that fill it and this code stay one path.
                 Ok(data) if data.len() >= HEADER_BYTES => {
-                    if let Err(e) = write_atomically(file, &data) {
+                    if let Err(e) = save(file, &data) {
                         eprintln!("lensblur: warning: could not save the pipeline cache {}: {e}", file.display());
                     }
                 }
@@ -118,25 +120,18 @@ impl PipelineCache {
     }
 }
 
+/// Replaces `path` by rename (see [`write_atomically`]), creating its folder first.
+fn save(path: &Path, data: &[u8]) -> Result<()> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(io)?;
+    }
+    write_atomically(path, |w| w.write_all(data).map_err(io))
+}
+
 fn read_small(path: &Path) -> Option<Vec<u8>> {
     let size = std::fs::metadata(path).ok()?.len();
     (size <= MAX_FILE_BYTES).then(|| std::fs::read(path).ok()).flatten()
-}
-
-/// Writes a sibling temporary file and renames it over `path`, so readers see the old file or
-/// the new one, never a part.
-fn write_atomically(path: &Path, data: &[u8]) -> std::io::Result<()> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir)?;
-    }
-    let unique = format!("{}.{}", std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed));
-    let temporary = path.with_extension(format!("{unique}.tmp"));
-    let written = std::fs::write(&temporary, data).and_then(|()| std::fs::rename(&temporary, path));
-    if written.is_err() {
-        let _ = std::fs::remove_file(&temporary);
-    }
-    written
 }
 
 #[cfg(test)]

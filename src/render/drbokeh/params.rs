@@ -37,6 +37,7 @@ impl Params {
         if !(lo.is_finite() && hi.is_finite()) {
             return Err(Error::param("layer disparities must be finite"));
         }
+        lens.coc.check_renderable(lo, hi)?;
         let view = LensView::new(&lens.coc, &lens.aperture);
         let max_radius = view.signed_radius(lo).abs().max(view.signed_radius(hi).abs());
         let max_support = match model {
