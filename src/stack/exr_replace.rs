@@ -5,6 +5,9 @@ use std::path::Path;
 
 use exr::prelude::{f16, FlatSamples, WritableImage};
 
+use std::io::Write as _;
+
+use super::exr_header_order::sort_header_attributes;
 use super::exr_read::{data_in_display, part_window, read_headers, read_pixels, window_of};
 use crate::atomic_file::write_atomically;
 use crate::{Error, Result};
@@ -76,7 +79,15 @@ pub fn replace_channels(
             part.attributes.focus = Some(focus);
         }
     }
+    // Written in memory first so the header's attributes can be put in a fixed order (the
+    // input's attributes would otherwise come out in a different order on every run).
+    let mut bytes = Vec::new();
+    image
+        .write()
+        .to_buffered(std::io::Cursor::new(&mut bytes))
+        .map_err(|e| Error::input(output, format!("cannot write EXR: {e}")))?;
+    sort_header_attributes(&mut bytes)?;
     write_atomically(output, |file| {
-        image.write().to_buffered(file).map_err(|e| Error::input(output, format!("cannot write EXR: {e}")))
+        file.write_all(&bytes).map_err(|source| Error::Io { path: output.to_path_buf(), source })
     })
 }
