@@ -31,7 +31,8 @@ Examples:
   lensblur bench --quick --sheet b.png  score every method against ray-traced truth
   LENSBLUR_DEVICE=1 lensblur devices    pick a device by index or name substring
   LENSBLUR_VALIDATION=1 lensblur ...    any Vulkan validation message becomes an error
-  LENSBLUR_PIPELINE_CACHE=off lensblur  do not keep compiled pipelines in ~/.cache/lensblur";
+  LENSBLUR_PIPELINE_CACHE=off lensblur  do not keep compiled pipelines in ~/.cache/lensblur
+  LENSBLUR_PROFILE=1 lensblur render .. print the device time of each compute shader on exit";
 
 #[derive(Parser)]
 #[command(name = "lensblur", version, about = "Physically based, occlusion-aware lens blur on Vulkan compute", after_help = EXAMPLES)]
@@ -96,6 +97,9 @@ pub fn main() -> std::process::ExitCode {
     };
     // Validation messages raised while contexts were torn down fail the command too.
     let result = result.and_then(|()| Ok(lensblur::vk::validation::check_unreported()?));
+    if let Some(table) = lensblur::vk::profile::report() {
+        eprint!("{table}");
+    }
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(error) => {

@@ -29,6 +29,9 @@ pub struct CommandBatch {
     /// Sets handed out from `descriptor_pools[current_pool]`.
     sets_in_current_pool: u32,
     timestamps: Option<vk::QueryPool>,
+    /// Shaders of the dispatches timed in this submission (`LENSBLUR_PROFILE`): query 2 + k
+    /// follows dispatch k.
+    profiled: Vec<&'static str>,
     last_device_time_ns: Option<f64>,
     in_use_buffers: Vec<Buffer>,
     in_use_pipelines: Vec<ComputePipeline>,
@@ -36,6 +39,15 @@ pub struct CommandBatch {
     /// True between a submission and the wait on its fence.
     pending: bool,
     commands: usize,
+}
+
+/// Timestamp queries per batch: start and end, plus one per dispatch when profiling.
+fn query_count() -> u32 {
+    if super::profile::enabled() {
+        2 + super::profile::MAX_TIMED_DISPATCHES
+    } else {
+        2
+    }
 }
 
 impl CommandBatch {
@@ -53,6 +65,7 @@ impl CommandBatch {
             current_pool: 0,
             sets_in_current_pool: 0,
             timestamps: None,
+            profiled: Vec::new(),
             last_device_time_ns: None,
             in_use_buffers: Vec::new(),
             in_use_pipelines: Vec::new(),
@@ -70,7 +83,7 @@ impl CommandBatch {
             batch.command_buffer = device.raw.allocate_command_buffers(&alloc).call("vkAllocateCommandBuffers")?[0];
             batch.fence = device.raw.create_fence(&vk::FenceCreateInfo::default(), None).call("vkCreateFence")?;
             if device.info.timestamp_period_ns.is_some() {
-                let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2);
+                let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(query_count());
                 batch.timestamps = Some(device.raw.create_query_pool(&info, None).call("vkCreateQueryPool")?);
             }
         }
@@ -86,7 +99,7 @@ impl CommandBatch {
         unsafe {
             self.device.raw.begin_command_buffer(self.command_buffer, &begin).call("vkBeginCommandBuffer")?;
             if let Some(pool) = self.timestamps {
-                self.device.raw.cmd_reset_query_pool(self.command_buffer, pool, 0, 2);
+                self.device.raw.cmd_reset_query_pool(self.command_buffer, pool, 0, query_count());
                 self.device.raw.cmd_write_timestamp(self.command_buffer, vk::PipelineStageFlags::TOP_OF_PIPE, pool, 0);
             }
         }
@@ -152,6 +165,7 @@ impl CommandBatch {
     ) -> Result<()> {
         self.record_dispatch(pipeline, bindings, push, groups)?;
         self.barrier();
+        self.time_dispatch(pipeline.shader().name);
         Ok(())
     }
 
@@ -310,6 +324,7 @@ impl CommandBatch {
         unsafe { self.device.raw.wait_for_fences(&[self.fence], true, u64::MAX) }.call("vkWaitForFences")?;
         self.pending = false;
         self.last_device_time_ns = self.read_timestamps();
+        self.add_profiled_times();
         self.reset()?;
         self.device.check_validation()
     }
@@ -321,6 +336,40 @@ impl CommandBatch {
         // SAFETY: both queries were written by the submission that has completed.
         unsafe { self.device.raw.get_query_pool_results(pool, 0, &mut ticks, vk::QueryResultFlags::TYPE_64) }.ok()?;
         Some(ticks[1].saturating_sub(ticks[0]) as f64 * period)
+    }
+
+    /// With `LENSBLUR_PROFILE`, a timestamp after the dispatch just recorded (of `shader`).
+    fn time_dispatch(&mut self, shader: &'static str) {
+        let Some(pool) = self.timestamps.filter(|_| super::profile::enabled()) else { return };
+        let index = 2 + self.profiled.len() as u32;
+        if index < query_count() {
+            // SAFETY: recording is active (a dispatch was just recorded) and the query was
+            // reset at the start of this command buffer.
+            unsafe {
+                self.device.raw.cmd_write_timestamp(self.command_buffer, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, index);
+            }
+            self.profiled.push(shader);
+        }
+    }
+
+    /// Adds the completed submission's per-dispatch times to the profile.
+    fn add_profiled_times(&mut self) {
+        let shaders = std::mem::take(&mut self.profiled);
+        let (Some(pool), Some(period)) = (self.timestamps, self.device.info.timestamp_period_ns) else { return };
+        if shaders.is_empty() {
+            return;
+        }
+        let mut ticks = vec![0u64; 2 + shaders.len()];
+        // SAFETY: every query read was written by the submission that has completed.
+        let read = unsafe { self.device.raw.get_query_pool_results(pool, 0, &mut ticks, vk::QueryResultFlags::TYPE_64) };
+        if read.is_err() {
+            return;
+        }
+        let mut previous = ticks[0];
+        for (shader, &tick) in shaders.iter().zip(&ticks[2..]) {
+            super::profile::add(shader, tick.saturating_sub(previous) as f64 * f64::from(period));
+            previous = tick;
+        }
     }
 
     /// Device time of the last submission (timestamp queries), if the queue supports them.

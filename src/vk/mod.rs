@@ -25,6 +25,7 @@ mod error;
 mod instance;
 mod pipeline;
 mod pipeline_cache;
+pub mod profile;
 pub mod validation;
 
 pub use buffer::{Binding, Buffer};
