@@ -21,6 +21,7 @@
 #include "sampling.glsl"
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+#include "dispatch.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Pyramid { vec4 pyramid[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Heights { float heights[]; };
@@ -152,7 +153,7 @@ vec4 trace(vec2 p, vec2 u, int pixel) {
 }
 
 void main() {
-    ivec2 x = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 x = ivec2(spread_global_invocation_id().xy);
     if (!inside(x, ivec2(pc.width, pc.height))) {
         return;
     }

@@ -18,6 +18,7 @@
 #include "aperture.glsl"
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+#include "dispatch.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Source { vec4 source[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
@@ -48,7 +49,7 @@ float scatter_weight(float r_y, float distance) {
 }
 
 void main() {
-    ivec2 x = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 x = ivec2(spread_global_invocation_id().xy);
     if (!inside(x, ivec2(pc.width, pc.height))) {
         return;
     }

@@ -10,6 +10,7 @@
 #include "drbokeh_grad.glsl"
 
 layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
+#include "dispatch.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
@@ -97,7 +98,7 @@ vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2) {
 }
 
 void main() {
-    ivec2 x = drbokeh_core_pixel(gl_GlobalInvocationID);
+    ivec2 x = drbokeh_core_pixel(spread_global_invocation_id());
     if (x.x < 0) {
         return;
     }

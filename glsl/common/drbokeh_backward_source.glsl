@@ -20,6 +20,7 @@ layout(local_size_x = 4, local_size_y = 16, local_size_z = 1) in;
 #else
 layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 #endif
+#include "dispatch.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
@@ -52,7 +53,7 @@ float vis_share(vec2 offset, DrBokehPx dst) {
 
 #ifndef DRBOKEH_BACKWARD_DISK
 void main() {
-    ivec2 y = drbokeh_core_pixel(gl_GlobalInvocationID);
+    ivec2 y = drbokeh_core_pixel(spread_global_invocation_id());
     if (y.x < 0) {
         return;
     }
@@ -124,7 +125,8 @@ void main() {
 // horizontally adjacent sources y0 + (k, 0): each receiver is loaded once for all of them, and
 // each source still sums its receivers in the order of one source per invocation.
 void main() {
-    ivec2 local = ivec2(RUN * gl_GlobalInvocationID.x, gl_GlobalInvocationID.y);
+    uvec3 id = spread_global_invocation_id();
+    ivec2 local = ivec2(RUN * id.x, id.y);
     if (local.x >= pc.core.z || local.y >= pc.core.w) {
         return;
     }

@@ -14,6 +14,7 @@ const int RUN = 4;
 
 // 16 / RUN x 16 invocations of RUN pixels each: one 16x16 tile (one search window) per group.
 layout(local_size_x = 4, local_size_y = 16, local_size_z = 1) in;
+#include "dispatch.glsl"
 
 layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
@@ -263,7 +264,8 @@ void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
 
 // Each invocation writes RUN horizontally adjacent pixels x0 + (k, 0) of the core.
 void main() {
-    ivec2 local = ivec2(RUN * gl_GlobalInvocationID.x, gl_GlobalInvocationID.y);
+    uvec3 id = spread_global_invocation_id();
+    ivec2 local = ivec2(RUN * id.x, id.y);
     if (local.x >= pc.core.z || local.y >= pc.core.w) {
         return;
     }
