@@ -247,3 +247,20 @@ fn version_names_the_crate_version() {
     assert!(output.status.success());
     assert_eq!(String::from_utf8_lossy(&output.stdout).trim(), format!("lensblur {}", env!("CARGO_PKG_VERSION")));
 }
+
+#[test]
+fn output_into_a_closed_pipe_ends_quietly() {
+    use std::process::{Command, Stdio};
+    // The reader is gone before lensblur writes: its first line meets a closed pipe.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lensblur"))
+        .args(["raytrace", "--list"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("lensblur starts");
+    drop(child.stdout.take());
+    let output = child.wait_with_output().expect("lensblur ends");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!stderr.contains("panicked") && !stderr.contains("Broken pipe"), "{stderr}");
+    assert_ne!(output.status.code(), Some(101), "no panic exit: {:?}", output.status);
+}

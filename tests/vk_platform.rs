@@ -141,16 +141,25 @@ fn dispatch_refuses_wrong_binding_count() {
 }
 
 #[test]
-fn memory_budget_is_within_the_heap_and_is_the_heap_size_without_the_extension() {
+fn memory_budget_is_within_the_heap_and_measured_for_a_cpu_device() {
     let ctx = gpu();
     let info = ctx.info().clone();
     let budget = ctx.memory_budget();
     assert!(budget.available_bytes > 0 && budget.available_bytes <= info.device_local_bytes, "{budget:?} vs {info:?}");
     if !info.memory_budget_extension {
-        assert!(
-            !budget.from_driver && budget.available_bytes == info.device_local_bytes,
-            "no extension: the heap size"
-        );
+        if info.kind == "CPU" {
+            // System memory: the heap less what this context holds, at most MemAvailable.
+            let held = ctx.allocated_bytes();
+            assert!(budget.measured && budget.available_bytes <= info.device_local_bytes - held, "{budget:?}");
+            let _buffer = lensblur::vk::Buffer::uninitialised(&ctx, "budget test", 64 << 20).unwrap();
+            let after = ctx.memory_budget();
+            assert!(
+                after.available_bytes + (64 << 20) <= budget.available_bytes + (16 << 20),
+                "a 64 MiB buffer is counted: {budget:?} then {after:?}"
+            );
+        } else {
+            assert!(!budget.measured && budget.available_bytes == info.device_local_bytes, "no extension: the heap size");
+        }
     }
     finish(ctx);
 }

@@ -102,6 +102,13 @@ impl Buffer {
         Ok(buffer)
     }
 
+    /// A device-local buffer of `size` bytes with undefined contents, for a buffer that a pass
+    /// writes whole before anything reads it: a fill would only cost a pass over the memory
+    /// (on a CPU device, a single-threaded memset of freshly mapped pages).
+    pub fn uninitialised(ctx: &Context, name: &str, size: u64) -> Result<Self> {
+        Self::create(ctx, name, size, MemoryLocation::GpuOnly)
+    }
+
     /// A device-local buffer of `size` bytes, zero-filled by a command recorded into `batch`:
     /// zero for every later command of the batch, without a submission of its own.
     pub fn zeroed_in(ctx: &Context, batch: &mut CommandBatch, name: &str, size: u64) -> Result<Self> {

@@ -69,8 +69,18 @@ pub struct DeviceInfo {
 pub struct MemoryBudget {
     /// Bytes of the largest device-local heap this process may still allocate.
     pub available_bytes: u64,
-    /// From VK_EXT_memory_budget (budget minus usage); false: the heap's whole size.
-    pub from_driver: bool,
+    /// Measured: VK_EXT_memory_budget's budget minus usage, or for a CPU device (whose heap is
+    /// system memory) the smaller of the heap and the system's available memory. False: the
+    /// heap's whole size, with nothing known of what others hold.
+    pub measured: bool,
+}
+
+/// `MemAvailable` of /proc/meminfo in bytes (Linux), if readable.
+fn system_available_bytes() -> Option<u64> {
+    let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = meminfo.lines().find(|line| line.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 fn kind_rank(kind: vk::PhysicalDeviceType) -> u32 {
@@ -370,13 +380,22 @@ impl Context {
         unsafe { device.instance.raw.get_physical_device_memory_properties2(device.physical, &mut properties) };
         let memory = properties.memory_properties;
         let Some(heap) = device_local_heap(&memory) else {
-            return MemoryBudget { available_bytes: 0, from_driver: false };
+            return MemoryBudget { available_bytes: 0, measured: false };
         };
         if device.info.memory_budget_extension && budget.heap_budget[heap] > 0 {
             let available_bytes = budget.heap_budget[heap].saturating_sub(budget.heap_usage[heap]);
-            return MemoryBudget { available_bytes, from_driver: true };
+            return MemoryBudget { available_bytes, measured: true };
         }
-        MemoryBudget { available_bytes: memory.memory_heaps[heap].size, from_driver: false }
+        let heap_bytes = memory.memory_heaps[heap].size;
+        // A CPU device (lavapipe, CI's device) allocates from system memory, which the kernel
+        // accounts for: the heap less what this context holds, and at most what is available.
+        if device.info.kind == kind_name(vk::PhysicalDeviceType::CPU) {
+            if let Some(system) = system_available_bytes() {
+                let available_bytes = heap_bytes.saturating_sub(self.allocated_bytes()).min(system);
+                return MemoryBudget { available_bytes, measured: true };
+            }
+        }
+        MemoryBudget { available_bytes: heap_bytes, measured: false }
     }
 
     /// The file compiled pipelines are loaded from and saved to, if any.

@@ -267,18 +267,21 @@ impl ForwardBuffers {
         let read_n = params.layer_count * read.area();
         let rgba = stack.layers.iter().flat_map(|l| crop(&l.rgba.pixels, params.width, read));
         let disparity = stack.layers.iter().flat_map(|l| crop(&l.disparity, params.width, read));
-        let mut zeroed = |name: &str, bytes: u64| Buffer::zeroed_in(ctx, batch, name, bytes);
+        // Every pass writes its whole output before a later one reads it (the layer pass every
+        // core pixel of every layer, sources and blocks every read pixel, composite every core
+        // pixel; kernels that skip sources or blocks never read them): no fills.
+        let intermediate = |name: &str, bytes: u64| Buffer::uninitialised(ctx, name, bytes);
         Ok(Self {
             core,
             read,
-            layer_cw: zeroed("drbokeh layer_cw", layers * core_pixels * VEC4)?,
-            layer_vis: zeroed("drbokeh layer_vis", layers * core_pixels * 4)?,
-            result: zeroed("drbokeh result", core_pixels * VEC4)?,
-            source_pa: zeroed("drbokeh source_pa", layers * read_pixels * VEC4)?,
-            source_sa: zeroed("drbokeh source_sa", layers * read_pixels * 8)?,
-            block_prefix: zeroed("drbokeh block_prefix", layers * read_pixels * VEC4)?,
-            block_suffix: zeroed("drbokeh block_suffix", layers * read_pixels * VEC4)?,
-            block_alpha: zeroed("drbokeh block_alpha", layers * read_pixels * 8)?,
+            layer_cw: intermediate("drbokeh layer_cw", layers * core_pixels * VEC4)?,
+            layer_vis: intermediate("drbokeh layer_vis", layers * core_pixels * 4)?,
+            result: intermediate("drbokeh result", core_pixels * VEC4)?,
+            source_pa: intermediate("drbokeh source_pa", layers * read_pixels * VEC4)?,
+            source_sa: intermediate("drbokeh source_sa", layers * read_pixels * 8)?,
+            block_prefix: intermediate("drbokeh block_prefix", layers * read_pixels * VEC4)?,
+            block_suffix: intermediate("drbokeh block_suffix", layers * read_pixels * VEC4)?,
+            block_alpha: intermediate("drbokeh block_alpha", layers * read_pixels * 8)?,
             rgba: Buffer::from_iter_in(ctx, batch, "drbokeh rgba", read_n, rgba)?,
             disparity: Buffer::from_iter_in(ctx, batch, "drbokeh disparity", read_n, disparity)?,
             tile_interior: Buffer::from_iter_in(

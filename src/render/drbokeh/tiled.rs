@@ -32,12 +32,13 @@ pub(crate) struct TilePlan {
     pub tiles_per_batch: usize,
 }
 
-/// Bytes a render may plan to hold on the device at once: half of what VK_EXT_memory_budget
-/// says this process may still allocate (the rest is headroom for the allocator's blocks,
-/// the driver and other programs starting meanwhile), else a quarter of the device-local heap
-/// (other programs may already hold much of it, and nothing says how much).
+/// Bytes a render may plan to hold on the device at once: half of what this process may still
+/// allocate as measured (VK_EXT_memory_budget, or system memory for a CPU device; the rest is
+/// headroom for the allocator's blocks, the driver and other programs starting meanwhile),
+/// else a quarter of the device-local heap (other programs may already hold much of it, and
+/// nothing says how much).
 pub(crate) fn planning_bytes(budget: MemoryBudget) -> u64 {
-    if budget.from_driver {
+    if budget.measured {
         budget.available_bytes / 2
     } else {
         budget.available_bytes / 4
@@ -262,8 +263,8 @@ mod tests {
 
     #[test]
     fn plans_leave_headroom_and_trust_the_driver_budget_more_than_the_heap_size() {
-        let driver = planning_bytes(MemoryBudget { available_bytes: 1 << 30, from_driver: true });
-        let heap = planning_bytes(MemoryBudget { available_bytes: 1 << 30, from_driver: false });
+        let driver = planning_bytes(MemoryBudget { available_bytes: 1 << 30, measured: true });
+        let heap = planning_bytes(MemoryBudget { available_bytes: 1 << 30, measured: false });
         assert!(heap < driver && driver < 1 << 30, "heap {heap}, driver {driver}");
     }
 }
