@@ -34,8 +34,9 @@
 //   6: layer_vis    writeonly float[layer_count * core pixels]     V_l
 //   7: source_pa    readonly  vec4[layer_count * read pixels]      P / A(r), prepass
 //   8: source_sa    readonly  vec2[layer_count * read pixels]      (s, alpha), prepass
-//   9: tile_interior readonly float[layer_count * tiles_x * tiles_y] whole image, bounds.rs
-//                                 `interior_bounds` (disk path only: its cheap interior taps)
+//   9: tile_radii   readonly  vec2[layer_count * tiles_x * tiles_y] whole image, bounds.rs
+//                                 `disk_radii` (disk path only: its cheap interior taps and
+//                                 the outer radius its rows are trimmed to)
 //  10: block_prefix readonly vec4[layer_count * read pixels]      row block sums of P / A and
 //  11: block_suffix readonly vec4[layer_count * read pixels]      alpha, prepass 2a'
 //  12: block_alpha  readonly vec2[layer_count * read pixels]      (drbokeh_layer_blocks.comp)

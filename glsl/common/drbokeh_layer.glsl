@@ -25,7 +25,7 @@ layout(std430, set = 0, binding = 5) writeonly buffer LayerCw { vec4 layer_cw[];
 layout(std430, set = 0, binding = 6) writeonly buffer LayerVis { float layer_vis[]; };
 layout(std430, set = 0, binding = 7) readonly buffer SourcePa { vec4 source_pa[]; };
 layout(std430, set = 0, binding = 8) readonly buffer SourceSa { vec2 source_sa[]; };
-layout(std430, set = 0, binding = 9) readonly buffer TileInterior { float tile_interior[]; };
+layout(std430, set = 0, binding = 9) readonly buffer TileRadii { vec2 tile_radii[]; };
 layout(std430, set = 0, binding = 10) readonly buffer BlockPrefix { vec4 block_prefix[]; };
 layout(std430, set = 0, binding = 11) readonly buffer BlockSuffix { vec4 block_suffix[]; };
 layout(std430, set = 0, binding = 12) readonly buffer BlockAlpha { vec2 block_alpha[]; };
@@ -80,6 +80,19 @@ void disk_tap(inout Centre c, vec4 pa, vec2 sa, float g, bool inside, bool is_se
     c.cw += pa * s;
     c.vis_sum += sa.y * d;
     c.vis_weight += d;
+}
+
+// Largest |ox| with ox^2 + oy^2 < outer^2, at most half_width: taps at gauge >= outer add exact
+// zeros (both smoothsteps' arguments are <= 0 there: `outer` bounds every support, with a
+// margin far above the f32 rounding of the gauges), so rows stop before them. The window
+// `h` is an integer and rounds the reach up; for a layer of constant blur this drops the
+// outer half pixel of the rim, up to a third of the rim taps.
+int outer_half_width(float outer, float oy2, int half_width) {
+    if (outer >= 65536.0) {
+        return half_width;
+    }
+    float room = outer * outer - oy2;
+    return room <= 0.0 ? -1 : min(half_width, int(sqrt(room)));
 }
 
 // Largest m in [-1, half_width] with t - g(m, oy) >= 1, g computed exactly as the gauges of
@@ -161,17 +174,17 @@ void span_sum(int base, int a, int b, out vec4 pa, out float alpha) {
 // first kernel's order.
 //
 // Interior: `t` <= every centre's support and <= fl(m + 1/2) for a lower bound m of |s| over
-// the window's sources with alpha > 0 (tile_interior). Where t - g >= 1 both smoothsteps are
+// the window's sources with alpha > 0 (tile_radii.x). Where t - g >= 1 both smoothsteps are
 // exactly 1 (their argument is >= t - g by monotonic rounding), and sources with alpha <= 0
 // have P / A = 0 exactly, so without occlusion a tap adds exactly (P / A, alpha, 1): the
 // middle columns of each row, interior for all RUN centres, add one span sum (span_sum) and
 // their count without any gauge. Another order than the full taps' (f32 rounding apart),
 // but the span is a function of global positions, so still the same bits for every tiling.
-void gather_disk_run(ivec2 x0, int h, float t, inout Centre c[RUN], bool occlusion) {
+void gather_disk_run(ivec2 x0, int h, float t, float outer, inout Centre c[RUN], bool occlusion) {
     int oy0 = max(-h, -x0.y);
     int oy1 = min(h, pc.height - 1 - x0.y);
     for (int oy = oy0; oy <= oy1; ++oy) {
-        int half_width = row_half_width(h, oy);
+        int half_width = outer_half_width(outer, float(oy * oy), row_half_width(h, oy));
         // Offsets from x0: centre k's row is [k - hw, k + hw], clipped to the image.
         int ox0 = max(-half_width, -x0.x);
         int ox1 = min(half_width + RUN - 1, pc.width - 1 - x0.x);
@@ -280,7 +293,8 @@ void main() {
     {
         Centre c[RUN];
         bool occluding = false;
-        float t = tile_interior[tile] + 0.5;
+        vec2 radii = tile_radii[tile];
+        float t = radii.x + 0.5;
         for (int k = 0; k < RUN; ++k) {
             c[k] = centre_at(drbokeh_read_index(pc.layer, x0 + ivec2(min(k, last), 0)));
             occluding = occluding || c[k].occluder > 0.0;
@@ -292,9 +306,9 @@ void main() {
         // Branches are masks on lavapipe: only a lane group with an occluding centre pays for
         // the occlusion terms.
         if (occluding) {
-            gather_disk_run(x0, h, t, c, true);
+            gather_disk_run(x0, h, t, radii.y, c, true);
         } else {
-            gather_disk_run(x0, h, t, c, false);
+            gather_disk_run(x0, h, t, radii.y, c, false);
         }
         for (int k = 0; k < RUN; ++k) {
             cw[k] = c[k].cw;

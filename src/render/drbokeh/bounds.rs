@@ -96,17 +96,21 @@ pub fn grow_windows(mut windows: Vec<i32>, margin: i32) -> Vec<i32> {
     windows
 }
 
-/// Interior bounds of the frame tile `core` (the `tile_interior` float buffer of
-/// `drbokeh_layer_disk.comp`, indexed like `windows`): per layer and search tile of the core, a
-/// lower bound of the f32 `|s|` the shader computes for every source with alpha > 0 in the
-/// tile's window (square, so a superset of the disk), `f32::MAX` where there is none. Tiles
-/// outside the core hold 0, which disables the interior. Only a smaller bound is ever safe:
-/// it shrinks the cheap interior, so the margin is generous.
-pub fn interior_bounds(params: &Params, stack: &LayerStack, windows: &[i32], core: Rect) -> Vec<f32> {
+/// Radii that bound the disk path's taps per layer and search tile of the frame tile `core`
+/// (the `tile_radii` vec2 buffer of `drbokeh_layer_disk.comp`, indexed like `windows`):
+/// - interior: a lower bound of the f32 `|s|` the shader computes for every source with
+///   alpha > 0 in the tile's window (square, so a superset of the disk), `f32::MAX` where
+///   there is none; 0 disables the interior. Only a smaller bound is safe (it shrinks the
+///   cheap interior), so the margin is generous.
+/// - outer: an upper bound of every such source's support `|s| + 1/2` and of the tile's own
+///   pixels' `|s| + 1/2` (V's reach): taps at least this far add exact zeros, so the shader
+///   trims its rows to it. Only a larger bound is safe; `f32::MAX` disables the trim.
+/// Tiles outside the core hold `[0, f32::MAX]`: neither shortcut.
+pub fn disk_radii(params: &Params, stack: &LayerStack, windows: &[i32], core: Rect) -> Vec<[f32; 2]> {
     let per_layer = params.tiles_x * params.tiles_y;
-    let mut bounds = vec![0.0f32; windows.len()];
+    let mut radii = vec![[0.0f32, f32::MAX]; windows.len()];
     for (l, layer) in stack.layers.iter().enumerate() {
-        let mut source_min = vec![None; per_layer];
+        let mut tile_ranges = vec![None; per_layer];
         for t in search_tiles(params, core) {
             let h = windows[l * per_layer + t];
             if h < 0 {
@@ -118,32 +122,51 @@ pub fn interior_bounds(params: &Params, stack: &LayerStack, windows: &[i32], cor
                 let last = (((tile + 1) * TILE).min(side) - 1 + h as usize).min(side - 1) / TILE;
                 first..=last
             };
-            let mut m = f32::INFINITY;
+            let mut range = *tile_ranges[t].get_or_insert_with(|| abs_s_range(params, layer, tx, ty));
+            let own_reach = range.all_max;
             for uy in cover(ty, params.height) {
                 for ux in cover(tx, params.width) {
                     let u = uy * params.tiles_x + ux;
-                    m = m.min(*source_min[u].get_or_insert_with(|| min_abs_s(params, layer, ux, uy)));
+                    let other = *tile_ranges[u].get_or_insert_with(|| abs_s_range(params, layer, ux, uy));
+                    range.source_min = range.source_min.min(other.source_min);
+                    range.source_max = range.source_max.max(other.source_max);
                 }
             }
-            bounds[l * per_layer + t] = if m.is_finite() { (m - (1e-3 + 1e-5 * m)).max(0.0) } else { f32::MAX };
+            let m = range.source_min;
+            let interior = if m.is_finite() { (m - (1e-3 + 1e-5 * m)).max(0.0) } else { f32::MAX };
+            let reach = range.source_max.max(own_reach) + 0.5;
+            let outer = if reach.is_finite() { reach + (1e-3 + 1e-5 * reach) } else { f32::MAX };
+            radii[l * per_layer + t] = [interior, outer];
         }
     }
-    bounds
+    radii
 }
 
-/// Smallest f32 `|s|` over the sources with alpha > 0 of tile (tx, ty), evaluated as
-/// `glsl/drbokeh_layer_sources.comp` does; 0 if one is not finite, infinity if none.
-fn min_abs_s(params: &Params, layer: &Layer, tx: usize, ty: usize) -> f32 {
+/// f32 `|s|` ranges of one tile, evaluated as `glsl/drbokeh_layer_sources.comp` does.
+#[derive(Clone, Copy, Debug)]
+struct AbsSRange {
+    /// Smallest over the sources with alpha > 0 (0 if one is not finite, infinity if none).
+    source_min: f32,
+    /// Largest over the sources with alpha > 0 (infinity if one is not finite, -infinity if none).
+    source_max: f32,
+    /// Largest over every pixel (V gathers at each; infinity if one is not finite).
+    all_max: f32,
+}
+
+fn abs_s_range(params: &Params, layer: &Layer, tx: usize, ty: usize) -> AbsSRange {
     let push = params.push(0);
-    let mut m = f32::INFINITY;
+    let mut range = AbsSRange { source_min: f32::INFINITY, source_max: f32::NEG_INFINITY, all_max: f32::NEG_INFINITY };
     for py in ty * TILE..((ty + 1) * TILE).min(params.height) {
         for px in tx * TILE..((tx + 1) * TILE).min(params.width) {
             let i = py * params.width + px;
+            let s = (push.k_px * (layer.disparity[i] - push.focus_disparity)).abs();
+            let finite = s.is_finite();
+            range.all_max = range.all_max.max(if finite { s } else { f32::INFINITY });
             if layer.rgba.pixels[i][3] > 0.0 {
-                let s = (push.k_px * (layer.disparity[i] - push.focus_disparity)).abs();
-                m = m.min(if s.is_finite() { s } else { 0.0 });
+                range.source_min = range.source_min.min(if finite { s } else { 0.0 });
+                range.source_max = range.source_max.max(if finite { s } else { f32::INFINITY });
             }
         }
     }
-    m
+    range
 }

@@ -4,7 +4,7 @@
 //! ([`super::tiled`]). Every pixel reads the same sources in the same order whatever the
 //! tiling, so the output is bit-identical for every tile size and batch size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
 //! lens, area table, push constants) and the search windows are shared with it.
-use super::bounds::{interior_bounds, search_windows};
+use super::bounds::{disk_radii, search_windows};
 use super::tiled::{frame_cores, run_batches, run_tiled, Footprint, TilePlan};
 use super::{Model, Params, TILE};
 use crate::image::Image;
@@ -43,8 +43,9 @@ pub enum LayerKernel {
     Optimised,
     /// The first straightforward gather (`drbokeh_layer_naive.comp`): the benchmark baseline.
     Baseline,
-    /// [`LayerKernel::Optimised`] with every disk-path tap evaluated in full (interior bounds
-    /// of 0): the reference its cheap interior (block sums, another summation order) agrees
+    /// [`LayerKernel::Optimised`] with every disk-path tap of the window evaluated in full
+    /// (radii [0, f32::MAX]): the reference its cheap interior (block sums, another summation
+    /// order) and trimmed rows agree
     /// with within f32 rounding. Forward renders only.
     OptimisedNoInterior,
 }
@@ -210,7 +211,7 @@ impl DrBokehGpu {
                 b.layer_vis.all(),
                 b.source_pa.all(),
                 b.source_sa.all(),
-                b.tile_interior.all(),
+                b.tile_radii.all(),
                 b.block_prefix.all(),
                 b.block_suffix.all(),
                 b.block_alpha.all(),
@@ -241,9 +242,9 @@ pub(crate) struct ForwardBuffers {
     /// Prepass outputs over the read rect: P / A(r) per source, and (s, alpha).
     pub source_pa: Buffer,
     pub source_sa: Buffer,
-    /// Per layer and search tile, a lower bound of |s| over its window's sources with
-    /// alpha > 0 ([`interior_bounds`]): where the disk path sums whole row spans from block sums.
-    pub tile_interior: Buffer,
+    /// Per layer and search tile, the disk path's (interior, outer) radii ([`disk_radii`]):
+    /// where it sums whole row spans from block sums, and past which its taps add exact zeros.
+    pub tile_radii: Buffer,
     /// Over the read rect: per source, the sums of (P / A, alpha) from its global 16-px row
     /// block's first column to it (prefix) and from it to the block's last (suffix, with
     /// both alphas in `block_alpha`): the disk path's interior spans.
@@ -257,9 +258,9 @@ impl ForwardBuffers {
     /// `batch`; the frame's tables are shared, not copied.
     pub fn new(ctx: &Context, batch: &mut CommandBatch, frame: &ForwardFrame, core: Rect, read: Rect) -> Result<Self> {
         let (stack, params) = (frame.stack, frame.params);
-        let tile_interior = match frame.interior {
-            true => interior_bounds(params, stack, frame.windows, core),
-            false => vec![0.0; frame.windows.len()],
+        let tile_radii = match frame.interior {
+            true => disk_radii(params, stack, frame.windows, core),
+            false => vec![[0.0, f32::MAX]; frame.windows.len()],
         };
         let layers = params.layer_count as u64;
         let core_pixels = core.area() as u64;
@@ -284,13 +285,7 @@ impl ForwardBuffers {
             block_alpha: intermediate("drbokeh block_alpha", layers * read_pixels * 8)?,
             rgba: Buffer::from_iter_in(ctx, batch, "drbokeh rgba", read_n, rgba)?,
             disparity: Buffer::from_iter_in(ctx, batch, "drbokeh disparity", read_n, disparity)?,
-            tile_interior: Buffer::from_iter_in(
-                ctx,
-                batch,
-                "drbokeh tile_interior",
-                tile_interior.len(),
-                tile_interior,
-            )?,
+            tile_radii: Buffer::from_iter_in(ctx, batch, "drbokeh tile_radii", tile_radii.len(), tile_radii)?,
             tile_window: frame.tile_window.clone(),
             area_lut: frame.area_lut.clone(),
             kernel: frame.kernel.clone(),
@@ -307,7 +302,7 @@ pub(crate) struct ForwardFrame<'a> {
     tile_window: Buffer,
     area_lut: Buffer,
     kernel: Buffer,
-    /// False: tiles upload interior bounds of 0 ([`LayerKernel::OptimisedNoInterior`]).
+    /// False: tiles upload radii [0, f32::MAX] ([`LayerKernel::OptimisedNoInterior`]).
     interior: bool,
 }
 

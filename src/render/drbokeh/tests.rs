@@ -93,3 +93,62 @@ fn area_table_is_the_exact_footprint_energy() {
     let edge = super::AREA_TABLE_RADIUS_PX;
     assert!((params.area(edge - 1e-9) - params.area(edge + 1e-9)).abs() < 1e-6);
 }
+
+#[test]
+fn disk_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
+    use super::bounds::{disk_radii, search_windows};
+    use crate::tiling::Rect;
+    let (w, h) = (70, 50);
+    let coc = CocModel::new(20.0, 0.0).unwrap();
+    // A disc of constant CoC 10 px (disparity 0.5) over a tilted plane of CoC 0-8 px.
+    let disc = Layer {
+        name: "disc".into(),
+        rgba: Image::from_fn(w, h, |x, y| {
+            let inside = (x as f32 - 30.0).hypot(y as f32 - 24.0) < 14.0;
+            if inside { [1.0, 0.5, 0.2, 1.0] } else { [0.0; 4] }
+        }),
+        disparity: vec![0.5; w * h],
+    };
+    let plane = Layer {
+        name: "plane".into(),
+        rgba: Image::from_fn(w, h, |x, y| [(x % 5) as f32, (y % 3) as f32, 0.5, 1.0]),
+        disparity: (0..w * h).map(|i| 0.4 * (i % w) as f32 / w as f32).collect(),
+    };
+    let stack = LayerStack::new(w, h, vec![disc, plane]).unwrap();
+    let lens = Lens { coc, aperture: Aperture::Disk };
+    let params = Params::new(&stack, &lens, Model::DrBokeh).unwrap();
+    let windows = search_windows(&params, &stack);
+    let radii = disk_radii(&params, &stack, &windows, Rect { x0: 0, y0: 0, x1: w, y1: h });
+    let per_layer = params.tiles_x * params.tiles_y;
+    let push = params.push(0);
+    let abs_s = |layer: &Layer, i: usize| (push.k_px * (layer.disparity[i] - push.focus_disparity)).abs();
+    let mut trimmed = 0;
+    for (l, layer) in stack.layers.iter().enumerate() {
+        for t in 0..per_layer {
+            let (window, [interior, outer]) = (windows[l * per_layer + t], radii[l * per_layer + t]);
+            if window < 0 {
+                continue;
+            }
+            let (tx, ty) = ((t % params.tiles_x) * 16, (t / params.tiles_x) * 16);
+            // Every source a pixel of the tile gathers from (the window square) and every
+            // pixel of the tile itself (V's reach).
+            for y in ty.saturating_sub(window as usize)..(ty + 16 + window as usize).min(h) {
+                for x in tx.saturating_sub(window as usize)..(tx + 16 + window as usize).min(w) {
+                    let i = y * w + x;
+                    let own = (tx..tx + 16).contains(&x) && (ty..ty + 16).contains(&y);
+                    if layer.rgba.pixels[i][3] > 0.0 || own {
+                        assert!(abs_s(layer, i) + 0.5 < outer, "layer {l} tile {t}: ({x},{y}) reaches past {outer}");
+                    }
+                    if layer.rgba.pixels[i][3] > 0.0 {
+                        assert!(interior <= abs_s(layer, i), "layer {l} tile {t}: interior {interior} above ({x},{y})");
+                    }
+                }
+            }
+            // The margin is far below a pixel: rows stop before the integer window's last half.
+            if outer < window as f32 + 0.75 {
+                trimmed += 1;
+            }
+        }
+    }
+    assert!(trimmed > 0, "the constant 10 px disc (window 10, reach 10.5) is trimmed");
+}
