@@ -82,30 +82,30 @@ void disk_tap(inout Centre c, vec4 pa, vec2 sa, float g, bool inside, bool is_se
     c.vis_weight += d;
 }
 
-// Largest |ox| with ox^2 + oy^2 < outer^2, at most half_width: taps at gauge >= outer add exact
+// Largest |ox| with ox^2 + oy^2 < outer^2 within the window row: taps at gauge >= outer add exact
 // zeros (both smoothsteps' arguments are <= 0 there: `outer` bounds every support, with a
 // margin far above the f32 rounding of the gauges), so rows stop before them. The window
 // `h` is an integer and rounds the reach up; for a layer of constant blur this drops the
 // outer half pixel of the rim, up to a third of the rim taps.
-int outer_half_width(float outer, float oy2, int half_width) {
-    if (outer >= 65536.0) {
-        return half_width;
+int outer_half_width(float outer, int h, int oy) {
+    if (outer >= float(h + 1)) {
+        return row_half_width(h, oy);
     }
-    float room = outer * outer - oy2;
-    return room <= 0.0 ? -1 : min(half_width, int(sqrt(room)));
+    // Inside the window's disk (outer < h + 1): the window row needs no test of its own.
+    float room = outer * outer - float(oy * oy);
+    return room <= 0.0 ? -1 : int(sqrt(room));
 }
 
-// Largest m in [-1, half_width] with t - g(m, oy) >= 1, g computed exactly as the gauges of
-// gather_disk_run: every column |o| <= m of the row is then interior (g grows with |o|).
+// An m in [-1, half_width] with t - g(m, oy) >= 1, g computed exactly as the gauges of
+// gather_disk_run: every column |o| <= m of the row is then interior (g grows with |o|). The
+// largest such m or one less: the estimate is off by a rounding at most, and only a too large
+// one is settled with the exact test (a column short costs one full tap, and m stays a
+// function of t and oy alone, so of global positions).
 int interior_half_width(float t, float oy2, int half_width) {
     float room = max((t - 1.0) * (t - 1.0) - oy2, 0.0);
     int m = int(min(sqrt(room), float(half_width)));
-    // The estimate is off by a rounding at most: settle it with the exact test.
     while (m >= 0 && t - sqrt(float(m * m) + oy2) < 1.0) {
         m -= 1;
-    }
-    while (m < half_width && t - sqrt(float((m + 1) * (m + 1)) + oy2) >= 1.0) {
-        m += 1;
     }
     return m;
 }
@@ -184,7 +184,7 @@ void gather_disk_run(ivec2 x0, int h, float t, float outer, inout Centre c[RUN],
     int oy0 = max(-h, -x0.y);
     int oy1 = min(h, pc.height - 1 - x0.y);
     for (int oy = oy0; oy <= oy1; ++oy) {
-        int half_width = outer_half_width(outer, float(oy * oy), row_half_width(h, oy));
+        int half_width = outer_half_width(outer, h, oy);
         // Offsets from x0: centre k's row is [k - hw, k + hw], clipped to the image.
         int ox0 = max(-half_width, -x0.x);
         int ox1 = min(half_width + RUN - 1, pc.width - 1 - x0.x);

@@ -9,6 +9,7 @@ use std::path::Path;
 use exr::prelude::{AnyChannels, AttributeValue, FlatSamples, IntegerBounds, MetaData, ReadChannels, ReadLayers};
 
 use super::fill::push_pull;
+use rayon::prelude::*;
 use super::info::{ChannelInfo, ExtraChannel, LayerInfo, PartInfo, SampleType, StackFile, StackInfo, Window};
 use super::naming::{glob_match, group_channels, ChannelGroup, Convention};
 use super::{DepthKind, Layer, LayerStack};
@@ -62,11 +63,22 @@ pub fn read_stack(path: &Path, options: &ReadOptions) -> Result<StackFile> {
     let mut layers = Vec::new();
     let mut infos = Vec::new();
     let mut warnings = Vec::new();
-    for candidate in &selected {
-        let (layer, info) =
-            build_layer(path, &mut image.layer_data[candidate.part], candidate, display, options, &mut warnings)?;
+    // Channels are taken out one layer after the other (layers may share a part), then the
+    // layers are checked, converted and depth-filled in parallel; errors in layer order.
+    let taken = selected
+        .iter()
+        .map(|candidate| take_layer_channels(path, &mut image.layer_data[candidate.part], candidate, display))
+        .collect::<Result<Vec<_>>>()?;
+    let built: Vec<Result<(Layer, LayerInfo, Vec<String>)>> = selected
+        .par_iter()
+        .zip(taken.into_par_iter())
+        .map(|(candidate, channels)| assemble_layer(path, candidate, channels, display, options))
+        .collect();
+    for result in built {
+        let (layer, info, layer_warnings) = result?;
         layers.push(layer);
         infos.push(info);
+        warnings.extend(layer_warnings);
     }
     let single_image = holds_one_image(&candidates, &selected);
     let used: HashSet<(usize, String)> =
@@ -445,18 +457,18 @@ fn check_finite(path: &Path, layer: &str, channel: &str, values: &mut [f32], rep
     Ok(Some(format!("{}: layer '{layer}' channel '{channel}': replaced {bad} NaN/Inf sample(s) by 0", path.display())))
 }
 
-/// Builds one layer from its channels, taking their samples out of `part`: alpha and depth
-/// first (disparity needs both), then colour one channel at a time, each dropped once it is
-/// interleaved, so converting a layer never holds a second copy of it.
-fn build_layer(
-    path: &Path,
-    part: &mut ExrPart,
-    candidate: &Candidate,
-    display: Window,
-    options: &ReadOptions,
-    warnings: &mut Vec<String>,
-) -> Result<(Layer, LayerInfo)> {
-    let data = part_window(part);
+/// One layer's channels taken out of the file's image, placed on the display window.
+struct LayerChannels {
+    data_window: Window,
+    /// Alpha channel name and samples; None: opaque inside the data window.
+    alpha: Option<(String, Vec<f32>)>,
+    depth_name: String,
+    depth: Vec<f32>,
+    colour: [(String, Vec<f32>); 3],
+}
+
+fn take_layer_channels(path: &Path, part: &mut ExrPart, candidate: &Candidate, display: Window) -> Result<LayerChannels> {
+    let data_window = part_window(part);
     if part.channel_data.list.iter().any(|c| c.sampling != exr::prelude::Vec2(1, 1)) {
         return Err(Error::input(
             path,
@@ -468,20 +480,38 @@ fn build_layer(
     let [Some(red), Some(green), Some(blue), Some(depth_name)] = [&ch.red, &ch.green, &ch.blue, &ch.depth] else {
         return Err(missing());
     };
+    let alpha = match &ch.alpha {
+        Some(name) => Some((name.clone(), take_channel(path, part, name, display, 0.0)?)),
+        None => None,
+    };
+    let depth = take_channel(path, part, depth_name, display, f32::INFINITY)?;
+    let mut take = |name: &String| take_channel(path, part, name, display, 0.0).map(|values| (name.clone(), values));
+    let colour = [take(red)?, take(green)?, take(blue)?];
+    Ok(LayerChannels { data_window, alpha, depth_name: depth_name.clone(), depth, colour })
+}
+
+/// Checks, converts and depth-fills one layer; its warnings (replaced samples) come back
+/// colour first, as the channels are listed.
+fn assemble_layer(
+    path: &Path,
+    candidate: &Candidate,
+    channels: LayerChannels,
+    display: Window,
+    options: &ReadOptions,
+) -> Result<(Layer, LayerInfo, Vec<String>)> {
+    let LayerChannels { data_window: data, alpha, depth_name, depth, colour } = channels;
     let mut replaced = Vec::new();
     // No alpha channel: opaque inside the data window, transparent outside.
-    let alpha = match &ch.alpha {
-        Some(name) => {
-            let mut alpha = take_channel(path, part, name, display, 0.0)?;
-            replaced.push(check_finite(path, &candidate.name, name, &mut alpha, options.replace_nonfinite)?);
+    let alpha = match alpha {
+        Some((name, mut alpha)) => {
+            replaced.push(check_finite(path, &candidate.name, &name, &mut alpha, options.replace_nonfinite)?);
             alpha
         }
         None => place(&FlatSamples::F32(vec![1.0; data.width * data.height]), data, display, 0.0),
     };
-    let depth = take_channel(path, part, depth_name, display, f32::INFINITY)?;
     let (disparity, stored_depth_range, depth_weights) = depth_to_disparity(
         path,
-        (&candidate.name, depth_name),
+        (&candidate.name, &depth_name),
         (display.width, display.height),
         &depth,
         &alpha,
@@ -490,13 +520,10 @@ fn build_layer(
     drop(depth);
     let mut pixels: Vec<[f32; 4]> = alpha.iter().map(|&a| [0.0, 0.0, 0.0, a]).collect();
     drop(alpha);
-    for (c, name) in [red, green, blue].into_iter().enumerate() {
-        let mut values = take_channel(path, part, name, display, 0.0)?;
-        // Colour first in the warnings, as the channels are listed.
-        replaced.insert(c, check_finite(path, &candidate.name, name, &mut values, options.replace_nonfinite)?);
+    for (c, (name, mut values)) in colour.into_iter().enumerate() {
+        replaced.insert(c, check_finite(path, &candidate.name, &name, &mut values, options.replace_nonfinite)?);
         pixels.iter_mut().zip(values).for_each(|(p, v)| p[c] = v);
     }
-    warnings.extend(replaced.into_iter().flatten());
     let rgba = Image { width: display.width, height: display.height, pixels };
     let layer = Layer { name: candidate.name.clone(), rgba, disparity };
     let disparity_range =
@@ -505,13 +532,13 @@ fn build_layer(
         name: candidate.name.clone(),
         convention: candidate.group.convention,
         part: candidate.part,
-        channels: ch.clone(),
+        channels: candidate.group.channels.clone(),
         data_window: data,
         stored_depth_range,
         disparity_range,
         depth_weights,
     };
-    Ok((layer, info))
+    Ok((layer, info, replaced.into_iter().flatten().collect()))
 }
 
 /// How much the depth fill trusts a stored depth sample, given the pixel's alpha and the
