@@ -122,6 +122,36 @@ fn an_unknown_lensblur_device_is_a_clear_error_and_writes_nothing() {
 }
 
 #[test]
+fn a_device_lost_mid_render_is_an_error_and_leaves_the_old_output_untouched() {
+    let dir = common::temp_dir("cli-device", "device-lost");
+    let input = write_input(&dir);
+    let out = dir.join("out.exr");
+    let grads = dir.join("grads.exr");
+    // A plain RGBA render serves as the output gradient of `grad`.
+    let grad_output = dir.join("g.exr");
+    run_ok(&input, &grad_output, &[], &[]);
+    std::fs::write(&out, b"previous output").unwrap();
+    let before: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let fault = [("LENSBLUR_TEST_FAULT", "device-lost")];
+    let (input, out_s) = (input.to_str().unwrap(), out.to_str().unwrap());
+    for args in [
+        vec!["render", input, "-o", out_s],
+        vec!["render", input, "-o", out_s, "--method", "gather", "--layers", "*"],
+        vec!["grad", input, "--grad-output", grad_output.to_str().unwrap(), "-o", grads.to_str().unwrap()],
+    ] {
+        let output = common::lensblur(&args, &fault);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success() && !stderr.contains("panicked"), "{args:?}: {stderr}");
+        for needle in ["ERROR_DEVICE_LOST", "nothing was written", "--device cpu"] {
+            assert!(stderr.contains(needle), "{args:?}: '{needle}' missing: {stderr}");
+        }
+        assert_eq!(std::fs::read(&out).unwrap(), b"previous output", "{args:?}: the old output is kept");
+        let after: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(after, before, "{args:?}: no new or temporary file");
+    }
+}
+
+#[test]
 fn without_vulkan_auto_falls_back_to_the_cpu_and_gpu_refuses() {
     let dir = common::temp_dir("cli-device", "novulkan");
     let input = write_input(&dir);

@@ -16,6 +16,14 @@ use crate::{Error, Result};
 
 /// Descriptor sets per pool; a batch adds pools as it needs them (tiles bind many sets).
 const SETS_PER_POOL: u32 = 64;
+
+/// Testing aid: with `LENSBLUR_TEST_FAULT=device-lost` every submission reports
+/// `VK_ERROR_DEVICE_LOST` once it has completed, as after a driver reset or a GPU timeout, so
+/// tests can prove that a lost device ends a command with an error and writes nothing.
+fn injected_device_loss() -> bool {
+    static LOST: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *LOST.get_or_init(|| std::env::var("LENSBLUR_TEST_FAULT").is_ok_and(|v| v == "device-lost"))
+}
 const BUFFERS_PER_SET: u32 = 16;
 
 pub struct CommandBatch {
@@ -323,6 +331,10 @@ impl CommandBatch {
         // SAFETY: the fence belongs to this device and was submitted just above.
         unsafe { self.device.raw.wait_for_fences(&[self.fence], true, u64::MAX) }.call("vkWaitForFences")?;
         self.pending = false;
+        if injected_device_loss() {
+            // The work did complete, so everything is still safe to tear down.
+            return Err(Error::Vulkan { call: "vkWaitForFences", result: vk::Result::ERROR_DEVICE_LOST });
+        }
         self.last_device_time_ns = self.read_timestamps();
         self.add_profiled_times();
         self.reset()?;
