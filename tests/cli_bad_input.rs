@@ -356,6 +356,17 @@ fn an_output_on_any_input_or_on_another_output_is_refused() {
     command_refused(&dir, &["grad", &photo, "--depth", &depth, "--grad-output", &g, "-o", &depth], &["is the --depth input file"]);
     command_refused(&dir, &["fit-depth", &shot, "--target", &target, "-o", &target], &["-o", "target.exr", "is the --target input file"]);
     command_refused(&dir, &["fit-depth", &shot, "--target", &target, "-o", &shot], &["is the input file"]);
+    // --debug-out names its files after the layers: checked once the stack is read, before
+    // anything renders (the debug folder here holds the aperture image as `layers.png`).
+    let debug = common::temp_dir("bad-input", "collide-debug");
+    let debug_kernel = debug.join("layers.png");
+    std::fs::copy(&kernel, &debug_kernel).unwrap();
+    let (debug_s, aperture) = (s(&debug), format!("image:{}", s(&debug_kernel)));
+    let out_coc = s(&debug.join("coc.png"));
+    command_refused(&debug, &["render", &shot, "-o", &out_coc, "--debug-out", &debug_s], &["--debug-out", "coc.png", "is the same file as -o"]);
+    let out_exr = s(&dir.join("debug-test.exr"));
+    command_refused(&debug, &["render", &shot, "-o", &out_exr, "--aperture", &aperture, "--debug-out", &debug_s], &["--debug-out", "layers.png", "is the --aperture kernel image"]);
+    assert!(!dir.join("debug-test.exr").exists());
 }
 
 #[test]

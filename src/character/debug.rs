@@ -85,13 +85,25 @@ pub fn write_debug_views(dir: &Path, stack: &LayerStack, lens: &Lens, focus: &Fo
         written.push(path);
         Ok(())
     };
-    save("coc.png".into(), &coc_image(w, h, &coc_map(stack, lens, focus)?))?;
-    save("layers.png".into(), &layers_image(stack))?;
-    save("focus_peaking.png".into(), &peaking_overlay(rendered))?;
-    for (l, v) in visibility(stack, lens)?.iter().enumerate() {
-        save(format!("visibility_{l}_{}.png", sanitise(&stack.layers[l].name)), v)?;
+    let [coc, layers, peaking, visibility_names @ ..] = &debug_view_names(stack)[..] else {
+        unreachable!("three views and one per layer")
+    };
+    save(coc.clone(), &coc_image(w, h, &coc_map(stack, lens, focus)?))?;
+    save(layers.clone(), &layers_image(stack))?;
+    save(peaking.clone(), &peaking_overlay(rendered))?;
+    for (name, v) in visibility_names.iter().zip(visibility(stack, lens)?.iter()) {
+        save(name.clone(), v)?;
     }
     Ok(written)
+}
+
+/// The file names [`write_debug_views`] writes for `stack`, in order: the CoC map, the layer
+/// assignment, the focus peaking, then each layer's visibility. The CLI checks them against
+/// its inputs and outputs before rendering.
+pub fn debug_view_names(stack: &LayerStack) -> Vec<String> {
+    let mut names = vec!["coc.png".to_string(), "layers.png".to_string(), "focus_peaking.png".to_string()];
+    names.extend(stack.layers.iter().enumerate().map(|(l, layer)| format!("visibility_{l}_{}.png", sanitise(&layer.name))));
+    names
 }
 
 /// The layer assignment, one palette colour per layer (black: empty).

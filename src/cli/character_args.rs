@@ -68,6 +68,12 @@ impl CharacterArgs {
         Ok(Rendered { image, prepared, lens })
     }
 
+    /// The `--debug-out` files `stack` would produce, each named by the flag; none without it.
+    pub fn debug_view_paths(&self, stack: &LayerStack) -> Vec<PathBuf> {
+        let Some(dir) = &self.debug_out else { return Vec::new() };
+        lensblur::character::debug::debug_view_names(stack).into_iter().map(|name| dir.join(name)).collect()
+    }
+
     /// Writes the `--debug-out` views of a render, if asked (after the device work is done and
     /// validated, like every other output); `focus` is the focus field the method rendered.
     pub fn write_debug_views(&self, rendered: &Rendered, focus: &FocusField) -> anyhow::Result<()> {

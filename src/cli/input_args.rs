@@ -168,11 +168,19 @@ impl InputArgs {
 /// first). Outputs are named by their flag (`-o`), inputs by what they are ("the input file",
 /// "the --depth input file"), so the message says which two collide.
 pub fn check_output_paths(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> anyhow::Result<()> {
-    for (i, &(flag, output)) in outputs.iter().enumerate() {
+    for &(flag, output) in outputs {
         let dir = output.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         if !dir.is_dir() {
             bail!("{flag} {}: output directory {} does not exist; create it first (nothing was rendered)", output.display(), dir.display());
         }
+    }
+    check_output_collisions(outputs, inputs)
+}
+
+/// The collision part of [`check_output_paths`], for outputs in a folder the command creates
+/// (`--debug-out`): none may be an input or another output.
+pub fn check_output_collisions(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> anyhow::Result<()> {
+    for (i, &(flag, output)) in outputs.iter().enumerate() {
         if let Some((input, _)) = inputs.iter().find(|(_, input)| same_file(output, input)) {
             bail!("{flag} {} is {input}; choose another {flag} path (nothing was written)", output.display());
         }

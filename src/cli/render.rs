@@ -14,7 +14,7 @@ use lensblur::vk::Context;
 use super::camera_args::CameraArgs;
 use super::character_args::CharacterArgs;
 use super::character_args::Rendered;
-use super::input_args::{check_output_paths, input_files, InputArgs, LoadedInput};
+use super::input_args::{check_output_collisions, check_output_paths, input_files, InputArgs, LoadedInput};
 use super::method_args::MethodArgs;
 use super::progress;
 
@@ -137,6 +137,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     spinner.set_message(format!("reading {}", args.input.display()));
     let mut loaded = args.input_args.load(&args.input, &camera, args.method.input())?;
     let (lens, stack) = (&loaded.camera.lens, &loaded.stack);
+    // The debug views are named after the layers, so they are checked once the stack is read.
+    let debug_views = args.character.debug_view_paths(stack);
+    let debug_outputs: Vec<(&str, &Path)> = debug_views.iter().map(|p| ("--debug-out", p.as_path())).collect();
+    check_output_collisions(&[outputs.as_slice(), debug_outputs.as_slice()].concat(), &inputs)?;
     let physical = loaded.camera.physical.is_some();
     let settings = args.method_args.resolve(args.method, lens, physical, stack.width, stack.height)?;
     args.character.resolve()?.check_focus_field(settings.focus(args.method))?;
