@@ -38,6 +38,16 @@ fn ok(output: Output) -> String {
     String::from_utf8(output.stdout).unwrap()
 }
 
+/// The `--json` report of a command that must succeed.
+fn json_report(output: Output) -> serde_json::Value {
+    serde_json::from_str(&ok(output)).unwrap()
+}
+
+/// The report's layer names, front to back.
+fn layer_names(report: &serde_json::Value) -> Vec<&str> {
+    report["layers"].as_array().unwrap().iter().map(|l| l["name"].as_str().unwrap()).collect()
+}
+
 /// A subject at 2 m in front of a wall at 4 m (in focus), 48x40: CoC of the subject ~6 px.
 fn two_layer_stack() -> LayerStack {
     let (w, h) = (48, 40);
@@ -109,22 +119,16 @@ fn render_matches_the_library_and_reads_the_camera_from_the_header() {
     let dir = common::temp_dir("cli-render", "header");
     let input = write_input(&dir, Some(CAMERA));
     let out = dir.join("out.exr");
-    let json = ok(lensblur(&[
+    let report = json_report(lensblur(&[
         "render",
         input.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
         "--json",
     ]));
-    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(report["method"], "drbokeh");
     // Front to back, whatever order the file lists them in.
-    let names: Vec<&str> = report["layers"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|l| l["name"].as_str().unwrap())
-        .collect();
+    let names = layer_names(&report);
     assert_eq!(names, ["subject", "wall"]);
     let coc = CocModel::from_physical(&CAMERA, 48).unwrap();
     assert!(
@@ -180,7 +184,7 @@ fn flags_override_the_header_and_missing_camera_is_a_clear_error() {
     );
     assert!(!out.exists(), "a failed render must not leave an output");
 
-    let json = ok(lensblur(&[
+    let report = json_report(lensblur(&[
         "render",
         input.to_str().unwrap(),
         "-o",
@@ -193,7 +197,6 @@ fn flags_override_the_header_and_missing_camera_is_a_clear_error() {
         "--method",
         "oracle",
     ]));
-    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(report["k_px"].as_f64().unwrap(), 20.0);
     assert_eq!(report["method"], "oracle");
     // Focus on the subject now: the wall is the blurred one, at 0.25 * 20 = 5 px.
@@ -245,7 +248,7 @@ fn output_naming_half_pass_through_and_preview() {
     .unwrap();
     let out = dir.join("blurred.exr");
     let preview = dir.join("blurred.png");
-    let json = ok(lensblur(&[
+    let report = json_report(lensblur(&[
         "render",
         input.to_str().unwrap(),
         "-o",
@@ -262,7 +265,6 @@ fn output_naming_half_pass_through_and_preview() {
         "--focus-disparity",
         "0.667",
     ]));
-    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(report["auto_layered"], true, "{report}");
     assert!(
         report["layers"].as_array().unwrap().len() >= 2,
@@ -393,7 +395,7 @@ fn one_layer_picked_out_of_a_stack_is_not_auto_layered() {
     let dir = common::temp_dir("cli-render", "pick");
     let input = write_input(&dir, Some(CAMERA));
     let out = dir.join("out.exr");
-    let json = ok(lensblur(&[
+    let report = json_report(lensblur(&[
         "render",
         input.to_str().unwrap(),
         "-o",
@@ -404,9 +406,8 @@ fn one_layer_picked_out_of_a_stack_is_not_auto_layered() {
         "oracle",
         "--json",
     ]));
-    let report: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(report["auto_layered"], false, "{report}");
-    let names: Vec<&str> = report["layers"].as_array().unwrap().iter().map(|l| l["name"].as_str().unwrap()).collect();
+    let names = layer_names(&report);
     assert_eq!(names, ["subject"]);
 }
 

@@ -242,19 +242,23 @@ fn bits(g: &StackGradients) -> (Vec<u32>, Vec<u32>, u64, u64) {
     (rgba, disparity, g.k_px.to_bits(), g.focus_disparity.to_bits())
 }
 
+/// The tiling tests' frame: 75x53 is divisible by none of the tile sides (16, 32, 48); K = 16
+/// with the near layer at d ~ 1.15 gives CoCs up to 10.5 px, so a tile's receivers and their
+/// sources reach well into its neighbours (two tiles away for the 16 px ones).
+fn tiling_case() -> (usize, usize, LayerStack, Image, Lens) {
+    let (w, h) = (75, 53);
+    let lens = Lens { coc: CocModel::new(16.0, 0.5).unwrap(), aperture: Aperture::Disk };
+    (w, h, scene(w, h, 1.15), grad_output(w, h), lens)
+}
+
 #[test]
 fn gradients_are_bit_identical_whatever_the_tile_size_and_batch_size() {
     use lensblur::render::drbokeh::RenderOptions;
     use std::sync::Mutex;
     let ctx = gpu();
-    // 75x53 is divisible by none of the tile sides (16, 32, 48); K = 16 with the near layer at
-    // d ~ 1.15 gives CoCs up to 10.5 px, so a tile's receivers and their sources reach well
-    // into its neighbours (two tiles away for the 16 px ones). Batches of 1, 3 (which divides
-    // neither 20 nor 6 tiles) and as many as the budget allows (8 at most) share submissions.
-    let (w, h) = (75, 53);
-    let stack = scene(w, h, 1.15);
-    let gout = grad_output(w, h);
-    let lens = Lens { coc: CocModel::new(16.0, 0.5).unwrap(), aperture: Aperture::Disk };
+    // Batches of 1, 3 (which divides neither 20 nor 6 tiles) and as many as the budget allows
+    // (8 at most) share submissions.
+    let (w, h, stack, gout, lens) = tiling_case();
     for options in [BackwardOptions::exact(), BackwardOptions::leaky()] {
         let renderer = DrBokehGpuGrad::new(&ctx, Model::DrBokeh, options).unwrap();
         let (whole, whole_stats) = renderer.backward_with_stats(&stack, &lens, &gout).unwrap();
@@ -318,10 +322,7 @@ fn gradients_are_bit_identical_whatever_the_tile_size_and_batch_size() {
 fn backward_out_of_device_memory_retries_with_smaller_tiles_and_the_same_gradients() {
     use lensblur::render::drbokeh::RenderOptions;
     let ctx = gpu();
-    let (w, h) = (75, 53);
-    let stack = scene(w, h, 1.15);
-    let gout = grad_output(w, h);
-    let lens = Lens { coc: CocModel::new(16.0, 0.5).unwrap(), aperture: Aperture::Disk };
+    let (_, _, stack, gout, lens) = tiling_case();
     let renderer = DrBokehGpuGrad::new(&ctx, Model::DrBokeh, BackwardOptions::exact()).unwrap();
     let (whole, whole_stats) = renderer.backward_with_stats(&stack, &lens, &gout).unwrap();
     // What 32 px tiles, one per batch, hold: less than the one-tile frame (on this small frame a

@@ -85,25 +85,28 @@ pub fn write_debug_views(dir: &Path, stack: &LayerStack, lens: &Lens, focus: &Fo
         written.push(path);
         Ok(())
     };
-    let [coc, layers, peaking, visibility_names @ ..] = &debug_view_names(stack)[..] else {
-        unreachable!("three views and one per layer")
-    };
-    save(coc.clone(), &coc_image(w, h, &coc_map(stack, lens, focus)?))?;
-    save(layers.clone(), &layers_image(stack))?;
-    save(peaking.clone(), &peaking_overlay(rendered))?;
-    for (name, v) in visibility_names.iter().zip(visibility(stack, lens)?.iter()) {
-        save(name.clone(), v)?;
+    save(COC_VIEW.into(), &coc_image(w, h, &coc_map(stack, lens, focus)?))?;
+    save(LAYERS_VIEW.into(), &layers_image(stack))?;
+    save(PEAKING_VIEW.into(), &peaking_overlay(rendered))?;
+    for (l, v) in visibility(stack, lens)?.iter().enumerate() {
+        save(visibility_view(l, &stack.layers[l].name), v)?;
     }
     Ok(written)
 }
 
-/// The file names [`write_debug_views`] writes for `stack`, in order: the CoC map, the layer
-/// assignment, the focus peaking, then each layer's visibility. The CLI checks them against
-/// its inputs and outputs before rendering.
+const COC_VIEW: &str = "coc.png";
+const LAYERS_VIEW: &str = "layers.png";
+const PEAKING_VIEW: &str = "focus_peaking.png";
+
+fn visibility_view(layer_index: usize, layer_name: &str) -> String {
+    format!("visibility_{layer_index}_{}.png", sanitise(layer_name))
+}
+
+/// The file names [`write_debug_views`] writes for `stack`. The CLI checks them against its
+/// inputs and outputs before rendering.
 pub fn debug_view_names(stack: &LayerStack) -> Vec<String> {
-    let mut names = vec!["coc.png".to_string(), "layers.png".to_string(), "focus_peaking.png".to_string()];
-    names.extend(stack.layers.iter().enumerate().map(|(l, layer)| format!("visibility_{l}_{}.png", sanitise(&layer.name))));
-    names
+    let fixed = [COC_VIEW, LAYERS_VIEW, PEAKING_VIEW].map(String::from);
+    fixed.into_iter().chain(stack.layers.iter().enumerate().map(|(l, layer)| visibility_view(l, &layer.name))).collect()
 }
 
 /// The layer assignment, one palette colour per layer (black: empty).

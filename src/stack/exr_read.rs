@@ -7,9 +7,9 @@ use std::collections::{BTreeMap, HashSet};
 use std::path::Path;
 
 use exr::prelude::{AnyChannels, AttributeValue, FlatSamples, IntegerBounds, MetaData, ReadChannels, ReadLayers};
+use rayon::prelude::*;
 
 use super::fill::push_pull;
-use rayon::prelude::*;
 use super::info::{ChannelInfo, ExtraChannel, LayerInfo, PartInfo, SampleType, StackFile, StackInfo, Window};
 use super::naming::{glob_match, group_channels, ChannelGroup, Convention};
 use super::{DepthKind, Layer, LayerStack};

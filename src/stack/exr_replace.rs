@@ -1,11 +1,10 @@
 //! Writing a file back with some of its channels replaced (`fit-depth`): every other channel,
 //! its sample type, the parts and their names, data and display windows, compression and
 //! header attributes stay as they were; a replaced channel keeps its name and sample type.
+use std::io::Write as _;
 use std::path::Path;
 
 use exr::prelude::{f16, FlatSamples, WritableImage};
-
-use std::io::Write as _;
 
 use super::exr_header_order::sort_header_attributes;
 use super::exr_read::{data_in_display, part_window, read_headers, read_pixels, window_of};

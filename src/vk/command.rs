@@ -16,6 +16,7 @@ use crate::{Error, Result};
 
 /// Descriptor sets per pool; a batch adds pools as it needs them (tiles bind many sets).
 const SETS_PER_POOL: u32 = 64;
+const BUFFERS_PER_SET: u32 = 16;
 
 /// Testing aid: with `LENSBLUR_TEST_FAULT=device-lost` every submission reports
 /// `VK_ERROR_DEVICE_LOST` once it has completed, as after a driver reset or a GPU timeout, so
@@ -24,7 +25,6 @@ fn injected_device_loss() -> bool {
     static LOST: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *LOST.get_or_init(|| std::env::var("LENSBLUR_TEST_FAULT").is_ok_and(|v| v == "device-lost"))
 }
-const BUFFERS_PER_SET: u32 = 16;
 
 pub struct CommandBatch {
     device: Arc<Device>,

@@ -45,8 +45,7 @@ pub enum LayerKernel {
     Baseline,
     /// [`LayerKernel::Optimised`] with every disk-path tap of the window evaluated in full
     /// (radii [0, f32::MAX]): the reference its cheap interior (block sums, another summation
-    /// order) and trimmed rows agree
-    /// with within f32 rounding. Forward renders only.
+    /// order) and trimmed rows agree with within f32 rounding. Forward renders only.
     OptimisedNoInterior,
 }
 
@@ -254,8 +253,9 @@ pub(crate) struct ForwardBuffers {
 }
 
 impl ForwardBuffers {
-    /// Allocates a tile's buffers, uploads its `read` rect and records their zero fills into
-    /// `batch`; the frame's tables are shared, not copied.
+    /// Allocates a tile's buffers (intermediates left unfilled: every pass writes its output
+    /// whole) and records the upload of its `read` rect into `batch`; the frame's tables are
+    /// shared, not copied.
     pub fn new(ctx: &Context, batch: &mut CommandBatch, frame: &ForwardFrame, core: Rect, read: Rect) -> Result<Self> {
         let (stack, params) = (frame.stack, frame.params);
         let tile_radii = match frame.interior {
