@@ -26,8 +26,9 @@
 
 layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 
-layout(std430, set = 0, binding = 0) readonly buffer SourcePa { vec4 source_pa[]; };
-layout(std430, set = 0, binding = 1) readonly buffer SourceSa { vec2 source_sa[]; };
+// Inputs are uniform texel buffers (texelFetch): see Slot::Texels in src/vk/pipeline.rs.
+layout(set = 0, binding = 0) uniform samplerBuffer source_pa;
+layout(set = 0, binding = 1) uniform samplerBuffer source_sa;
 layout(std430, set = 0, binding = 2) writeonly buffer BlockPrefix { vec4 block_prefix[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer BlockSuffix { vec4 block_suffix[]; };
 layout(std430, set = 0, binding = 4) writeonly buffer BlockAlpha { vec2 block_alpha[]; };
@@ -55,16 +56,16 @@ void main() {
     vec4 pa = vec4(0.0);
     float alpha = 0.0;
     for (int x = x0; x <= x1; ++x) {
-        pa += source_pa[row + x];
-        alpha += source_sa[row + x].y;
+        pa += texelFetch(source_pa, row + x);
+        alpha += texelFetch(source_sa, row + x).y;
         block_prefix[row + x] = pa;
         block_alpha[row + x].x = alpha;
     }
     pa = vec4(0.0);
     alpha = 0.0;
     for (int x = x1; x >= x0; --x) {
-        pa += source_pa[row + x];
-        alpha += source_sa[row + x].y;
+        pa += texelFetch(source_pa, row + x);
+        alpha += texelFetch(source_sa, row + x).y;
         block_suffix[row + x] = pa;
         block_alpha[row + x].y = alpha;
     }

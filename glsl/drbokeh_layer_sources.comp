@@ -18,8 +18,9 @@
 
 layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 
-layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
+// Inputs are uniform texel buffers (texelFetch): see Slot::Texels in src/vk/pipeline.rs.
+layout(set = 0, binding = 0) uniform samplerBuffer rgba;
+layout(set = 0, binding = 1) uniform samplerBuffer disparity;
 layout(std430, set = 0, binding = 2) readonly buffer AreaLut { float area_lut[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer SourcePa { vec4 source_pa[]; };
 layout(std430, set = 0, binding = 4) writeonly buffer SourceSa { vec2 source_sa[]; };
@@ -40,8 +41,8 @@ void main() {
         return;
     }
     int i = drbokeh_read_index(layer, pc.read.xy + local);
-    vec4 p = rgba[i];
-    float s = pc.k_px * (disparity[i] - pc.focus_disparity);
+    vec4 p = texelFetch(rgba, i);
+    float s = pc.k_px * (texelFetch(disparity, i).x - pc.focus_disparity);
     source_pa[i] = p.w > 0.0 ? p / drbokeh_area_for(abs(s)) : vec4(0.0);
     source_sa[i] = vec2(s, p.w);
 }

@@ -141,6 +141,33 @@ fn dispatch_refuses_wrong_binding_count() {
 }
 
 #[test]
+fn texel_bindings_are_checked_against_the_device_limits() {
+    use lensblur::vk::{ComputePipeline, Slot, TexelFormat};
+    let ctx = gpu();
+    let info = ctx.info().clone();
+    // Every device here (lavapipe: 16 bytes) aligns texel views to 4 bytes or more.
+    let alignment = info.min_texel_buffer_offset_alignment;
+    assert!(alignment >= 4, "offset alignment {alignment}: the misaligned case below needs one of at least 4");
+    let slots = [Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Storage, Slot::Storage];
+    use lensblur::render::drbokeh::DrBokehPush;
+    let push = std::mem::size_of::<DrBokehPush>();
+    let pipeline = ComputePipeline::with_slots(&ctx, &lensblur::shaders::DRBOKEH_LAYER_SOURCES, &slots, push).unwrap();
+    let buffer = Buffer::zeroed(&ctx, "texels", 4096).unwrap();
+    let misaligned = buffer.range(alignment / 2, 1024);
+    let bindings = [misaligned, buffer.all(), buffer.all(), buffer.all(), buffer.all()];
+    let mut batch = CommandBatch::new(&ctx).unwrap();
+    let zero: DrBokehPush = bytemuck::Zeroable::zeroed();
+    let err = batch.dispatch(&pipeline, &bindings, &zero, [1, 1, 1]).unwrap_err();
+    assert!(err.to_string().contains("offset alignment"), "{err}");
+    // A partial trailing texel is left out of the view; aligned bindings record and run.
+    let bindings = [buffer.range(0, 1030), buffer.all(), buffer.all(), buffer.all(), buffer.all()];
+    batch.dispatch(&pipeline, &bindings, &zero, [1, 1, 1]).unwrap();
+    batch.submit_and_wait().unwrap();
+    drop((pipeline, buffer, batch));
+    finish(ctx);
+}
+
+#[test]
 fn memory_budget_is_within_the_heap_and_measured_for_a_cpu_device() {
     let ctx = gpu();
     let info = ctx.info().clone();

@@ -12,13 +12,15 @@
 layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 #include "dispatch.glsl"
 
-layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
+// Inputs read at lane-varying addresses are uniform texel buffers (texelFetch): see
+// Slot::Texels in src/vk/pipeline.rs.
+layout(set = 0, binding = 0) uniform samplerBuffer rgba;
+layout(set = 0, binding = 1) uniform samplerBuffer disparity;
 layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
 layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
-layout(std430, set = 0, binding = 5) readonly buffer AdjCw { vec4 adj_cw[]; };
-layout(std430, set = 0, binding = 6) readonly buffer AdjVis { float adj_vis[]; };
+layout(set = 0, binding = 5) uniform samplerBuffer adj_cw;
+layout(set = 0, binding = 6) uniform samplerBuffer adj_vis;
 layout(std430, set = 0, binding = 7) writeonly buffer Own { vec4 own[]; };
 layout(std430, set = 0, binding = 8) writeonly buffer Receiver { vec4 receiver[]; };
 
@@ -46,8 +48,8 @@ vec3 receiver_pair_terms(ivec2 x, int h, DrBokehPx dst, vec4 adj) {
                 continue;
             }
             int iy = drbokeh_read_index(pc.layer, ivec2(sx, sy));
-            vec4 p = rgba[iy];
-            DrBokehPx src = drbokeh_px(disparity[iy], p.w);
+            vec4 p = texelFetch(rgba, iy);
+            DrBokehPx src = drbokeh_px(texelFetch(disparity, iy).x, p.w);
             if (p.w > 0.0 && float(ox * ox + oy * oy) < drbokeh_zero_beyond2(drbokeh_support_for(src.r))) {
                 float a = dot(adj, p);
                 DrBokehPairGrad pg = drbokeh_pair_grad(vec2(float(-ox), float(-oy)), src, dst, ox == 0 && oy == 0);
@@ -77,7 +79,7 @@ vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2) {
 #ifdef DRBOKEH_BACKWARD_DISK
             // drbokeh_vis_weight with K = 1, dK/dr = 0 and the Euclidean gauge.
             float g = length(vec2(float(-ox), float(-oy)));
-            float alpha = rgba[drbokeh_read_index(pc.layer, ivec2(sx, sy))].w;
+            float alpha = texelFetch(rgba, drbokeh_read_index(pc.layer, ivec2(sx, sy))).w;
             float d = drbokeh_scatter(dst.r, g);
             float d_d = drbokeh_leaky(drbokeh_d_scatter(dst.r, g));
             vis += vec4(d, alpha * d, d_d, alpha * d_d);
@@ -87,7 +89,7 @@ vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2) {
                     vis.x += 1.0;
                 }
             } else {
-                float alpha = rgba[drbokeh_read_index(pc.layer, ivec2(sx, sy))].w;
+                float alpha = texelFetch(rgba, drbokeh_read_index(pc.layer, ivec2(sx, sy))).w;
                 vec2 d = drbokeh_vis_weight(vec2(float(-ox), float(-oy)), dst);
                 vis += vec4(d.x, alpha * d.x, d.y, alpha * d.y);
             }
@@ -104,7 +106,7 @@ void main() {
     }
     int ix = drbokeh_read_index(pc.layer, x);
     int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x.y / DRBOKEH_TILE) * pc.tiles_x + x.x / DRBOKEH_TILE];
-    DrBokehPx dst = drbokeh_px(disparity[ix], rgba[ix].w);
+    DrBokehPx dst = drbokeh_px(texelFetch(disparity, ix).x, texelFetch(rgba, ix).w);
     bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
     // Taps that add exact zeros are skipped, by loop bounds (the sums are the reference's in
     // its order, less zeros): the pair terms need a receiver that can occlude (default model:
@@ -112,10 +114,10 @@ void main() {
     // Exact default model: D and dD/dr_x vanish beyond the receiver's own support, so V's sums
     // visit only that disk; a leak keeps dD/dr_x over the whole square window.
     int pair_half = compat || drbokeh_occludes(dst) ? h : -1;
-    vec3 d_own = receiver_pair_terms(x, pair_half, dst, adj_cw[ix]);
+    vec3 d_own = receiver_pair_terms(x, pair_half, dst, texelFetch(adj_cw, ix));
     float limit2 = !compat && pc.leaky_slope <= 0.0 ? drbokeh_zero_beyond2(drbokeh_support(dst.r)) : 1.0e30;
     vec4 vis = receiver_visibility_sums(x, h, dst, limit2);
-    float d_vis = adj_vis[ix];
+    float d_vis = texelFetch(adj_vis, ix).x;
     float vis_norm = 0.0;
     if (vis.x > 0.0) {
         if (!compat) {

@@ -22,13 +22,15 @@ layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 #endif
 #include "dispatch.glsl"
 
-layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Receiver { vec4 receiver[]; };
+// Inputs read at lane-varying addresses are uniform texel buffers (texelFetch): see
+// Slot::Texels in src/vk/pipeline.rs.
+layout(set = 0, binding = 0) uniform samplerBuffer rgba;
+layout(set = 0, binding = 1) uniform samplerBuffer disparity;
+layout(set = 0, binding = 2) uniform samplerBuffer receiver;
 layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
-layout(std430, set = 0, binding = 5) readonly buffer AdjCw { vec4 adj_cw[]; };
-layout(std430, set = 0, binding = 6) readonly buffer Own { vec4 own[]; };
+layout(set = 0, binding = 5) uniform samplerBuffer adj_cw;
+layout(set = 0, binding = 6) uniform samplerBuffer own;
 layout(std430, set = 0, binding = 7) writeonly buffer GradRgba { vec4 grad_rgba[]; };
 layout(std430, set = 0, binding = 8) writeonly buffer GradDisparity { float grad_disparity[]; };
 layout(std430, set = 0, binding = 9) writeonly buffer KPartial { float k_partial[]; };
@@ -42,7 +44,7 @@ float aperture_kernel_texel(int index) {
     return kernel_weights[index];
 }
 
-// dV(x)/dalpha_y times sum D (own[].w holds dL/dV / sum D).
+// dV(x)/dalpha_y times sum D (texelFetch(own, ).w holds dL/dV / sum D).
 float vis_share(vec2 offset, DrBokehPx dst) {
     if (pc.model == DRBOKEH_MODEL_COMPAT) {
         float half_width = float(drbokeh_visibility_box_compat(dst.r));
@@ -59,9 +61,9 @@ void main() {
     }
     int tile_base = pc.layer * pc.tiles_x * pc.tiles_y;
     int iy = drbokeh_read_index(pc.layer, y);
-    vec4 p = rgba[iy];
-    DrBokehPx src = drbokeh_px(disparity[iy], p.w);
-    vec4 own_y = own[iy];
+    vec4 p = texelFetch(rgba, iy);
+    DrBokehPx src = drbokeh_px(texelFetch(disparity, iy).x, p.w);
+    vec4 own_y = texelFetch(own, iy);
     vec4 d_p = vec4(0.0, 0.0, 0.0, own_y.x);
     float d_s = own_y.y;
     float d_rel = own_y.z;
@@ -88,7 +90,7 @@ void main() {
             }
             // One load per receiver: its window, inputs and V adjoint (pass 2's `receiver`).
             int ix = drbokeh_read_index(pc.layer, ivec2(rx, ry));
-            vec4 rcv = receiver[ix];
+            vec4 rcv = texelFetch(receiver, ix);
             int h = int(rcv.w);
             if (abs(ox) > h || abs(oy) > h) {
                 continue; // the receiver's window does not hold this source
@@ -98,7 +100,7 @@ void main() {
             vec2 offset = vec2(float(ox), float(oy));
             float o2 = float(ox * ox + oy * oy);
             bool pair = p.w > 0.0 && o2 < pair_limit2;
-            vec4 adj = adj_cw[ix];
+            vec4 adj = texelFetch(adj_cw, ix);
             float a = dot(adj, p);
             float own_share = rcv.z;
             if (pair) {
@@ -148,13 +150,13 @@ void main() {
     float d_s[RUN];
     for (int k = 0; k < RUN; ++k) {
         int iy = drbokeh_read_index(pc.layer, y0 + ivec2(min(k, last), 0));
-        p[k] = rgba[iy];
-        src[k] = drbokeh_px(disparity[iy], p[k].w);
+        p[k] = texelFetch(rgba, iy);
+        src[k] = drbokeh_px(texelFetch(disparity, iy).x, p[k].w);
         pair_limit2[k] = exact ? drbokeh_zero_beyond2(drbokeh_support(src[k].r)) : 1.0e30;
         area[k] = drbokeh_area(src[k].r);
         d_area[k] = drbokeh_d_area(src[k].r);
         sign_y[k] = drbokeh_sign(src[k].s);
-        vec4 own_y = own[iy];
+        vec4 own_y = texelFetch(own, iy);
         d_p[k] = vec4(0.0, 0.0, 0.0, own_y.x);
         d_s[k] = own_y.y; // d_rel stays own_y.z: the default model has no rel_y term
     }
@@ -170,14 +172,14 @@ void main() {
         int o1 = min(half_width + RUN - 1, pc.width - 1 - y0.x);
         for (int o = o0; o <= o1; ++o) {
             int ix = drbokeh_read_index(pc.layer, ivec2(y0.x + o, ry));
-            vec4 rcv = receiver[ix];
+            vec4 rcv = texelFetch(receiver, ix);
             int h = int(rcv.w);
             if (abs(oy) > h) {
                 continue; // the receiver's window holds no source of this row
             }
             float s_x = pc.k_px * rcv.x; // as drbokeh_px
             DrBokehPx dst = DrBokehPx(rcv.x, s_x, abs(s_x), rcv.y);
-            vec4 adj = adj_cw[ix];
+            vec4 adj = texelFetch(adj_cw, ix);
             float own_share = rcv.z;
             float vis_limit2 = drbokeh_zero_beyond2(drbokeh_support(dst.r));
             for (int k = 0; k < RUN; ++k) {
@@ -209,7 +211,7 @@ void main() {
         int iy = drbokeh_read_index(pc.layer, y0 + ivec2(k, 0));
         int out_index = drbokeh_core_index(pc.layer, y0 + ivec2(k, 0));
         grad_rgba[out_index] = d_p[k];
-        grad_disparity[out_index] = pc.k_px * d_s[k] + own[iy].z;
+        grad_disparity[out_index] = pc.k_px * d_s[k] + texelFetch(own, iy).z;
         k_partial[out_index] = src[k].rel * d_s[k];
     }
 }

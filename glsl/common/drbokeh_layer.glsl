@@ -16,19 +16,22 @@ const int RUN = 4;
 layout(local_size_x = 4, local_size_y = 16, local_size_z = 1) in;
 #include "dispatch.glsl"
 
-layout(std430, set = 0, binding = 0) readonly buffer Rgba { vec4 rgba[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
+// Sources are read at lane-varying addresses in the tap loops: uniform texel buffers
+// (texelFetch), see Slot::Texels in src/vk/pipeline.rs.
+layout(set = 0, binding = 0) uniform samplerBuffer rgba;
+layout(set = 0, binding = 1) uniform samplerBuffer disparity;
 layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
 layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
 layout(std430, set = 0, binding = 5) writeonly buffer LayerCw { vec4 layer_cw[]; };
 layout(std430, set = 0, binding = 6) writeonly buffer LayerVis { float layer_vis[]; };
-layout(std430, set = 0, binding = 7) readonly buffer SourcePa { vec4 source_pa[]; };
-layout(std430, set = 0, binding = 8) readonly buffer SourceSa { vec2 source_sa[]; };
+// source_pa = P / A (vec4), source_sa = (s, alpha): texel buffers too.
+layout(set = 0, binding = 7) uniform samplerBuffer source_pa;
+layout(set = 0, binding = 8) uniform samplerBuffer source_sa;
 layout(std430, set = 0, binding = 9) readonly buffer TileRadii { vec2 tile_radii[]; };
-layout(std430, set = 0, binding = 10) readonly buffer BlockPrefix { vec4 block_prefix[]; };
-layout(std430, set = 0, binding = 11) readonly buffer BlockSuffix { vec4 block_suffix[]; };
-layout(std430, set = 0, binding = 12) readonly buffer BlockAlpha { vec2 block_alpha[]; };
+layout(set = 0, binding = 10) uniform samplerBuffer block_prefix;
+layout(set = 0, binding = 11) uniform samplerBuffer block_suffix;
+layout(set = 0, binding = 12) uniform samplerBuffer block_alpha;
 
 float drbokeh_area_lut(int index) {
     return area_lut[index];
@@ -60,8 +63,8 @@ struct Centre {
 };
 
 Centre centre_at(int index) {
-    float s = source_sa[index].x;
-    float alpha = source_sa[index].y;
+    float s = texelFetch(source_sa, index).x;
+    float alpha = texelFetch(source_sa, index).y;
     float r = abs(s);
     return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0);
 }
@@ -119,8 +122,8 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, int half_width, i
         g[k] = sqrt(float((from - k) * (from - k)) + oy2);
     }
     for (int ox = from; ox <= to; ++ox) {
-        vec4 pa = source_pa[row + ox];
-        vec2 sa = source_sa[row + ox];
+        vec4 pa = texelFetch(source_pa, row + ox);
+        vec2 sa = texelFetch(source_sa, row + ox).xy;
         g[0] = sqrt(float(ox * ox) + oy2);
         for (int k = 0; k < RUN; ++k) {
             int o = ox - k;
@@ -144,27 +147,27 @@ void span_sum(int base, int a, int b, out vec4 pa, out float alpha) {
     if (block_a == block_b) {
         if (a == block_a * DRBOKEH_TILE) {
             // The block's prefix is this very left-to-right sum.
-            pa = block_prefix[base + b];
-            alpha = block_alpha[base + b].x;
+            pa = texelFetch(block_prefix, base + b);
+            alpha = texelFetch(block_alpha, base + b).x;
             return;
         }
         pa = vec4(0.0);
         alpha = 0.0;
         for (int x = a; x <= b; ++x) {
-            pa += source_pa[base + x];
-            alpha += source_sa[base + x].y;
+            pa += texelFetch(source_pa, base + x);
+            alpha += texelFetch(source_sa, base + x).y;
         }
         return;
     }
-    pa = block_suffix[base + a];
-    alpha = block_alpha[base + a].y;
+    pa = texelFetch(block_suffix, base + a);
+    alpha = texelFetch(block_alpha, base + a).y;
     for (int block = block_a + 1; block < block_b; ++block) {
         int first = base + block * DRBOKEH_TILE;
-        pa += block_suffix[first];
-        alpha += block_alpha[first].y;
+        pa += texelFetch(block_suffix, first);
+        alpha += texelFetch(block_alpha, first).y;
     }
-    pa += block_prefix[base + b];
-    alpha += block_alpha[base + b].x;
+    pa += texelFetch(block_prefix, base + b);
+    alpha += texelFetch(block_alpha, base + b).x;
 }
 
 // Default model, disk aperture: the terms of drbokeh_lens / drbokeh_scatter / drbokeh_occlusion
@@ -225,10 +228,10 @@ float visibility(float vis_sum, float vis_weight) {
 // Any model and aperture: the first kernel's per-tap terms over the clipped window disk.
 void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
     int ix = drbokeh_read_index(pc.layer, x);
-    float rel_x = disparity[ix] - pc.focus_disparity;
+    float rel_x = texelFetch(disparity, ix).x - pc.focus_disparity;
     float s_x = pc.k_px * rel_x;
     float r_x = abs(s_x);
-    float alpha_x = rgba[ix].w;
+    float alpha_x = texelFetch(rgba, ix).w;
     int box_half = drbokeh_visibility_box_compat(r_x);
     bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
     cw = vec4(0.0);
@@ -243,8 +246,8 @@ void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
         int row = drbokeh_read_index(pc.layer, ivec2(x.x, x.y + oy));
         for (int ox = ox0; ox <= ox1; ++ox) {
             int iy = row + ox;
-            vec4 p = rgba[iy];
-            float rel_y = disparity[iy] - pc.focus_disparity;
+            vec4 p = texelFetch(rgba, iy);
+            float rel_y = texelFetch(disparity, iy).x - pc.focus_disparity;
             float s_y = pc.k_px * rel_y;
             float r_y = abs(s_y);
             // Offset x - y: the lens term is evaluated where the source lands.

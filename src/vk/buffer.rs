@@ -1,7 +1,7 @@
 //! Storage buffers and their memory (gpu-allocator). A [`Buffer`] is a cheap handle; the
 //! memory and the `VkBuffer` are freed when the last handle drops — including the handles a
 //! [`super::CommandBatch`] keeps until its fence signals.
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
@@ -18,10 +18,16 @@ struct BufferInner {
     allocation: Option<Allocation>,
     size: u64,
     name: String,
+    /// Texel views made by [`Buffer::texel_view`]: (format, offset, range, view).
+    views: Mutex<Vec<(vk::Format, u64, u64, vk::BufferView)>>,
 }
 
 impl Drop for BufferInner {
     fn drop(&mut self) {
+        for (_, _, _, view) in self.views.get_mut().unwrap_or_else(|e| e.into_inner()).drain(..) {
+            // SAFETY: the last handle is gone, so no pending submission uses the view.
+            unsafe { self.device.raw.destroy_buffer_view(view, None) };
+        }
         if let Some(allocation) = self.allocation.take() {
             let _ = self.device.allocator().free(allocation);
         }
@@ -31,7 +37,8 @@ impl Drop for BufferInner {
     }
 }
 
-/// A device buffer usable as a storage buffer and as a transfer source/destination.
+/// A device buffer usable as a storage buffer, a uniform texel buffer and a transfer
+/// source/destination.
 #[derive(Clone)]
 pub struct Buffer(Arc<BufferInner>);
 
@@ -45,6 +52,7 @@ pub struct Binding<'a> {
 
 const USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
     vk::BufferUsageFlags::STORAGE_BUFFER.as_raw()
+        | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER.as_raw()
         | vk::BufferUsageFlags::TRANSFER_SRC.as_raw()
         | vk::BufferUsageFlags::TRANSFER_DST.as_raw(),
 );
@@ -78,11 +86,33 @@ impl Buffer {
         let (memory, offset) = unsafe { (allocation.memory(), allocation.offset()) };
         // From here on, dropping `inner` frees the memory and destroys the buffer.
         let inner =
-            BufferInner { device: device.clone(), raw, allocation: Some(allocation), size, name: name.to_string() };
+            BufferInner {
+            device: device.clone(),
+            raw,
+            allocation: Some(allocation),
+            size,
+            name: name.to_string(),
+            views: Mutex::new(Vec::new()),
+        };
         // SAFETY: the allocation satisfies the buffer's requirements and is bound exactly once.
         unsafe { device.raw.bind_buffer_memory(raw, memory, offset) }.call("vkBindBufferMemory")?;
         device.set_name(raw, name);
         Ok(Self(Arc::new(inner)))
+    }
+
+    /// A view of `range` bytes at `offset` as texels of `format`, for a uniform texel buffer
+    /// binding: made once per (format, offset, range), destroyed with the buffer (so it lives
+    /// as long as any batch that holds the buffer). The caller checks the device's limits.
+    pub(crate) fn texel_view(&self, format: vk::Format, offset: u64, range: u64) -> Result<vk::BufferView> {
+        let mut views = self.0.views.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(&(_, _, _, view)) = views.iter().find(|v| (v.0, v.1, v.2) == (format, offset, range)) {
+            return Ok(view);
+        }
+        let info = vk::BufferViewCreateInfo::default().buffer(self.0.raw).format(format).offset(offset).range(range);
+        // SAFETY: the buffer is live and was created with UNIFORM_TEXEL_BUFFER usage.
+        let view = unsafe { self.0.device.raw.create_buffer_view(&info, None) }.call("vkCreateBufferView")?;
+        views.push((format, offset, range, view));
+        Ok(view)
     }
 
     /// A device-local buffer of `size` bytes, zero-filled.

@@ -10,7 +10,7 @@ use ash::vk;
 use super::buffer::{Binding, Buffer};
 use super::device::Device;
 use super::error::VkCall;
-use super::pipeline::ComputePipeline;
+use super::pipeline::{ComputePipeline, Slot};
 use super::Context;
 use crate::{Error, Result};
 
@@ -145,9 +145,8 @@ impl CommandBatch {
             self.sets_in_current_pool = 0;
         }
         if self.current_pool == self.descriptor_pools.len() {
-            let sizes = [vk::DescriptorPoolSize::default()
-                .ty(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(SETS_PER_POOL * BUFFERS_PER_SET)];
+            let sizes = [vk::DescriptorType::STORAGE_BUFFER, vk::DescriptorType::UNIFORM_TEXEL_BUFFER]
+                .map(|ty| vk::DescriptorPoolSize::default().ty(ty).descriptor_count(SETS_PER_POOL * BUFFERS_PER_SET));
             let info = vk::DescriptorPoolCreateInfo::default().max_sets(SETS_PER_POOL).pool_sizes(&sizes);
             // SAFETY: valid create info; destroyed in `Drop`.
             let pool = unsafe { self.device.raw.create_descriptor_pool(&info, None) }.call("vkCreateDescriptorPool")?;
@@ -187,12 +186,9 @@ impl CommandBatch {
         groups: [u32; 3],
     ) -> Result<()> {
         let name = pipeline.shader().name;
-        if bindings.len() != pipeline.0.bindings as usize || bindings.len() > BUFFERS_PER_SET as usize {
-            return Err(Error::param(format!(
-                "{name}: {} buffers bound, pipeline declares {}",
-                bindings.len(),
-                pipeline.0.bindings
-            )));
+        let slots = &pipeline.0.slots;
+        if bindings.len() != slots.len() || bindings.len() > BUFFERS_PER_SET as usize {
+            return Err(Error::param(format!("{name}: {} buffers bound, pipeline declares {}", bindings.len(), slots.len())));
         }
         if std::mem::size_of::<P>() != pipeline.0.push_size as usize {
             return Err(Error::param(format!(
@@ -203,12 +199,34 @@ impl CommandBatch {
         }
         let limits = &self.device.info;
         let max_range = u64::from(limits.max_storage_buffer_range);
-        for b in bindings {
-            if b.range > max_range || b.offset + b.range > b.buffer.size() {
+        let mut texel_views = Vec::new();
+        for (b, slot) in bindings.iter().zip(slots) {
+            if b.offset + b.range > b.buffer.size() {
                 return Err(Error::param(format!(
-                    "{name}: binding of '{}' ({} bytes at {}) exceeds the buffer or the device's storage range of {max_range} bytes",
-                    b.buffer.name(), b.range, b.offset
+                    "{name}: binding of '{}' ({} bytes at {}) exceeds the buffer ({} bytes)",
+                    b.buffer.name(), b.range, b.offset, b.buffer.size()
                 )));
+            }
+            match slot {
+                Slot::Storage if b.range > max_range => {
+                    return Err(Error::param(format!(
+                        "{name}: binding of '{}' ({} bytes) exceeds the device's storage range of {max_range} bytes",
+                        b.buffer.name(), b.range
+                    )));
+                }
+                Slot::Storage => texel_views.push(None),
+                Slot::Texels(format) => {
+                    let texels = b.range / format.bytes();
+                    let alignment = limits.min_texel_buffer_offset_alignment.max(1);
+                    if texels > u64::from(limits.max_texel_buffer_elements) || b.offset % alignment != 0 {
+                        return Err(Error::param(format!(
+                            "{name}: texel binding of '{}' ({texels} texels at byte {}) exceeds the device's {} texels or its offset alignment of {alignment} bytes",
+                            b.buffer.name(), b.offset, limits.max_texel_buffer_elements
+                        )));
+                    }
+                    // A whole number of texels: a trailing partial one would not be a texel.
+                    texel_views.push(Some(b.buffer.texel_view(format.format(), b.offset, texels * format.bytes())?));
+                }
             }
         }
         if (0..3).any(|i| groups[i] > limits.max_workgroup_count[i]) {
@@ -223,15 +241,17 @@ impl CommandBatch {
             .iter()
             .map(|b| [vk::DescriptorBufferInfo::default().buffer(b.buffer.raw()).offset(b.offset).range(b.range)])
             .collect();
-        let writes: Vec<vk::WriteDescriptorSet> = infos
-            .iter()
-            .enumerate()
-            .map(|(i, info)| {
-                vk::WriteDescriptorSet::default()
+        let views: Vec<[vk::BufferView; 1]> = texel_views.iter().map(|v| [v.unwrap_or_default()]).collect();
+        let writes: Vec<vk::WriteDescriptorSet> = (0..bindings.len())
+            .map(|i| {
+                let write = vk::WriteDescriptorSet::default()
                     .dst_set(set)
                     .dst_binding(i as u32)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                    .buffer_info(info)
+                    .descriptor_type(slots[i].descriptor_type());
+                match texel_views[i] {
+                    Some(_) => write.texel_buffer_view(&views[i]),
+                    None => write.buffer_info(&infos[i]),
+                }
             })
             .collect();
         let cmd = self.command_buffer;

@@ -57,6 +57,9 @@ pub struct DeviceInfo {
     pub max_workgroup_size: [u32; 3],
     pub max_workgroup_count: [u32; 3],
     pub max_storage_buffer_range: u32,
+    /// Texels a uniform texel buffer binding may hold, and the alignment of its offset.
+    pub max_texel_buffer_elements: u32,
+    pub min_texel_buffer_offset_alignment: u64,
     pub max_push_constants_size: u32,
     pub max_shared_memory_bytes: u32,
     pub has_compute_queue: bool,
@@ -161,6 +164,8 @@ fn describe(instance: &Instance, index: usize, device: vk::PhysicalDevice) -> De
         max_workgroup_size: limits.max_compute_work_group_size,
         max_workgroup_count: limits.max_compute_work_group_count,
         max_storage_buffer_range: limits.max_storage_buffer_range,
+        max_texel_buffer_elements: limits.max_texel_buffer_elements,
+        min_texel_buffer_offset_alignment: limits.min_texel_buffer_offset_alignment,
         max_push_constants_size: limits.max_push_constants_size,
         max_shared_memory_bytes: limits.max_compute_shared_memory_size,
         has_compute_queue: queue.is_some(),

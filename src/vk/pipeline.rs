@@ -1,5 +1,6 @@
-//! Compute pipelines: shader module, a descriptor-set layout of N storage buffers (set 0,
-//! bindings 0..N), and one push-constant range.
+//! Compute pipelines: shader module, a descriptor-set layout of N buffer bindings (set 0,
+//! bindings 0..N, each a storage buffer or a uniform texel buffer), and one push-constant
+//! range.
 use std::sync::Arc;
 
 use ash::vk;
@@ -15,7 +16,7 @@ pub(crate) struct PipelineInner {
     pub(crate) raw: vk::Pipeline,
     pub(crate) layout: vk::PipelineLayout,
     pub(crate) set_layout: vk::DescriptorSetLayout,
-    pub(crate) bindings: u32,
+    pub(crate) slots: Vec<Slot>,
     pub(crate) push_size: u32,
     pub(crate) shader: ShaderSource,
 }
@@ -31,24 +32,70 @@ impl Drop for PipelineInner {
     }
 }
 
+/// What one binding of set 0 holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slot {
+    /// A storage buffer (`buffer { ... }` in GLSL).
+    Storage,
+    /// A uniform texel buffer of 32-bit float texels (`uniform samplerBuffer`, read with
+    /// `texelFetch`). For hot loads at lane-varying addresses: lavapipe turns such a fetch into
+    /// straight-line gathers, a storage-buffer load into a loop over the lanes with a branch
+    /// per component; GPUs read either through their caches.
+    Texels(TexelFormat),
+}
+
+/// The texel formats a [`Slot::Texels`] binding may have (every Vulkan device supports them
+/// for uniform texel buffers).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TexelFormat {
+    Float,
+    Vec2,
+    Vec4,
+}
+
+impl TexelFormat {
+    pub fn format(self) -> vk::Format {
+        match self {
+            TexelFormat::Float => vk::Format::R32_SFLOAT,
+            TexelFormat::Vec2 => vk::Format::R32G32_SFLOAT,
+            TexelFormat::Vec4 => vk::Format::R32G32B32A32_SFLOAT,
+        }
+    }
+
+    pub fn bytes(self) -> u64 {
+        match self {
+            TexelFormat::Float => 4,
+            TexelFormat::Vec2 => 8,
+            TexelFormat::Vec4 => 16,
+        }
+    }
+}
+
 /// A compute pipeline for one `glsl/*.comp` entry point.
 #[derive(Clone)]
 pub struct ComputePipeline(pub(crate) Arc<PipelineInner>);
 
 impl ComputePipeline {
-    /// `storage_buffers`: how many buffers the shader binds (set 0, bindings 0..n);
+    /// `storage_buffers`: how many storage buffers the shader binds (set 0, bindings 0..n);
     /// `push_size`: `size_of` the push-constant struct (a multiple of 4, at most 128).
     pub fn new(ctx: &Context, shader: &ShaderSource, storage_buffers: u32, push_size: usize) -> Result<Self> {
+        Self::with_slots(ctx, shader, &vec![Slot::Storage; storage_buffers as usize], push_size)
+    }
+
+    /// A pipeline whose binding i is `slots[i]` (set 0).
+    pub fn with_slots(ctx: &Context, shader: &ShaderSource, slots: &[Slot], push_size: usize) -> Result<Self> {
         let device = &ctx.device;
         let limit = device.info.max_push_constants_size.min(128) as usize;
         if push_size % 4 != 0 || push_size > limit {
             return Err(Error::param(format!("{}: push constants of {push_size} bytes (must be a multiple of 4, <= {limit})", shader.name)));
         }
-        let bindings: Vec<_> = (0..storage_buffers)
-            .map(|b| {
+        let bindings: Vec<_> = slots
+            .iter()
+            .enumerate()
+            .map(|(b, slot)| {
                 vk::DescriptorSetLayoutBinding::default()
-                    .binding(b)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .binding(b as u32)
+                    .descriptor_type(slot.descriptor_type())
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -68,7 +115,7 @@ impl ComputePipeline {
             raw: vk::Pipeline::null(),
             layout: vk::PipelineLayout::null(),
             set_layout,
-            bindings: storage_buffers,
+            slots: slots.to_vec(),
             push_size: push_size as u32,
             shader: *shader,
         };
@@ -101,5 +148,14 @@ impl ComputePipeline {
     pub fn groups_for(&self, extent: [u32; 3]) -> [u32; 3] {
         let local = self.0.shader.local_size;
         [0, 1, 2].map(|i| extent[i].div_ceil(local[i]).max(1))
+    }
+}
+
+impl Slot {
+    pub(crate) fn descriptor_type(self) -> vk::DescriptorType {
+        match self {
+            Slot::Storage => vk::DescriptorType::STORAGE_BUFFER,
+            Slot::Texels(_) => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+        }
     }
 }

@@ -12,7 +12,7 @@ use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tiling::Rect;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
 use crate::Result;
 
 /// Bytes per read pixel of one layer: uploaded rgba + disparity, prepass P / A + (s, alpha),
@@ -84,6 +84,40 @@ pub struct RenderStats {
     pub taps: u64,
 }
 
+/// Bindings of `drbokeh_layer.comp` (and its disk path): the prepass's per-source terms and
+/// block sums, read at lane-varying addresses in the tap loops, are texel buffers.
+const LAYER_SLOTS: [Slot; 13] = {
+    use Slot::{Storage, Texels};
+    use TexelFormat::{Float, Vec2, Vec4};
+    [
+        Texels(Vec4),
+        Texels(Float),
+        Storage,
+        Storage,
+        Storage,
+        Storage,
+        Storage,
+        Texels(Vec4),
+        Texels(Vec2),
+        Storage,
+        Texels(Vec4),
+        Texels(Vec4),
+        Texels(Vec2),
+    ]
+};
+
+/// Bindings of `drbokeh_layer_sources.comp` (inputs as texels) and of
+/// `drbokeh_layer_blocks.comp` (the prepass's outputs as texels).
+const SOURCES_SLOTS: [Slot; 5] = [
+    Slot::Texels(TexelFormat::Vec4),
+    Slot::Texels(TexelFormat::Float),
+    Slot::Storage,
+    Slot::Storage,
+    Slot::Storage,
+];
+const BLOCKS_SLOTS: [Slot; 5] =
+    [Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Vec2), Slot::Storage, Slot::Storage, Slot::Storage];
+
 impl DrBokehGpu {
     pub fn new(ctx: &Context) -> Result<Self> {
         Self::with_kernel(ctx, LayerKernel::Optimised)
@@ -93,16 +127,16 @@ impl DrBokehGpu {
         let push = std::mem::size_of::<super::DrBokehPush>();
         let (layer, layer_disk) = match kernel {
             LayerKernel::Optimised | LayerKernel::OptimisedNoInterior => (
-                ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER, 13, push)?,
-                Some(ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_DISK, 13, push)?),
+                ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER, &LAYER_SLOTS, push)?,
+                Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_DISK, &LAYER_SLOTS, push)?),
             ),
             LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None),
         };
         Ok(Self {
             ctx: ctx.clone(),
             kernel,
-            sources: ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_SOURCES, 5, push)?,
-            blocks: ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_BLOCKS, 5, push)?,
+            sources: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_SOURCES, &SOURCES_SLOTS, push)?,
+            blocks: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_BLOCKS, &BLOCKS_SLOTS, push)?,
             layer,
             layer_disk,
             composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_COMPOSITE, 3, push)?,

@@ -24,7 +24,7 @@ use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tiling::Rect;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
 use crate::{Error, Result};
 
 /// The Dr.Bokeh forward and backward pipelines on one device, for one model and options.
@@ -63,16 +63,42 @@ struct TileGradients {
     k_partial: Buffer,
 }
 
+/// Bindings of the backward passes 2 and 4 (`drbokeh_backward_own.comp`,
+/// `drbokeh_backward_source.comp` and their disk paths): what their loops read at
+/// lane-varying addresses are texel buffers ([`Slot::Texels`]).
+const OWN_SLOTS: [Slot; 9] = {
+    use Slot::{Storage, Texels};
+    use TexelFormat::{Float, Vec4};
+    [Texels(Vec4), Texels(Float), Storage, Storage, Storage, Texels(Vec4), Texels(Float), Storage, Storage]
+};
+const SOURCE_SLOTS: [Slot; 11] = {
+    use Slot::{Storage, Texels};
+    use TexelFormat::{Float, Vec4};
+    [
+        Texels(Vec4),
+        Texels(Float),
+        Texels(Vec4),
+        Storage,
+        Storage,
+        Texels(Vec4),
+        Texels(Vec4),
+        Storage,
+        Storage,
+        Storage,
+        Storage,
+    ]
+};
+
 impl DrBokehGpuGrad {
     pub fn new(ctx: &Context, model: Model, options: BackwardOptions) -> Result<Self> {
         let push = std::mem::size_of::<super::DrBokehPush>();
         Ok(Self {
             forward: DrBokehGpu::new(ctx)?,
             composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_COMPOSITE, 5, push)?,
-            own: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN, 9, push)?,
-            source: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE, 11, push)?,
-            own_disk: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN_DISK, 9, push)?,
-            source_disk: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_DISK, 11, push)?,
+            own: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN, &OWN_SLOTS, push)?,
+            source: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE, &SOURCE_SLOTS, push)?,
+            own_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_DISK, &OWN_SLOTS, push)?,
+            source_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_DISK, &SOURCE_SLOTS, push)?,
             model,
             options,
         })

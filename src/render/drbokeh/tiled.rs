@@ -73,7 +73,10 @@ pub(crate) fn run_tiled<T>(
 ) -> Result<T> {
     let info = ctx.info();
     let limits = Limits {
-        largest_binding: u64::from(info.max_storage_buffer_range).min(info.max_allocation_bytes),
+        // The largest bindings are vec4 per read pixel and layer, some of them texel buffers.
+        largest_binding: u64::from(info.max_storage_buffer_range)
+            .min(info.max_allocation_bytes)
+            .min(u64::from(info.max_texel_buffer_elements) * 16),
         bytes: planning_bytes(ctx.memory_budget()),
     };
     // Never more per batch than the frame has tiles: a retry then starts from what really ran.
