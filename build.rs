@@ -29,10 +29,11 @@ fn main() {
                 let name = source.file_stem().and_then(|s| s.to_str()).expect("utf-8 shader name");
                 let local_size = local_size(&words)
                     .unwrap_or_else(|| panic!("{}: no LocalSize execution mode", source.display()));
+                let (storage, texels) = binding_kinds(&words);
                 let words_text = words.iter().map(|w| format!("{w:#x}")).collect::<Vec<_>>().join(",");
                 writeln!(
                     generated,
-                    "pub const {}: ShaderSource = ShaderSource {{ name: {name:?}, local_size: {local_size:?}, spirv: &[{words_text}] }};",
+                    "pub const {}: ShaderSource = ShaderSource {{ name: {name:?}, local_size: {local_size:?}, storage_bindings: {storage:#x}, texel_bindings: {texels:#x}, spirv: &[{words_text}] }};",
                     name.to_uppercase()
                 )
                 .expect("write to string");
@@ -95,4 +96,60 @@ fn local_size(words: &[u32]) -> Option<[u32; 3]> {
         at += count;
     }
     None
+}
+
+/// Which set-0 bindings the SPIR-V declares as storage buffers and which as texel buffers
+/// (`samplerBuffer`), as bit masks (bit b = binding b; bindings the optimiser removed are in
+/// neither), so a pipeline's declared binding kinds are checked against the shader itself.
+fn binding_kinds(words: &[u32]) -> (u32, u32) {
+    const OP_TYPE_IMAGE: u32 = 25;
+    const OP_TYPE_SAMPLED_IMAGE: u32 = 27;
+    const OP_TYPE_POINTER: u32 = 32;
+    const OP_VARIABLE: u32 = 59;
+    const OP_DECORATE: u32 = 71;
+    const DECORATION_BINDING: u32 = 33;
+    const DECORATION_DESCRIPTOR_SET: u32 = 34;
+    const DIM_BUFFER: u32 = 5;
+    const STORAGE_CLASS_UNIFORM_CONSTANT: u32 = 0;
+    const STORAGE_CLASS_UNIFORM: u32 = 2;
+    const STORAGE_CLASS_STORAGE_BUFFER: u32 = 12;
+    use std::collections::HashMap;
+    let (mut binding, mut set) = (HashMap::new(), HashMap::new());
+    let (mut buffer_images, mut sampled_buffers, mut pointers, mut variables) =
+        (Vec::new(), Vec::new(), HashMap::new(), Vec::new());
+    let mut at = 5;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        let opcode = words[at] & 0xffff;
+        let operands = &words[at + 1..at + count.max(1)];
+        match opcode {
+            OP_DECORATE if operands.len() >= 3 && operands[1] == DECORATION_BINDING => {
+                binding.insert(operands[0], operands[2]);
+            }
+            OP_DECORATE if operands.len() >= 3 && operands[1] == DECORATION_DESCRIPTOR_SET => {
+                set.insert(operands[0], operands[2]);
+            }
+            OP_TYPE_IMAGE if operands.len() >= 3 && operands[2] == DIM_BUFFER => buffer_images.push(operands[0]),
+            OP_TYPE_SAMPLED_IMAGE if operands.len() >= 2 && buffer_images.contains(&operands[1]) => {
+                sampled_buffers.push(operands[0]);
+            }
+            OP_TYPE_POINTER if operands.len() >= 3 => {
+                pointers.insert(operands[0], (operands[1], operands[2]));
+            }
+            OP_VARIABLE if operands.len() >= 3 => variables.push((operands[0], operands[1])),
+            _ => {}
+        }
+        at += count.max(1);
+    }
+    let (mut storage, mut texels) = (0u32, 0u32);
+    for (pointer, id) in variables {
+        let (Some(&b), Some(&(class, pointee))) = (binding.get(&id), pointers.get(&pointer)) else { continue };
+        assert!(set.get(&id).copied().unwrap_or(0) == 0 && b < 32, "bindings are set 0, 0..32");
+        match class {
+            STORAGE_CLASS_STORAGE_BUFFER | STORAGE_CLASS_UNIFORM => storage |= 1 << b,
+            STORAGE_CLASS_UNIFORM_CONSTANT if sampled_buffers.contains(&pointee) => texels |= 1 << b,
+            _ => panic!("binding {b}: only storage buffers and samplerBuffers are supported"),
+        }
+    }
+    (storage, texels)
 }

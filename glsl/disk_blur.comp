@@ -13,8 +13,10 @@
 
 layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 
-layout(std430, set = 0, binding = 0) readonly buffer Source { vec4 source[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Kernel { float kernel_weights[]; };
+// Read at lane-varying addresses: uniform texel buffers (texelFetch), see Slot::Texels in
+// src/vk/pipeline.rs.
+layout(set = 0, binding = 0) uniform samplerBuffer source;
+layout(set = 0, binding = 1) uniform samplerBuffer kernel_weights;
 layout(std430, set = 0, binding = 2) writeonly buffer Result { vec4 result[]; };
 
 layout(push_constant) uniform Push {
@@ -40,11 +42,11 @@ void main() {
         }
         for (int kx = 0; kx < side; ++kx) {
             int sx = x.x + kx - pc.half_extent;
-            float k = kernel_weights[ky * side + kx];
+            float k = texelFetch(kernel_weights, ky * side + kx).x;
             if (sx < 0 || sx >= size.x || k == 0.0) {
                 continue;
             }
-            sum += k * source[sy * size.x + sx];
+            sum += k * texelFetch(source, sy * size.x + sx);
             weight += k;
         }
     }

@@ -15,8 +15,10 @@
 
 layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 
-layout(std430, set = 0, binding = 0) readonly buffer LayerCw { vec4 layer_cw[]; };
-layout(std430, set = 0, binding = 1) readonly buffer LayerVis { float layer_vis[]; };
+// Read at lane-varying addresses: uniform texel buffers (texelFetch), see Slot::Texels in
+// src/vk/pipeline.rs.
+layout(set = 0, binding = 0) uniform samplerBuffer layer_cw;
+layout(set = 0, binding = 1) uniform samplerBuffer layer_vis;
 layout(std430, set = 0, binding = 2) writeonly buffer Result { vec4 result[]; };
 
 float drbokeh_area_lut(int index) {
@@ -35,8 +37,8 @@ void main() {
     vec4 outp = vec4(0.0);
     float transmittance = 1.0;
     for (int l = 0; l < pc.layer_count; ++l) {
-        vec4 cw = layer_cw[drbokeh_core_index(l, x)];
-        float v = layer_vis[drbokeh_core_index(l, x)];
+        vec4 cw = texelFetch(layer_cw, drbokeh_core_index(l, x));
+        float v = texelFetch(layer_vis, drbokeh_core_index(l, x)).x;
         if (pc.model == DRBOKEH_MODEL_DRBOKEH) {
             v *= drbokeh_existence_gate(cw.w);
         }

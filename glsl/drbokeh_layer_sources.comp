@@ -21,12 +21,12 @@ layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 // Inputs are uniform texel buffers (texelFetch): see Slot::Texels in src/vk/pipeline.rs.
 layout(set = 0, binding = 0) uniform samplerBuffer rgba;
 layout(set = 0, binding = 1) uniform samplerBuffer disparity;
-layout(std430, set = 0, binding = 2) readonly buffer AreaLut { float area_lut[]; };
+layout(set = 0, binding = 2) uniform samplerBuffer area_lut;
 layout(std430, set = 0, binding = 3) writeonly buffer SourcePa { vec4 source_pa[]; };
 layout(std430, set = 0, binding = 4) writeonly buffer SourceSa { vec2 source_sa[]; };
 
 float drbokeh_area_lut(int index) {
-    return area_lut[index];
+    return texelFetch(area_lut, index).x;
 }
 
 // Never called here (no lens term); GLSL needs a body for the declaration in aperture.glsl.

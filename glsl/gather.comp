@@ -18,10 +18,12 @@
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 #include "dispatch.glsl"
 
-layout(std430, set = 0, binding = 0) readonly buffer Source { vec4 source[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
+// Read at lane-varying addresses: uniform texel buffers (texelFetch), see Slot::Texels in
+// src/vk/pipeline.rs.
+layout(set = 0, binding = 0) uniform samplerBuffer source;
+layout(set = 0, binding = 1) uniform samplerBuffer disparity;
 layout(std430, set = 0, binding = 2) writeonly buffer Result { vec4 result[]; };
-layout(std430, set = 0, binding = 3) readonly buffer Kernel { float kernel_weights[]; };
+layout(set = 0, binding = 3) uniform samplerBuffer kernel_weights;
 
 layout(push_constant) uniform Push {
     int width;
@@ -36,7 +38,7 @@ layout(push_constant) uniform Push {
 } pc;
 
 float aperture_kernel_texel(int index) {
-    return kernel_weights[index];
+    return texelFetch(kernel_weights, index).x;
 }
 
 float coc_radius(float d) {
@@ -49,8 +51,8 @@ void main() {
         return;
     }
     int centre = x.y * pc.width + x.x;
-    float r_x = coc_radius(disparity[centre]);
-    float rel_x = disparity[centre] - pc.focus;
+    float r_x = coc_radius(texelFetch(disparity, centre).x);
+    float rel_x = texelFetch(disparity, centre).x - pc.focus;
     int reach = int(ceil(r_x + 0.5 * pc.edge_width));
     vec4 sum = vec4(0.0);
     float weight = 0.0;
@@ -59,18 +61,18 @@ void main() {
             int s = sy * pc.width + sx;
             vec2 offset = aperture_coords(vec2(float(x.x - sx), float(x.y - sy)), rel_x);
             float distance = aperture_gauge(offset, pc.aperture);
-            float reach_both = min(r_x, coc_radius(disparity[s]));
+            float reach_both = min(r_x, coc_radius(texelFetch(disparity, s).x));
             float k = clamp((reach_both - distance) / pc.edge_width + 0.5, 0.0, 1.0);
             if (k > 0.0) {
                 k *= aperture_kernel_weight(offset, r_x, pc.aperture, pc.kernel_size);
             }
             if (k > 0.0) {
-                sum += k * source[s];
+                sum += k * texelFetch(source, s);
                 weight += k;
             }
         }
     }
     // The centre tap has k >= 0.5, but a kernel image can block it (a ring's obstruction): a
     // pixel no tap reaches through the aperture keeps its own colour.
-    result[centre] = weight > 0.0 ? sum / weight : source[centre];
+    result[centre] = weight > 0.0 ? sum / weight : texelFetch(source, centre);
 }

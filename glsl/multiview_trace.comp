@@ -23,8 +23,10 @@
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 #include "dispatch.glsl"
 
-layout(std430, set = 0, binding = 0) readonly buffer Pyramid { vec4 pyramid[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Heights { float heights[]; };
+// Read at lane-varying addresses: uniform texel buffers (texelFetch), see Slot::Texels in
+// src/vk/pipeline.rs.
+layout(set = 0, binding = 0) uniform samplerBuffer pyramid;
+layout(set = 0, binding = 1) uniform samplerBuffer heights;
 layout(std430, set = 0, binding = 2) readonly buffer Occupancy { uint occupancy[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Bounds { vec4 bounds[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Levels { uvec4 levels[]; };
@@ -62,7 +64,7 @@ float height_at(int l, vec2 p, vec2 u, float t) {
     precise float x = p.x + u.x * rel;
     precise float y = p.y + u.y * rel;
     int plane = pc.width * pc.height;
-    return heights[l * plane + nearest_pixel(y, pc.height) * pc.width + nearest_pixel(x, pc.width)];
+    return texelFetch(heights, l * plane + nearest_pixel(y, pc.height) * pc.width + nearest_pixel(x, pc.width)).x;
 }
 
 float level_for(float diameter) {
@@ -72,7 +74,7 @@ float level_for(float diameter) {
 vec4 texel(int base, int w, int h, float x, float y) {
     int xi = int(clamp(x, 0.0, float(w - 1)));
     int yi = int(clamp(y, 0.0, float(h - 1)));
-    return pyramid[base + yi * w + xi];
+    return texelFetch(pyramid, base + yi * w + xi);
 }
 
 vec4 bilinear(int l, int level, vec2 pos) {

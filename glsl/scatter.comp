@@ -20,10 +20,12 @@
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 #include "dispatch.glsl"
 
-layout(std430, set = 0, binding = 0) readonly buffer Source { vec4 source[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity[]; };
+// Read at lane-varying addresses: uniform texel buffers (texelFetch), see Slot::Texels in
+// src/vk/pipeline.rs.
+layout(set = 0, binding = 0) uniform samplerBuffer source;
+layout(set = 0, binding = 1) uniform samplerBuffer disparity;
 layout(std430, set = 0, binding = 2) writeonly buffer Result { vec4 result[]; };
-layout(std430, set = 0, binding = 3) readonly buffer Kernel { float kernel_weights[]; };
+layout(set = 0, binding = 3) uniform samplerBuffer kernel_weights;
 
 layout(push_constant) uniform Push {
     int width;
@@ -38,7 +40,7 @@ layout(push_constant) uniform Push {
 } pc;
 
 float aperture_kernel_texel(int index) {
-    return kernel_weights[index];
+    return texelFetch(kernel_weights, index).x;
 }
 
 // tanh's argument is clamped to +-9, where f32 tanh is already exactly +-1: some GLSL
@@ -58,17 +60,17 @@ void main() {
     for (int sy = max(x.y - pc.reach, 0); sy <= min(x.y + pc.reach, pc.height - 1); ++sy) {
         for (int sx = max(x.x - pc.reach, 0); sx <= min(x.x + pc.reach, pc.width - 1); ++sx) {
             int s = sy * pc.width + sx;
-            float rel_y = disparity[s] - pc.focus;
+            float rel_y = texelFetch(disparity, s).x - pc.focus;
             vec2 offset = aperture_coords(vec2(float(x.x - sx), float(x.y - sy)), rel_y);
             float r_y = abs(pc.k * rel_y);
             float k = scatter_weight(r_y, aperture_gauge(offset, pc.aperture))
                 * aperture_kernel_weight(offset, r_y, pc.aperture, pc.kernel_size);
-            sum += k * source[s];
+            sum += k * texelFetch(source, s);
             weight += k;
         }
     }
     // The pixel's own tap weighs at least 0.5 / (r^2 + 0.2) > 0 unless a kernel image blocks
     // it (a ring's obstruction): a pixel no source reaches keeps its own colour.
     int centre = x.y * pc.width + x.x;
-    result[centre] = weight > 0.0 ? sum / weight : source[centre];
+    result[centre] = weight > 0.0 ? sum / weight : texelFetch(source, centre);
 }

@@ -21,9 +21,11 @@
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 #include "dispatch.glsl"
 
-layout(std430, set = 0, binding = 0) readonly buffer Source { vec4 source[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Relative { float relative[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Disparity { float disparity[]; };
+// Read at lane-varying addresses: uniform texel buffers (texelFetch), see Slot::Texels in
+// src/vk/pipeline.rs.
+layout(set = 0, binding = 0) uniform samplerBuffer source;
+layout(set = 0, binding = 1) uniform samplerBuffer relative;
+layout(set = 0, binding = 2) uniform samplerBuffer disparity;
 layout(std430, set = 0, binding = 3) readonly buffer Samples { vec4 samples[]; };
 layout(std430, set = 0, binding = 4) writeonly buffer Result { vec4 result[]; };
 
@@ -69,7 +71,7 @@ Hit search(vec2 p, vec2 u, int centre) {
         int qx = nearest_pixel(px, pc.width);
         int qy = nearest_pixel(py, pc.height);
         int index = qy * pc.width + qx;
-        float s_q = relative[index];
+        float s_q = texelFetch(relative, index).x;
         if (hits(p, u, ivec2(qx, qy), s_q)) {
             return Hit(index, true);
         }
@@ -114,14 +116,14 @@ void main() {
             }
         }
         // Guard as in the CPU reference: when the centre is a nearer hit of this ray.
-        bool farther = disparity[hit.index] < disparity[centre];
-        bool centre_hit = hits(p, u, x, relative[centre]);
+        bool farther = texelFetch(disparity, hit.index).x < texelFetch(disparity, centre).x;
+        bool centre_hit = hits(p, u, x, texelFetch(relative, centre).x);
         bool guard = pc.bleeding_guard != 0 && farther && centre_hit;
         int index = guard ? centre : hit.index;
-        vec4 colour = source[index];
+        vec4 colour = texelFetch(source, index);
         float w = s.z * highlight_weight(colour);
         sum += w * colour;
         weight += w;
     }
-    result[centre] = weight > 0.0 ? sum / weight : source[centre];
+    result[centre] = weight > 0.0 ? sum / weight : texelFetch(source, centre);
 }

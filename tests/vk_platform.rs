@@ -3,7 +3,7 @@ mod common;
 
 use common::{finish, gpu, max_abs_diff, pattern};
 use lensblur::image::Image;
-use lensblur::render::disk::{disk_blur_cpu, DiskBlur, DiskKernel};
+use lensblur::render::disk::{disk_blur_cpu, DiskBlur, DiskKernel, DISK_BLUR_SLOTS};
 use lensblur::vk::{Buffer, CommandBatch};
 
 #[test]
@@ -75,7 +75,7 @@ fn a_batch_reused_with_more_sets_than_one_pool_holds_stays_valid_and_determinist
     // 70 dispatches need two descriptor pools; the batch is submitted and reused three times,
     // resetting the same two pools each time instead of creating new ones.
     let ctx = gpu();
-    let pipeline = lensblur::vk::ComputePipeline::new(&ctx, &lensblur::shaders::DISK_BLUR, 3, 16).unwrap();
+    let pipeline = lensblur::vk::ComputePipeline::with_slots(&ctx, &lensblur::shaders::DISK_BLUR, &DISK_BLUR_SLOTS, 16).unwrap();
     let image = pattern(20, 20);
     let kernel = DiskKernel::new(2.0);
     let source = Buffer::from_slice(&ctx, "source", &image.pixels).unwrap();
@@ -109,16 +109,17 @@ fn a_batch_reused_with_more_sets_than_one_pool_holds_stays_valid_and_determinist
 
 #[test]
 fn validation_messages_fail_the_command() {
-    // A storage-buffer offset of 4 bytes violates minStorageBufferOffsetAlignment (16 or more
-    // on every device we know), which only the validation layer notices.
+    // A storage-buffer offset of 4 bytes (the result, binding 2) violates
+    // minStorageBufferOffsetAlignment (16 or more on every device we know), which only the
+    // validation layer notices.
     let ctx = gpu();
     assert!(ctx.validation_enabled());
-    let pipeline = lensblur::vk::ComputePipeline::new(&ctx, &lensblur::shaders::DISK_BLUR, 3, 16).unwrap();
+    let pipeline = lensblur::vk::ComputePipeline::with_slots(&ctx, &lensblur::shaders::DISK_BLUR, &DISK_BLUR_SLOTS, 16).unwrap();
     let buffer = Buffer::zeroed(&ctx, "misaligned", 1024).unwrap();
     let mut batch = CommandBatch::new(&ctx).unwrap();
     let misaligned = buffer.range(4, 512);
     let outcome = batch
-        .dispatch(&pipeline, &[misaligned, buffer.all(), buffer.range(512, 512)], &[0i32, 0, 0, 0], [1, 1, 1])
+        .dispatch(&pipeline, &[buffer.range(512, 512), buffer.all(), misaligned], &[0i32, 0, 0, 0], [1, 1, 1])
         .and_then(|()| batch.submit_and_wait());
     let err = outcome.expect_err("a misaligned binding must be reported");
     assert!(err.to_string().contains("alidation"), "{err}");
@@ -129,7 +130,7 @@ fn validation_messages_fail_the_command() {
 #[test]
 fn dispatch_refuses_wrong_binding_count() {
     let ctx = gpu();
-    let pipeline = lensblur::vk::ComputePipeline::new(&ctx, &lensblur::shaders::DISK_BLUR, 3, 16).unwrap();
+    let pipeline = lensblur::vk::ComputePipeline::with_slots(&ctx, &lensblur::shaders::DISK_BLUR, &DISK_BLUR_SLOTS, 16).unwrap();
     let buffer = Buffer::zeroed(&ctx, "one", 64).unwrap();
     let mut batch = CommandBatch::new(&ctx).unwrap();
     let err = batch.dispatch(&pipeline, &[buffer.all()], &[0i32; 4], [1, 1, 1]).unwrap_err();
@@ -141,17 +142,24 @@ fn dispatch_refuses_wrong_binding_count() {
 }
 
 #[test]
-fn texel_bindings_are_checked_against_the_device_limits() {
+fn texel_bindings_are_checked_against_the_shader_and_the_device_limits() {
+    use lensblur::render::drbokeh::DrBokehPush;
     use lensblur::vk::{ComputePipeline, Slot, TexelFormat};
     let ctx = gpu();
     let info = ctx.info().clone();
     // Every device here (lavapipe: 16 bytes) aligns texel views to 4 bytes or more.
     let alignment = info.min_texel_buffer_offset_alignment;
     assert!(alignment >= 4, "offset alignment {alignment}: the misaligned case below needs one of at least 4");
-    let slots = [Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Storage, Slot::Storage];
-    use lensblur::render::drbokeh::DrBokehPush;
+    let (vec4, float) = (Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float));
+    let slots = [vec4, float, float, Slot::Storage, Slot::Storage];
     let push = std::mem::size_of::<DrBokehPush>();
-    let pipeline = ComputePipeline::with_slots(&ctx, &lensblur::shaders::DRBOKEH_LAYER_SOURCES, &slots, push).unwrap();
+    // Binding kinds come from the SPIR-V: a pipeline that declares another kind is refused.
+    let shader = &lensblur::shaders::DRBOKEH_LAYER_SOURCES;
+    let err = ComputePipeline::new(&ctx, shader, 5, push).err().expect("storage slots for texel bindings");
+    assert!(err.to_string().contains("binding 0 is a texel buffer in the shader"), "{err}");
+    let err = ComputePipeline::with_slots(&ctx, shader, &slots[..4], push).err().expect("a binding left out");
+    assert!(err.to_string().contains("binding 4 is a storage buffer in the shader"), "{err}");
+    let pipeline = ComputePipeline::with_slots(&ctx, shader, &slots, push).unwrap();
     let buffer = Buffer::zeroed(&ctx, "texels", 4096).unwrap();
     let misaligned = buffer.range(alignment / 2, 1024);
     let bindings = [misaligned, buffer.all(), buffer.all(), buffer.all(), buffer.all()];

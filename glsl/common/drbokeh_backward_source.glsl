@@ -27,8 +27,8 @@ layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 layout(set = 0, binding = 0) uniform samplerBuffer rgba;
 layout(set = 0, binding = 1) uniform samplerBuffer disparity;
 layout(set = 0, binding = 2) uniform samplerBuffer receiver;
-layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
+layout(set = 0, binding = 3) uniform samplerBuffer area_lut;
+layout(set = 0, binding = 4) uniform samplerBuffer kernel_weights;
 layout(set = 0, binding = 5) uniform samplerBuffer adj_cw;
 layout(set = 0, binding = 6) uniform samplerBuffer own;
 layout(std430, set = 0, binding = 7) writeonly buffer GradRgba { vec4 grad_rgba[]; };
@@ -37,11 +37,11 @@ layout(std430, set = 0, binding = 9) writeonly buffer KPartial { float k_partial
 layout(std430, set = 0, binding = 10) readonly buffer TileReach { int tile_reach[]; };
 
 float drbokeh_area_lut(int index) {
-    return area_lut[index];
+    return texelFetch(area_lut, index).x;
 }
 
 float aperture_kernel_texel(int index) {
-    return kernel_weights[index];
+    return texelFetch(kernel_weights, index).x;
 }
 
 // dV(x)/dalpha_y times sum D (texelFetch(own, ).w holds dL/dV / sum D).

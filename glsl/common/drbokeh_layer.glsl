@@ -21,8 +21,8 @@ layout(local_size_x = 4, local_size_y = 16, local_size_z = 1) in;
 layout(set = 0, binding = 0) uniform samplerBuffer rgba;
 layout(set = 0, binding = 1) uniform samplerBuffer disparity;
 layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
-layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
+layout(set = 0, binding = 3) uniform samplerBuffer area_lut;
+layout(set = 0, binding = 4) uniform samplerBuffer kernel_weights;
 layout(std430, set = 0, binding = 5) writeonly buffer LayerCw { vec4 layer_cw[]; };
 layout(std430, set = 0, binding = 6) writeonly buffer LayerVis { float layer_vis[]; };
 // source_pa = P / A (vec4), source_sa = (s, alpha): texel buffers too.
@@ -34,11 +34,11 @@ layout(set = 0, binding = 11) uniform samplerBuffer block_suffix;
 layout(set = 0, binding = 12) uniform samplerBuffer block_alpha;
 
 float drbokeh_area_lut(int index) {
-    return area_lut[index];
+    return texelFetch(area_lut, index).x;
 }
 
 float aperture_kernel_texel(int index) {
-    return kernel_weights[index];
+    return texelFetch(kernel_weights, index).x;
 }
 
 // Largest |ox| with ox^2 + oy^2 < (h + 1)^2: the row of the window disk at height oy.

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use crate::camera::Aperture;
 use crate::image::Image;
 use crate::shaders;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
 use crate::Result;
 
 /// Sub-samples per pixel side used to integrate the disk's coverage of a pixel square.
@@ -134,6 +134,9 @@ struct DiskBlurPush {
 }
 const _: () = assert!(std::mem::size_of::<DiskBlurPush>() == 16);
 
+/// Bindings of `disk_blur.comp`: the source and the kernel as texels, the result.
+pub const DISK_BLUR_SLOTS: [Slot; 3] = [Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage];
+
 /// Disk convolution on the GPU: uploads the image and kernel, dispatches, reads back.
 pub struct DiskBlur {
     ctx: Context,
@@ -142,7 +145,7 @@ pub struct DiskBlur {
 
 impl DiskBlur {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::new(ctx, &shaders::DISK_BLUR, 3, std::mem::size_of::<DiskBlurPush>())?;
+        let pipeline = ComputePipeline::with_slots(ctx, &shaders::DISK_BLUR, &DISK_BLUR_SLOTS, std::mem::size_of::<DiskBlurPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 

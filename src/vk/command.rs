@@ -479,8 +479,9 @@ mod tests {
         let options = ContextOptions { validation: true, ..ContextOptions::from_env() };
         let ctx = Context::new(&options)
             .unwrap_or_else(|e| panic!("this test needs a Vulkan device with validation layers: {e}"));
-        // disk_blur.comp: binding 0 read, 1 read (kernel), 2 written; push {width, height, half_extent, pad}.
-        let pipeline = ComputePipeline::new(&ctx, &shaders::DISK_BLUR, 3, 16)?;
+        // disk_blur.comp: binding 0 read (texels), 1 read (kernel), 2 written; push {width,
+        // height, half_extent, pad}.
+        let pipeline = ComputePipeline::with_slots(&ctx, &shaders::DISK_BLUR, &crate::render::disk::DISK_BLUR_SLOTS, 16)?;
         let (width, height) = (8u32, 8u32);
         let pixels = vec![[1.0f32; 4]; (width * height) as usize];
         let (a, b) = (Buffer::from_slice(&ctx, "a", &pixels)?, Buffer::from_slice(&ctx, "b", &pixels)?);

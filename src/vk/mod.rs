@@ -7,10 +7,12 @@
 //!
 //! ```no_run
 //! # fn main() -> lensblur::Result<()> {
-//! use lensblur::vk::{Buffer, CommandBatch, ComputePipeline, Context};
+//! use lensblur::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
 //! let ctx = Context::from_env()?;
 //! # let (shader, push, n) = (lensblur::shaders::DISK_BLUR, [0i32; 4], 1u32);
-//! let pipeline = ComputePipeline::new(&ctx, &shader, 3, std::mem::size_of_val(&push))?;
+//! // Binding kinds as the shader declares them (checked against its SPIR-V).
+//! let slots = [Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage];
+//! let pipeline = ComputePipeline::with_slots(&ctx, &shader, &slots, std::mem::size_of_val(&push))?;
 //! let (a, b, c) = (Buffer::from_slice(&ctx, "a", &[0f32; 4])?, Buffer::zeroed(&ctx, "b", 16)?, Buffer::zeroed(&ctx, "c", 16)?);
 //! let mut batch = CommandBatch::new(&ctx)?;
 //! batch.dispatch(&pipeline, &[a.all(), b.all(), c.all()], &push, pipeline.groups_for([n, 1, 1]))?;

@@ -85,6 +85,7 @@ impl ComputePipeline {
     /// A pipeline whose binding i is `slots[i]` (set 0).
     pub fn with_slots(ctx: &Context, shader: &ShaderSource, slots: &[Slot], push_size: usize) -> Result<Self> {
         let device = &ctx.device;
+        check_slots(shader, slots)?;
         let limit = device.info.max_push_constants_size.min(128) as usize;
         if push_size % 4 != 0 || push_size > limit {
             return Err(Error::param(format!("{}: push constants of {push_size} bytes (must be a multiple of 4, <= {limit})", shader.name)));
@@ -158,4 +159,23 @@ impl Slot {
             Slot::Texels(_) => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
         }
     }
+}
+
+/// The slots must cover every binding the shader uses, each with the shader's kind: a
+/// mismatch is a validation error at best and undefined behaviour without the layers.
+fn check_slots(shader: &ShaderSource, slots: &[Slot]) -> Result<()> {
+    for b in 0..32usize {
+        let (storage, texels) = (shader.storage_bindings >> b & 1 == 1, shader.texel_bindings >> b & 1 == 1);
+        let declared = slots.get(b);
+        let matches = match declared {
+            None => !storage && !texels,
+            Some(Slot::Storage) => !texels,
+            Some(Slot::Texels(_)) => !storage,
+        };
+        if !matches {
+            let kind = if texels { "a texel buffer" } else { "a storage buffer" };
+            return Err(Error::param(format!("{}: binding {b} is {kind} in the shader, the pipeline declares {declared:?}", shader.name)));
+        }
+    }
+    Ok(())
 }

@@ -84,8 +84,9 @@ pub struct RenderStats {
     pub taps: u64,
 }
 
-/// Bindings of `drbokeh_layer.comp` (and its disk path): the prepass's per-source terms and
-/// block sums, read at lane-varying addresses in the tap loops, are texel buffers.
+/// Bindings of `drbokeh_layer.comp` (and its disk path): the sources, the lens tables, the
+/// prepass's per-source terms and block sums, read at lane-varying addresses in the tap
+/// loops, are texel buffers.
 const LAYER_SLOTS: [Slot; 13] = {
     use Slot::{Storage, Texels};
     use TexelFormat::{Float, Vec2, Vec4};
@@ -93,8 +94,8 @@ const LAYER_SLOTS: [Slot; 13] = {
         Texels(Vec4),
         Texels(Float),
         Storage,
-        Storage,
-        Storage,
+        Texels(Float),
+        Texels(Float),
         Storage,
         Storage,
         Texels(Vec4),
@@ -111,7 +112,7 @@ const LAYER_SLOTS: [Slot; 13] = {
 const SOURCES_SLOTS: [Slot; 5] = [
     Slot::Texels(TexelFormat::Vec4),
     Slot::Texels(TexelFormat::Float),
-    Slot::Storage,
+    Slot::Texels(TexelFormat::Float),
     Slot::Storage,
     Slot::Storage,
 ];
@@ -139,7 +140,7 @@ impl DrBokehGpu {
             blocks: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_BLOCKS, &BLOCKS_SLOTS, push)?,
             layer,
             layer_disk,
-            composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_COMPOSITE, 3, push)?,
+            composite: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_COMPOSITE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage], push)?,
         })
     }
 

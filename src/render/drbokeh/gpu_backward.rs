@@ -69,7 +69,7 @@ struct TileGradients {
 const OWN_SLOTS: [Slot; 9] = {
     use Slot::{Storage, Texels};
     use TexelFormat::{Float, Vec4};
-    [Texels(Vec4), Texels(Float), Storage, Storage, Storage, Texels(Vec4), Texels(Float), Storage, Storage]
+    [Texels(Vec4), Texels(Float), Storage, Texels(Float), Texels(Float), Texels(Vec4), Texels(Float), Storage, Storage]
 };
 const SOURCE_SLOTS: [Slot; 11] = {
     use Slot::{Storage, Texels};
@@ -78,8 +78,8 @@ const SOURCE_SLOTS: [Slot; 11] = {
         Texels(Vec4),
         Texels(Float),
         Texels(Vec4),
-        Storage,
-        Storage,
+        Texels(Float),
+        Texels(Float),
         Texels(Vec4),
         Texels(Vec4),
         Storage,

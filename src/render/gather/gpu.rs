@@ -4,7 +4,7 @@ use super::EDGE_WIDTH;
 use crate::image::Image;
 use crate::render::Lens;
 use crate::shaders;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
 use crate::{Error, Result};
 
 /// Push constants of `glsl/gather.comp`.
@@ -31,7 +31,7 @@ pub struct Gather {
 
 impl Gather {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::new(ctx, &shaders::GATHER, 4, std::mem::size_of::<GatherPush>())?;
+        let pipeline = ComputePipeline::with_slots(ctx, &shaders::GATHER, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Texels(TexelFormat::Float)], std::mem::size_of::<GatherPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 

@@ -7,7 +7,7 @@ use crate::image::Image;
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
 use crate::Result;
 
 /// Push constants of `glsl/multiview_trace.comp`.
@@ -39,7 +39,7 @@ pub struct Multiview {
 
 impl Multiview {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::new(ctx, &shaders::MULTIVIEW_TRACE, 7, std::mem::size_of::<MultiviewPush>())?;
+        let pipeline = ComputePipeline::with_slots(ctx, &shaders::MULTIVIEW_TRACE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Storage, Slot::Storage, Slot::Storage, Slot::Storage], std::mem::size_of::<MultiviewPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 

@@ -5,7 +5,7 @@ use crate::image::Image;
 use crate::render::gather::gpu::{check_input, dispatch_image_pass};
 use crate::render::Lens;
 use crate::shaders;
-use crate::vk::{ComputePipeline, Context};
+use crate::vk::{ComputePipeline, Context, Slot, TexelFormat};
 use crate::Result;
 
 /// Push constants of `glsl/scatter.comp`.
@@ -34,7 +34,7 @@ pub struct Scatter {
 
 impl Scatter {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::new(ctx, &shaders::SCATTER, 4, std::mem::size_of::<ScatterPush>())?;
+        let pipeline = ComputePipeline::with_slots(ctx, &shaders::SCATTER, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Texels(TexelFormat::Float)], std::mem::size_of::<ScatterPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 

@@ -4,7 +4,7 @@ use super::{prepare, VdslrParams};
 use crate::image::Image;
 use crate::render::Lens;
 use crate::shaders;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
 use crate::Result;
 
 /// Push constants of `glsl/vdslr_trace.comp`.
@@ -34,7 +34,7 @@ pub struct Vdslr {
 
 impl Vdslr {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::new(ctx, &shaders::VDSLR_TRACE, 5, std::mem::size_of::<VdslrPush>())?;
+        let pipeline = ComputePipeline::with_slots(ctx, &shaders::VDSLR_TRACE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Storage], std::mem::size_of::<VdslrPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
