@@ -131,6 +131,7 @@ mod tests {
             .unwrap();
         assert_eq!(std::fs::read(&out).unwrap(), b"whole");
         assert_eq!(listing(&dir), ["out.bin"], "the temporary was renamed, not copied");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     // The interrupt is process-wide and permanent, so this is the one test that takes it; it
@@ -152,6 +153,7 @@ mod tests {
                 format!("{}{}", String::from_utf8_lossy(&child.stdout), String::from_utf8_lossy(&child.stderr));
             assert!(child.status.success() && report.contains("1 passed"), "the child test failed: {report}");
             assert_eq!(listing(&dir), ["before.bin"], "only the output finished before the interrupt is left");
+            std::fs::remove_dir_all(&dir).unwrap();
             return;
         };
         let dir = PathBuf::from(dir);

@@ -296,9 +296,7 @@ fn chromatic_aberration_fringes_defocused_edges_and_keeps_focused_ones_neutral()
 
 #[test]
 fn cli_renders_with_every_character_flag_and_writes_debug_views() {
-    let dir = std::env::temp_dir().join(format!("lensblur-character-cli-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::ScratchDir::new("character-cli");
     let (w, h) = (32, 24);
     let subject = Image::from_fn(w, h, |x, y| if (8..20).contains(&x) && (6..18).contains(&y) { [0.9, 0.2, 0.1, 1.0] } else { [0.0; 4] });
     let wall = Image::from_fn(w, h, |x, y| { let c = if (x / 4 + y / 4) % 2 == 0 { 0.9 } else { 0.1 }; [c, c, c, 1.0] });
@@ -341,9 +339,7 @@ fn cli_renders_with_every_character_flag_and_writes_debug_views() {
 
 /// Renders `stack` with the CLI (validation on) and reads the result back.
 fn cli_render(stack: &LayerStack, name: &str, flags: &[&str]) -> Image {
-    let dir = std::env::temp_dir().join(format!("lensblur-character-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::ScratchDir::new(&format!("character-{name}"));
     let (input, out) = (dir.join("in.exr"), dir.join("out.exr"));
     write_stack(&input, stack, &StackWriteOptions::default()).unwrap();
     let output = Command::new(env!("CARGO_BIN_EXE_lensblur"))

@@ -1,6 +1,9 @@
 //! Shared test setup. GPU tests never skip: without a Vulkan device they fail loudly.
 #![allow(dead_code)]
-use std::path::{Path, PathBuf};
+mod scratch;
+pub use scratch::ScratchDir;
+
+use std::path::Path;
 use std::process::{Command, Output};
 
 use exr::meta::attribute::Text;
@@ -50,12 +53,9 @@ pub fn pattern(width: usize, height: usize) -> Image {
 }
 
 /// A fresh, empty scratch directory for one test (`lensblur-<suite>-<test>-<pid>`), so
-/// parallel tests and earlier runs never see each other's files.
-pub fn temp_dir(suite: &str, test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensblur-{suite}-{test}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// parallel tests and earlier runs never see each other's files; removed if the test passes.
+pub fn temp_dir(suite: &str, test: &str) -> ScratchDir {
+    ScratchDir::new(&format!("{suite}-{test}"))
 }
 
 /// Runs the `lensblur` binary with validation on, the default device choice and `env` added.

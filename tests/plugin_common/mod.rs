@@ -4,14 +4,13 @@ use std::path::{Path, PathBuf};
 
 use lensblur::image::Image;
 
-/// A fresh, empty directory for one test of this process.
-pub fn fresh_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensblur-test-{}-{test}", std::process::id()));
-    if dir.exists() {
-        std::fs::remove_dir_all(&dir).unwrap();
-    }
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+#[path = "../common/scratch.rs"]
+mod scratch;
+pub use scratch::ScratchDir;
+
+/// A fresh, empty directory for one test of this process, removed if the test passes.
+pub fn fresh_dir(test: &str) -> ScratchDir {
+    ScratchDir::new(&format!("test-{test}"))
 }
 
 /// The repository's `plugins/` folder.
