@@ -182,6 +182,9 @@ void main() {
             vec4 adj = texelFetch(adj_cw, ix);
             float own_share = rcv.z;
             float vis_limit2 = drbokeh_zero_beyond2(drbokeh_support(dst.r));
+            // A receiver out of focus or transparent cannot occlude: O = 1 and dO/ds_y = 0
+            // exactly, so only lane groups with an occluding receiver evaluate them.
+            bool occluding = drbokeh_occludes(dst) && dst.alpha != 0.0;
             for (int k = 0; k < RUN; ++k) {
                 int ox = o - k;
                 if (ox < -half_width || ox > half_width || abs(ox) > h) {
@@ -193,13 +196,17 @@ void main() {
                 float s = drbokeh_scatter(src[k].r, g);
                 float ds = drbokeh_leaky(drbokeh_d_scatter(src[k].r, g));
                 bool is_self = ox == 0 && oy == 0;
-                float occ = drbokeh_occlusion(src[k].s, dst.s, dst.r, dst.alpha, is_self);
-                vec4 d_o = drbokeh_d_occlusion(src[k].s, dst.s, dst.r, dst.alpha, is_self);
+                float occ = 1.0;
+                float d_occ = 0.0;
+                if (occluding) {
+                    occ = drbokeh_occlusion(src[k].s, dst.s, dst.r, dst.alpha, is_self);
+                    d_occ = drbokeh_d_occlusion(src[k].s, dst.s, dst.r, dst.alpha, is_self).x;
+                }
                 float base = s / area[k];
                 float d_r_y = (ds - s * d_area[k] / area[k]) * occ / area[k];
                 if (p[k].w > 0.0 && o2 < pair_limit2[k]) {
                     d_p[k] += adj * (base * occ);
-                    d_s[k] += dot(adj, p[k]) * (d_r_y * sign_y[k] + base * d_o.x);
+                    d_s[k] += dot(adj, p[k]) * (d_r_y * sign_y[k] + base * d_occ);
                 }
                 if (own_share != 0.0 && o2 < vis_limit2) {
                     d_p[k].w += own_share * drbokeh_scatter(dst.r, g);
