@@ -22,7 +22,7 @@
 // Push constants: DrBokehPush (leaky_slope included).
 // Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer, after pass 2
 // (pass 3's tile_reach is uploaded with the inputs). The disk path
-// (drbokeh_backward_source_disk.comp) has the same grid of 4x16 invocations of 4 sources each.
+// (drbokeh_backward_source_disk.comp) has the same grid of 8x16 invocations of RUN = 2 sources each.
 // Body and the taps it skips (exact zeros only): glsl/common/drbokeh_backward_source.glsl.
 #version 450
 #extension GL_GOOGLE_include_directive : require

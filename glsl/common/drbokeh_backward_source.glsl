@@ -15,8 +15,8 @@
 // Sources per invocation, horizontally adjacent (a divisor of the 16 px tile, so they share
 // the tile's reach): each receiver load serves RUN sources. The host derives RUN from
 // local_size_x (16 / local_size_x).
-const int RUN = 4;
-layout(local_size_x = 4, local_size_y = 16, local_size_z = 1) in;
+const int RUN = 2;
+layout(local_size_x = 8, local_size_y = 16, local_size_z = 1) in;
 #else
 layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 #endif

@@ -15,7 +15,7 @@
 //! 2. `layer` (GPU, per layer): C_l, W_l and V_l of every pixel over its tile's window. A
 //!    prepass (`glsl/drbokeh_layer_sources.comp`) stores each source's P / A(r), s and alpha
 //!    once; `glsl/drbokeh_layer_disk.comp` (default model, disk aperture) and
-//!    `glsl/drbokeh_layer.comp` (every other case) gather runs of four pixels per invocation.
+//!    `glsl/drbokeh_layer.comp` (every other case) gather runs of two pixels per invocation.
 //!    The first straightforward kernel stays as [`LayerKernel::Baseline`] for benchmarks.
 //! 3. `composite` (GPU `glsl/drbokeh_composite.comp`): front-to-back blend of all layers.
 //!
