@@ -12,25 +12,13 @@
 layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 #include "dispatch.glsl"
 
-// Inputs read at lane-varying addresses are uniform texel buffers (texelFetch): see
-// Slot::Texels in src/vk/pipeline.rs.
-layout(set = 0, binding = 0) uniform samplerBuffer rgba;
-layout(set = 0, binding = 1) uniform samplerBuffer disparity;
+#include "drbokeh_inputs.glsl"
 layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
-layout(set = 0, binding = 3) uniform samplerBuffer area_lut;
-layout(set = 0, binding = 4) uniform samplerBuffer kernel_weights;
+// Pass 1's adjoints, read per tap too (texelFetch).
 layout(set = 0, binding = 5) uniform samplerBuffer adj_cw;
 layout(set = 0, binding = 6) uniform samplerBuffer adj_vis;
 layout(std430, set = 0, binding = 7) writeonly buffer Own { vec4 own[]; };
 layout(std430, set = 0, binding = 8) writeonly buffer Receiver { vec4 receiver[]; };
-
-float drbokeh_area_lut(int index) {
-    return texelFetch(area_lut, index).x;
-}
-
-float aperture_kernel_texel(int index) {
-    return texelFetch(kernel_weights, index).x;
-}
 
 // Pass 2's pair terms of receiver x over its window: every one is a multiple of the scatter
 // S(r_y, g) and of O's partials (any leak only enters through dS/dr_y, which pass 4 owns), so

@@ -22,13 +22,9 @@ layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 #endif
 #include "dispatch.glsl"
 
-// Inputs read at lane-varying addresses are uniform texel buffers (texelFetch): see
-// Slot::Texels in src/vk/pipeline.rs.
-layout(set = 0, binding = 0) uniform samplerBuffer rgba;
-layout(set = 0, binding = 1) uniform samplerBuffer disparity;
+#include "drbokeh_inputs.glsl"
+// Pass 2's receiver terms and pass 1's adjoints, read per tap too (texelFetch).
 layout(set = 0, binding = 2) uniform samplerBuffer receiver;
-layout(set = 0, binding = 3) uniform samplerBuffer area_lut;
-layout(set = 0, binding = 4) uniform samplerBuffer kernel_weights;
 layout(set = 0, binding = 5) uniform samplerBuffer adj_cw;
 layout(set = 0, binding = 6) uniform samplerBuffer own;
 layout(std430, set = 0, binding = 7) writeonly buffer GradRgba { vec4 grad_rgba[]; };
@@ -36,15 +32,7 @@ layout(std430, set = 0, binding = 8) writeonly buffer GradDisparity { float grad
 layout(std430, set = 0, binding = 9) writeonly buffer KPartial { float k_partial[]; };
 layout(std430, set = 0, binding = 10) readonly buffer TileReach { int tile_reach[]; };
 
-float drbokeh_area_lut(int index) {
-    return texelFetch(area_lut, index).x;
-}
-
-float aperture_kernel_texel(int index) {
-    return texelFetch(kernel_weights, index).x;
-}
-
-// dV(x)/dalpha_y times sum D (texelFetch(own, ).w holds dL/dV / sum D).
+// dV(x)/dalpha_y times sum D (own.w holds dL/dV / sum D).
 float vis_share(vec2 offset, DrBokehPx dst) {
     if (pc.model == DRBOKEH_MODEL_COMPAT) {
         float half_width = float(drbokeh_visibility_box_compat(dst.r));

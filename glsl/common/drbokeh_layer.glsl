@@ -19,13 +19,8 @@ const int RUN = 2;
 layout(local_size_x = 8, local_size_y = 16, local_size_z = 1) in;
 #include "dispatch.glsl"
 
-// Sources are read at lane-varying addresses in the tap loops: uniform texel buffers
-// (texelFetch), see Slot::Texels in src/vk/pipeline.rs.
-layout(set = 0, binding = 0) uniform samplerBuffer rgba;
-layout(set = 0, binding = 1) uniform samplerBuffer disparity;
+#include "drbokeh_inputs.glsl"
 layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
-layout(set = 0, binding = 3) uniform samplerBuffer area_lut;
-layout(set = 0, binding = 4) uniform samplerBuffer kernel_weights;
 layout(std430, set = 0, binding = 5) writeonly buffer LayerCw { vec4 layer_cw[]; };
 layout(std430, set = 0, binding = 6) writeonly buffer LayerVis { float layer_vis[]; };
 // source_pa = P / A (vec4), source_sa = (s, alpha): texel buffers too.
@@ -35,14 +30,6 @@ layout(std430, set = 0, binding = 9) readonly buffer TileRadii { vec2 tile_radii
 layout(set = 0, binding = 10) uniform samplerBuffer block_prefix;
 layout(set = 0, binding = 11) uniform samplerBuffer block_suffix;
 layout(set = 0, binding = 12) uniform samplerBuffer block_alpha;
-
-float drbokeh_area_lut(int index) {
-    return texelFetch(area_lut, index).x;
-}
-
-float aperture_kernel_texel(int index) {
-    return texelFetch(kernel_weights, index).x;
-}
 
 // Largest |ox| with ox^2 + oy^2 < (h + 1)^2: the row of the window disk at height oy.
 int row_half_width(int h, int oy) {

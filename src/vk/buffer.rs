@@ -85,8 +85,7 @@ impl Buffer {
         // SAFETY: a live allocation of this device; read before it moves into the handle.
         let (memory, offset) = unsafe { (allocation.memory(), allocation.offset()) };
         // From here on, dropping `inner` frees the memory and destroys the buffer.
-        let inner =
-            BufferInner {
+        let inner = BufferInner {
             device: device.clone(),
             raw,
             allocation: Some(allocation),

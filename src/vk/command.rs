@@ -199,7 +199,8 @@ impl CommandBatch {
         }
         let limits = &self.device.info;
         let max_range = u64::from(limits.max_storage_buffer_range);
-        let mut texel_views = Vec::new();
+        // One view per binding; null where the slot is a storage buffer.
+        let mut texel_views = Vec::with_capacity(bindings.len());
         for (b, slot) in bindings.iter().zip(slots) {
             if b.offset + b.range > b.buffer.size() {
                 return Err(Error::param(format!(
@@ -214,7 +215,7 @@ impl CommandBatch {
                         b.buffer.name(), b.range
                     )));
                 }
-                Slot::Storage => texel_views.push(None),
+                Slot::Storage => texel_views.push([vk::BufferView::null()]),
                 Slot::Texels(format) => {
                     let texels = b.range / format.bytes();
                     let alignment = limits.min_texel_buffer_offset_alignment.max(1);
@@ -225,7 +226,7 @@ impl CommandBatch {
                         )));
                     }
                     // A whole number of texels: a trailing partial one would not be a texel.
-                    texel_views.push(Some(b.buffer.texel_view(format.format(), b.offset, texels * format.bytes())?));
+                    texel_views.push([b.buffer.texel_view(format.format(), b.offset, texels * format.bytes())?]);
                 }
             }
         }
@@ -241,16 +242,15 @@ impl CommandBatch {
             .iter()
             .map(|b| [vk::DescriptorBufferInfo::default().buffer(b.buffer.raw()).offset(b.offset).range(b.range)])
             .collect();
-        let views: Vec<[vk::BufferView; 1]> = texel_views.iter().map(|v| [v.unwrap_or_default()]).collect();
         let writes: Vec<vk::WriteDescriptorSet> = (0..bindings.len())
             .map(|i| {
                 let write = vk::WriteDescriptorSet::default()
                     .dst_set(set)
                     .dst_binding(i as u32)
                     .descriptor_type(slots[i].descriptor_type());
-                match texel_views[i] {
-                    Some(_) => write.texel_buffer_view(&views[i]),
-                    None => write.buffer_info(&infos[i]),
+                match slots[i] {
+                    Slot::Storage => write.buffer_info(&infos[i]),
+                    Slot::Texels(_) => write.texel_buffer_view(&texel_views[i]),
                 }
             })
             .collect();
