@@ -104,9 +104,12 @@ fn bloom_boosts_only_highlights_smoothly_and_keeps_coverage() {
 fn aperture_parse_accepts_anamorphic_and_ring_and_keeps_old_forms() {
     assert_eq!(Aperture::parse("disk").unwrap(), Aperture::Disk);
     assert!(matches!(Aperture::parse("polygon:6:rotation=15").unwrap(), Aperture::Polygon { blades: 6, .. }));
-    let Aperture::Kernel(ellipse) = Aperture::parse("anamorphic:2:rotation=90").unwrap() else { panic!("not a kernel") };
-    // Rotated by 90 degrees the long axis is vertical: a point at v = 0.8 is inside, u = 0.8 outside.
-    assert!(ellipse.sample(0.0, 0.8) > 0.9 && ellipse.sample(0.8, 0.0) < 0.1);
+    let ellipse = Aperture::parse("anamorphic:2:rotation=90").unwrap();
+    assert!(matches!(ellipse, Aperture::Ellipse { .. }), "a gauge shape, not a kernel image: {ellipse:?}");
+    // Rotated by 90 degrees the long axis is vertical: a point at v = 0.8 is inside, u = 0.8
+    // outside (gauge 1.6), and the area is half the disk's.
+    assert!(ellipse.gauge(0.0, 0.8) < 0.81 && ellipse.gauge(0.8, 0.0) > 1.59);
+    assert!((ellipse.relative_area() - 0.5).abs() < 1e-6);
     let Aperture::Kernel(ring) = Aperture::parse("ring:0.5").unwrap() else { panic!("not a kernel") };
     assert!(ring.sample(0.0, 0.0) == 0.0 && ring.sample(0.75, 0.0) > 0.9);
     for bad in ["anamorphic", "anamorphic:0.5", "anamorphic:2:spin=3", "ring", "ring:1.5", "ring:0.5:2", "donut"] {

@@ -95,7 +95,15 @@ fn gpu_backward_matches_cpu_reference_for_both_models_and_apertures() {
         vec![0.2, 1.0, 1.0, 0.2, 1.0, 0.5, 0.5, 1.0, 1.0, 0.5, 0.5, 1.0, 0.2, 1.0, 1.0, 0.2],
     )
     .unwrap();
-    let apertures = [Aperture::Disk, Aperture::polygon(6, 15.0, 0.2).unwrap(), Aperture::Kernel(kernel)];
+    // Disk, the gauge path (even and odd polygons, an ellipse: passes 2 and 4 with the
+    // closed-form gauge, mirrored per side of focus) and the per-tap path (a kernel image).
+    let apertures = [
+        Aperture::Disk,
+        Aperture::polygon(6, 15.0, 0.2).unwrap(),
+        Aperture::polygon(5, 20.0, 0.0).unwrap(),
+        Aperture::anamorphic(1.7, 25.0).unwrap(),
+        Aperture::Kernel(kernel),
+    ];
     for model in [Model::DrBokeh, Model::Compat] {
         for (a, aperture) in apertures.iter().enumerate() {
             // The leak changes only dS/dr terms, the same code for every aperture: disk only.

@@ -100,9 +100,10 @@ fn optimised_kernel_matches_the_baseline_kernel_for_both_models_and_every_apertu
             let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: aperture.clone() };
             let fast = optimised.render(&stack, &lens, model).unwrap();
             let first = baseline.render(&stack, &lens, model).unwrap();
-            if model == Model::DrBokeh && matches!(aperture, Aperture::Disk) {
-                // The disk path divides by the area once per source instead of once per tap:
-                // f32 rounding only, each kernel is within 5e-5 of the f64 reference.
+            if model == Model::DrBokeh && aperture.is_gauge_shape() {
+                // The span paths (disk, polygon) divide by the area once per source instead of
+                // once per tap and sum interiors from block sums: f32 rounding only, each
+                // kernel is within 5e-5 of the f64 reference.
                 let worst = worst_relative(&fast, &first);
                 assert!(worst < 5e-5, "{model:?} {aperture:?}: worst relative difference {worst}");
             } else {
@@ -200,9 +201,32 @@ fn out_of_device_memory_retries_with_smaller_tiles_and_the_same_output() {
     finish(ctx);
 }
 
+/// A span path (`fast`) against a renderer that evaluates every tap (`reference`): within f32
+/// rounding of the peak, and bit-identical for tiles that divide neither side.
+fn assert_span_path_matches(fast: &DrBokehGpu, reference: &DrBokehGpu, stack: &LayerStack, lens: &Lens) {
+    use lensblur::render::drbokeh::RenderOptions;
+    let expected = reference.render(stack, lens, Model::DrBokeh).unwrap();
+    let image = fast.render(stack, lens, Model::DrBokeh).unwrap();
+    // Block sums add the same terms in another order: ~2000 f32 adds per pixel and layer
+    // round to ~sqrt(n) 2^-24 ~ 3e-6 of the peak (4.8e-6 measured for the disk), while one
+    // dropped or doubled tap of the ~20 px shapes moves a pixel by ~1 / (pi 20^2) ~ 8e-4 of
+    // its value.
+    let peak = expected.pixels.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
+    let pairs = image.pixels.iter().flatten().zip(expected.pixels.iter().flatten());
+    let worst = pairs.fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
+    assert!(worst <= 5e-5 * peak, "{:?}: span sums differ from every tap by {worst} (peak {peak})", lens.aperture);
+    // Blocks are aligned to global columns: tiles of 32 and 48 px (neither divides 70 or 53)
+    // cut spans elsewhere yet must sum the same values in the same order.
+    for tile in [32, 48] {
+        let options = RenderOptions { tile: Some(tile), ..RenderOptions::default() };
+        let (tiled, _) = fast.render_with(stack, lens, Model::DrBokeh, &options).unwrap();
+        let differing = tiled.pixels.iter().zip(&image.pixels).filter(|(a, b)| a != b).count();
+        assert_eq!(differing, 0, "{:?} tile {tile}: {differing} pixels differ from the untiled render", lens.aperture);
+    }
+}
+
 #[test]
 fn disk_path_interior_matches_full_taps_and_is_bit_identical_tiled_or_not() {
-    use lensblur::render::drbokeh::RenderOptions;
     let ctx = gpu();
     let interior = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
     let full = DrBokehGpu::with_kernel(&ctx, LayerKernel::OptimisedNoInterior).unwrap();
@@ -210,23 +234,36 @@ fn disk_path_interior_matches_full_taps_and_is_bit_identical_tiled_or_not() {
     // HDR far one ~20 px, the ring is in focus (occluding centres); 70x53 divides no tile.
     let stack = scene(70, 53);
     let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture: Aperture::Disk };
-    let reference = full.render(&stack, &lens, Model::DrBokeh).unwrap();
-    let fast = interior.render(&stack, &lens, Model::DrBokeh).unwrap();
-    // Block sums add the same terms in another order: ~2000 f32 adds per pixel and layer
-    // round to ~sqrt(n) 2^-24 ~ 3e-6 of the peak (4.8e-6 measured), while one dropped or
-    // doubled tap of the ~20 px disks moves a pixel by ~1 / (pi 20^2) ~ 8e-4 of its value.
-    let peak = reference.pixels.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
-    let pairs = fast.pixels.iter().flatten().zip(reference.pixels.iter().flatten());
-    let worst = pairs.fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
-    assert!(worst <= 5e-5 * peak, "block sums differ from the full taps by {worst} (peak {peak})");
-    // Blocks are aligned to global columns: tiles of 32 and 48 px (neither divides 70 or 53)
-    // cut spans elsewhere yet must sum the same values in the same order.
-    for tile in [32, 48] {
-        let options = RenderOptions { tile: Some(tile), ..RenderOptions::default() };
-        let (tiled, _) = interior.render_with(&stack, &lens, Model::DrBokeh, &options).unwrap();
-        let differing = tiled.pixels.iter().zip(&fast.pixels).filter(|(a, b)| a != b).count();
-        assert_eq!(differing, 0, "tile {tile}: {differing} pixels differ from the untiled render");
-    }
+    assert_span_path_matches(&interior, &full, &stack, &lens);
     drop((interior, full));
     finish(ctx);
 }
+
+/// The gauge path (polygons, ellipses: row spans bounded by the aperture's row table) against
+/// the per-tap first kernel, which evaluates the aperture at every tap of the window disk, on
+/// a scene whose near layer crosses the focal plane (windows with sources on both sides, where
+/// an odd polygon and its mirror both bound the rows) and at sizes no tile divides.
+#[test]
+fn gauge_path_matches_per_tap_evaluation_and_is_bit_identical_tiled_or_not() {
+    let ctx = gpu();
+    let fast = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
+    let per_tap = DrBokehGpu::with_kernel(&ctx, LayerKernel::Baseline).unwrap();
+    let (w, h) = (70, 53);
+    let mut stack = scene(w, h);
+    // Disparity 0.3 -> 0.72 left to right: CoC -10 .. +11 px around focus 0.5 at K = 50.
+    stack.layers[0].disparity = (0..w * h).map(|i| 0.3 + 0.006 * (i % w) as f32).collect();
+    let apertures = [
+        Aperture::polygon(6, 0.0, 0.0).unwrap(),
+        Aperture::polygon(5, 10.0, 0.0).unwrap(),
+        Aperture::polygon(9, 0.0, 0.5).unwrap(),
+        Aperture::polygon(3, 33.0, 0.0).unwrap(),
+        Aperture::anamorphic(1.8, 30.0).unwrap(),
+    ];
+    for aperture in apertures {
+        let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture: aperture.clone() };
+        assert_span_path_matches(&fast, &per_tap, &stack, &lens);
+    }
+    drop((fast, per_tap));
+    finish(ctx);
+}
+

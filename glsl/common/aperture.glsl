@@ -2,8 +2,9 @@
 // `Aperture::gauge`, `Aperture::to_aperture_coords`, `KernelImage::sample`); the f64 mirror
 // used by the CPU reference is src/render/drbokeh/math.rs.
 //
-// The aperture arrives as `Aperture::gpu_params`: vec4(blades (0 = disk), rotation (rad),
-// roundness, kernel (1 = sample the kernel buffer)).
+// The aperture arrives as `Aperture::gpu_params`: vec4(shape, rotation (rad), parameter,
+// kernel (1 = sample the kernel buffer)); shape 0 = disk (or kernel image), 1 = ellipse
+// (parameter = squeeze), >= 3 = polygon of that many blades (parameter = roundness).
 //
 // A shader that calls `aperture_kernel_sample` must define
 //     float aperture_kernel_texel(int index);
@@ -36,10 +37,20 @@ float aperture_polygon_gauge(vec2 p, float n, float rotation, float roundness) {
     return poly + (len - poly) * roundness;
 }
 
+// Gauge of the ellipse with semi-axes 1 (at `rotation` from +u toward +v) and 1 / squeeze.
+float aperture_ellipse_gauge(vec2 p, float rotation, float squeeze) {
+    float c = cos(rotation);
+    float s = sin(rotation);
+    return length(vec2(p.x * c + p.y * s, (p.y * c - p.x * s) * squeeze));
+}
+
 // The aperture's gauge of an offset in aperture coordinates (Euclidean for disks and kernels).
 float aperture_gauge(vec2 p, vec4 aperture) {
-    if (aperture.x < 3.0) {
+    if (aperture.x < 0.5) {
         return length(p);
+    }
+    if (aperture.x < 1.5) {
+        return aperture_ellipse_gauge(p, aperture.y, aperture.z);
     }
     return aperture_polygon_gauge(p, aperture.x, aperture.y, aperture.z);
 }

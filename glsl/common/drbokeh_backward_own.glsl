@@ -1,13 +1,17 @@
-// Body of the Dr.Bokeh backward pass 2 (per receiver), compiled twice:
+// Body of the Dr.Bokeh backward pass 2 (per receiver), compiled three times:
 // glsl/drbokeh_backward_own_disk.comp defines DRBOKEH_BACKWARD_DISK (default model, disk
-// aperture, no kernel image: V's weights with K = 1 and the Euclidean gauge) and
-// glsl/drbokeh_backward_own.comp does not (every model and aperture). Two pipelines rather
-// than a runtime branch: lavapipe runs every branch under lane masks. Bindings, push constants
+// aperture, no kernel image: V's weights with K = 1 and the Euclidean gauge),
+// glsl/drbokeh_backward_own_gauge.comp also DRBOKEH_BACKWARD_GAUGE (the same with a polygon or
+// ellipse and its closed-form gauge, glsl/common/gauge.glsl) and glsl/drbokeh_backward_own.comp
+// neither (every model and aperture). Separate pipelines rather than a runtime branch: lavapipe runs every branch under lane masks. Bindings, push constants
 // and dispatch: see glsl/drbokeh_backward_own.comp.
 #ifndef LENSBLUR_DRBOKEH_BACKWARD_OWN_GLSL
 #define LENSBLUR_DRBOKEH_BACKWARD_OWN_GLSL
 
 #include "drbokeh_grad.glsl"
+#ifdef DRBOKEH_BACKWARD_GAUGE
+#include "gauge.glsl"
+#endif
 
 layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 #include "dispatch.glsl"
@@ -65,8 +69,14 @@ vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2) {
                 continue;
             }
 #ifdef DRBOKEH_BACKWARD_DISK
-            // drbokeh_vis_weight with K = 1, dK/dr = 0 and the Euclidean gauge.
+            // drbokeh_vis_weight with K = 1, dK/dr = 0 and the Euclidean gauge (the shape's,
+            // mirrored for a receiver nearer than focus, on the gauge path).
+#ifdef DRBOKEH_BACKWARD_GAUGE
+            vec2 gauges = gauge_pair(vec2(float(-ox), float(-oy)));
+            float g = dst.s > 0.0 ? gauges.y : gauges.x;
+#else
             float g = length(vec2(float(-ox), float(-oy)));
+#endif
             float alpha = texelFetch(rgba, drbokeh_read_index(pc.layer, ivec2(sx, sy))).w;
             float d = drbokeh_scatter(dst.r, g);
             float d_d = drbokeh_leaky(drbokeh_d_scatter(dst.r, g));
@@ -88,6 +98,9 @@ vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2) {
 }
 
 void main() {
+#ifdef DRBOKEH_BACKWARD_GAUGE
+    gauge_setup(pc.aperture, gauge_constants(pc.aperture));
+#endif
     ivec2 x = drbokeh_core_pixel(spread_global_invocation_id());
     if (x.x < 0) {
         return;

@@ -1,14 +1,19 @@
-// Body of the Dr.Bokeh backward pass 4 (per source), compiled twice:
+// Body of the Dr.Bokeh backward pass 4 (per source), compiled three times:
 // glsl/drbokeh_backward_source_disk.comp defines DRBOKEH_BACKWARD_DISK (default model, disk
-// aperture, no kernel image: K = 1 and one Euclidean gauge per tap) and
-// glsl/drbokeh_backward_source.comp does not (every model and aperture). Two pipelines rather
-// than a runtime branch: lavapipe runs every branch under lane masks, so a tap pays for all
+// aperture, no kernel image: K = 1 and one Euclidean gauge per tap),
+// glsl/drbokeh_backward_source_gauge.comp also DRBOKEH_BACKWARD_GAUGE (the same with a polygon
+// or ellipse: K = 1, the shape's closed-form gauge, glsl/common/gauge.glsl, one per
+// orientation) and glsl/drbokeh_backward_source.comp neither (every model and aperture).
+// Separate pipelines rather than a runtime branch: lavapipe runs every branch under lane masks, so a tap pays for all
 // the code in the loop body, taken or not. Bindings, push constants and dispatch: see
 // glsl/drbokeh_backward_source.comp.
 #ifndef LENSBLUR_DRBOKEH_BACKWARD_SOURCE_GLSL
 #define LENSBLUR_DRBOKEH_BACKWARD_SOURCE_GLSL
 
 #include "drbokeh_grad.glsl"
+#ifdef DRBOKEH_BACKWARD_GAUGE
+#include "gauge.glsl"
+#endif
 
 
 #ifdef DRBOKEH_BACKWARD_DISK
@@ -113,8 +118,13 @@ void main() {
 // Disk path: drbokeh_pair_grad and drbokeh_vis_weight with K = 1, dK/dr = 0 and the one
 // Euclidean gauge |x - y| (the mirror of aperture_coords keeps the length), for RUN
 // horizontally adjacent sources y0 + (k, 0): each receiver is loaded once for all of them, and
-// each source still sums its receivers in the order of one source per invocation.
+// each source still sums its receivers in the order of one source per invocation. Gauge path:
+// the same with the shape's gauge of x - y, mirrored for the source's or receiver's side of
+// focus; source k's gauges at receiver column o are those source k - 1 had a column earlier.
 void main() {
+#ifdef DRBOKEH_BACKWARD_GAUGE
+    gauge_setup(pc.aperture, gauge_constants(pc.aperture));
+#endif
     uvec3 id = spread_global_invocation_id();
     ivec2 local = ivec2(RUN * id.x, id.y);
     if (local.x >= pc.core.z || local.y >= pc.core.w) {
@@ -158,7 +168,22 @@ void main() {
         // image: source k sees the offset (o - k, oy).
         int o0 = max(-half_width, -y0.x);
         int o1 = min(half_width + RUN - 1, pc.width - 1 - y0.x);
+#ifdef DRBOKEH_BACKWARD_GAUGE
+        // gauges[k] = gauge_pair of x - y for source k at the current column: (G, mirrored G).
+        vec2 gauges[RUN];
+        for (int k = 1; k < RUN; ++k) {
+            gauges[k] = gauge_pair(vec2(float(o0 - k), float(oy)));
+        }
+#endif
         for (int o = o0; o <= o1; ++o) {
+#ifdef DRBOKEH_BACKWARD_GAUGE
+            if (o > o0) {
+                for (int k = RUN - 1; k > 0; --k) {
+                    gauges[k] = gauges[k - 1];
+                }
+            }
+            gauges[0] = gauge_pair(vec2(float(o), float(oy)));
+#endif
             int ix = drbokeh_read_index(pc.layer, ivec2(y0.x + o, ry));
             vec4 rcv = texelFetch(receiver, ix);
             int h = int(rcv.w);
@@ -180,7 +205,14 @@ void main() {
                 }
                 vec2 offset = vec2(float(ox), float(oy));
                 float o2 = float(ox * ox + oy * oy);
+#ifdef DRBOKEH_BACKWARD_GAUGE
+                // aperture_coords: a side nearer than focus sees x - y mirrored.
+                float g = src[k].s > 0.0 ? gauges[k].y : gauges[k].x;
+                float g_receiver = dst.s > 0.0 ? gauges[k].y : gauges[k].x;
+#else
                 float g = length(offset);
+                float g_receiver = g;
+#endif
                 float s = drbokeh_scatter(src[k].r, g);
                 float ds = drbokeh_leaky(drbokeh_d_scatter(src[k].r, g));
                 bool is_self = ox == 0 && oy == 0;
@@ -197,7 +229,7 @@ void main() {
                     d_s[k] += dot(adj, p[k]) * (d_r_y * sign_y[k] + base * d_occ);
                 }
                 if (own_share != 0.0 && o2 < vis_limit2) {
-                    d_p[k].w += own_share * drbokeh_scatter(dst.r, g);
+                    d_p[k].w += own_share * drbokeh_scatter(dst.r, g_receiver);
                 }
             }
         }

@@ -1,10 +1,16 @@
-// Body of the Dr.Bokeh layer pass (pass 2b of 3), compiled twice: glsl/drbokeh_layer_disk.comp
-// defines DRBOKEH_LAYER_DISK (default model, disk aperture, the fast path) and
-// glsl/drbokeh_layer.comp does not (every model and aperture). Two pipelines rather than a
-// runtime branch so that neither carries the other's code: lavapipe runs branches under lane
-// masks. Bindings, push constants and dispatch: see glsl/drbokeh_layer.comp.
+// Body of the Dr.Bokeh layer pass (pass 2b of 3), compiled three times:
+// glsl/drbokeh_layer_disk.comp defines DRBOKEH_LAYER_DISK (default model, disk aperture),
+// glsl/drbokeh_layer_gauge.comp DRBOKEH_LAYER_GAUGE (default model, polygon or ellipse: the
+// same span path with row bounds from the aperture's row table and the shape's gauge in the
+// rim taps), and glsl/drbokeh_layer.comp neither (every model and aperture, per tap). Separate
+// pipelines rather than a runtime branch so that none carries another's code: lavapipe runs
+// branches under lane masks. Bindings, push constants and dispatch: see glsl/drbokeh_layer.comp.
 #ifndef LENSBLUR_DRBOKEH_LAYER_GLSL
 #define LENSBLUR_DRBOKEH_LAYER_GLSL
+
+#if defined(DRBOKEH_LAYER_DISK) || defined(DRBOKEH_LAYER_GAUGE)
+#define DRBOKEH_LAYER_SPANS 1
+#endif
 
 #include "drbokeh.glsl"
 
@@ -26,10 +32,22 @@ layout(std430, set = 0, binding = 6) writeonly buffer LayerVis { float layer_vis
 // source_pa = P / A (vec4), source_sa = (s, alpha): texel buffers too.
 layout(set = 0, binding = 7) uniform samplerBuffer source_pa;
 layout(set = 0, binding = 8) uniform samplerBuffer source_sa;
-layout(std430, set = 0, binding = 9) readonly buffer TileRadii { vec2 tile_radii[]; };
+layout(std430, set = 0, binding = 9) readonly buffer TileRadii { vec4 tile_radii[]; };
 layout(set = 0, binding = 10) uniform samplerBuffer block_prefix;
 layout(set = 0, binding = 11) uniform samplerBuffer block_suffix;
 layout(set = 0, binding = 12) uniform samplerBuffer block_alpha;
+#ifdef DRBOKEH_LAYER_GAUGE
+// Texel 0: the constants of the gauge's closed form (closed_form_gauge); then two per segment
+// of v = oy / c in [-1, 1]: (interior lo, hi, outer lo, hi) of the unit shape's rows for both
+// orientations and for the aperture alone, conservative over the segment and its neighbours
+// (aperture_row_table; both in src/camera/aperture_rows.rs).
+layout(set = 0, binding = 13) uniform samplerBuffer aperture_rows;
+const int APERTURE_ROW_SEGMENTS = 2048; // APERTURE_ROW_SEGMENTS in src/camera/aperture_rows.rs
+// Relative room for the f32 rounding of the gauge (a few dot products, ~1e-6) and of the
+// levels: the interior level shrinks by it, the outer level grows by it.
+const float GAUGE_MARGIN = 1.0 / 4096.0;
+#include "gauge.glsl"
+#endif
 
 // Largest |ox| with ox^2 + oy^2 < (h + 1)^2: the row of the window disk at height oy.
 int row_half_width(int h, int oy) {
@@ -59,15 +77,16 @@ Centre centre_at(int index) {
     return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0);
 }
 
-// One tap of the disk path: source (pa = P / A, sa = (s, alpha)) at Euclidean gauge g;
-// `inside` = the offset lies in the centre's window disk (taps outside add exact zeros).
+// One tap of the span path: source (pa = P / A, sa = (s, alpha)) at gauge g_source as the
+// source sees the aperture and g_centre as the centre does (one Euclidean gauge on the disk
+// path); `inside` = the offset lies in the centre's row span (taps outside add exact zeros).
 // `occlusion` is a constant at each call: the occlusion-free loop does not evaluate it.
-void disk_tap(inout Centre c, vec4 pa, vec2 sa, float g, bool inside, bool is_self, bool occlusion) {
-    float s = smoothstep(0.0, 1.0, abs(sa.x) + 0.5 - g);
+void span_tap(inout Centre c, vec4 pa, vec2 sa, float g_source, float g_centre, bool inside, bool is_self, bool occlusion) {
+    float s = smoothstep(0.0, 1.0, abs(sa.x) + 0.5 - g_source);
     if (occlusion && c.occluder > 0.0 && !is_self) {
         s *= 1.0 - c.occluder * (1.0 - smoothstep(-0.5, 0.0, sa.x - c.s));
     }
-    float d = smoothstep(0.0, 1.0, c.support - g);
+    float d = smoothstep(0.0, 1.0, c.support - g_centre);
     s = inside ? s : 0.0;
     d = inside ? d : 0.0;
     c.cw += pa * s;
@@ -75,12 +94,13 @@ void disk_tap(inout Centre c, vec4 pa, vec2 sa, float g, bool inside, bool is_se
     c.vis_weight += d;
 }
 
+#ifdef DRBOKEH_LAYER_DISK
 // Largest |ox| with ox^2 + oy^2 < outer^2 within the window row: taps at gauge >= outer add exact
 // zeros (both smoothsteps' arguments are <= 0 there: `outer` bounds every support, with a
 // margin far above the f32 rounding of the gauges), so rows stop before them. The window
 // `h` is an integer and rounds the reach up; for a layer of constant blur this drops the
 // outer half pixel of the rim, up to a third of the rim taps.
-int outer_half_width(float outer, int h, int oy) {
+int outer_half_width_disk(float outer, int h, int oy) {
     if (outer >= float(h + 1)) {
         return row_half_width(h, oy);
     }
@@ -90,11 +110,11 @@ int outer_half_width(float outer, int h, int oy) {
 }
 
 // An m in [-1, half_width] with t - g(m, oy) >= 1, g computed exactly as the gauges of
-// gather_disk_run: every column |o| <= m of the row is then interior (g grows with |o|). The
+// gather_span_run: every column |o| <= m of the row is then interior (g grows with |o|). The
 // largest such m or one less: the estimate is off by a rounding at most, and only a too large
 // one is settled with the exact test (a column short costs one full tap, and m stays a
 // function of t and oy alone, so of global positions).
-int interior_half_width(float t, float oy2, int half_width) {
+int interior_half_width_disk(float t, float oy2, int half_width) {
     float room = max((t - 1.0) * (t - 1.0) - oy2, 0.0);
     int m = int(min(sqrt(room), float(half_width)));
     while (m >= 0 && t - sqrt(float(m * m) + oy2) < 1.0) {
@@ -103,21 +123,112 @@ int interior_half_width(float t, float oy2, int half_width) {
     return m;
 }
 
-// Full disk taps of columns [from, to] (offsets from x0) of one window row for all RUN
-// centres, in x order: centre k's gauge is the one centre k - 1 had a column earlier.
-void full_taps(inout Centre c[RUN], int row, int from, int to, int half_width, int oy, bool occlusion) {
+// Offsets o (source column - centre column) of window row oy: outside .x..y the taps add exact
+// zeros. Interior: taps inside add exactly (P / A, alpha, 1) (see gather_span_run).
+ivec2 outer_span(float outer, int h, int oy, int orientation) {
+    int half_width = outer_half_width_disk(outer, h, oy);
+    return ivec2(-half_width, half_width);
+}
+
+ivec2 interior_span(float t, int oy, ivec2 outer, int orientation) {
+    int m = interior_half_width_disk(t, float(oy * oy), outer.y);
+    return ivec2(-m, m);
+}
+#endif
+
+#ifdef DRBOKEH_LAYER_GAUGE
+// The row table's entry for v (clamped far outside [-1, 1]: an empty row there): (interior lo,
+// hi, outer lo, hi) at unit level. Orientation 1 (every source and centre nearer than focus):
+// the aperture's own rows; -1 (every one farther): its mirror's, the entry of -v negated;
+// 0: both orientations'.
+vec4 aperture_row(float v, int orientation) {
+    float w = orientation < 0 ? -v : v;
+    float f = (clamp(w, -2.0, 2.0) + 1.0) * 0.5 * float(APERTURE_ROW_SEGMENTS);
+    int segment = int(floor(f));
+    if (segment < 0 || segment >= APERTURE_ROW_SEGMENTS) {
+        return vec4(1.0, -1.0, 1.0, -1.0);
+    }
+    vec4 row = texelFetch(aperture_rows, 1 + 2 * segment + (orientation != 0 ? 1 : 0));
+    return orientation < 0 ? -row.yxwz : row;
+}
+
+// Taps at gauge >= outer (in their orientation) add exact zeros (see outer_half_width_disk):
+// the table's row at level outer (grown by the rounding margin), clipped to the window row. An
+// empty row has .x > .y.
+ivec2 outer_span(float outer, int h, int oy, int orientation) {
+    int half_width = row_half_width(h, oy);
+    if (outer >= float(h + 1)) {
+        return ivec2(-half_width, half_width);
+    }
+    float c = outer * (1.0 + GAUGE_MARGIN) + GAUGE_MARGIN;
+    vec4 row = aperture_row(float(oy) / c, orientation);
+    return ivec2(max(-half_width, int(floor(c * row.z))), min(half_width, int(ceil(c * row.w))));
+}
+
+// Columns where the gauges (in their orientation) are at most t - 1 (level shrunk by the
+// margin), so every smoothstep of the tap is exactly 1; within `outer`. Functions of t, oy and
+// the tile's orientation alone, so of global positions (bit-identical tiling).
+ivec2 interior_span(float t, int oy, ivec2 outer, int orientation) {
+    float c = (t - 1.0) * (1.0 - GAUGE_MARGIN);
+    if (c <= 0.0) {
+        return ivec2(1, 0);
+    }
+    vec4 row = aperture_row(float(oy) / c, orientation);
+    return ivec2(max(outer.x, int(ceil(c * row.x))), min(outer.y, int(floor(c * row.y))));
+}
+
+// The gauge's closed-form constants come from the host (texel 0 of aperture_rows), computed
+// in f64 like the row table they must agree with.
+void gauge_setup_rows() {
+    gauge_setup(pc.aperture, texelFetch(aperture_rows, 0));
+}
+
+// The gauges of offset (o, oy) (source - centre) as a near source sees it (.x: the offset x - y
+// mirrored, aperture_coords) and as a far one does (.y).
+vec2 offset_gauges(int o, int oy) {
+    return gauge_pair(vec2(float(o), float(oy)));
+}
+#endif
+
+#ifdef DRBOKEH_LAYER_SPANS
+// Full taps of columns [from, to] (offsets from x0) of one window row for all RUN centres, in
+// x order: centre k's gauges are the ones centre k - 1 had a column earlier. `span`: the row's
+// offsets that may add anything (centre k's tap at column ox has offset ox - k).
+void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int oy, bool occlusion) {
+    if (from > to) {
+        return;
+    }
+#ifdef DRBOKEH_LAYER_GAUGE
+    vec2 g[RUN]; // g[k] = (near, far) gauges of the current column from centre k
+    for (int k = 1; k < RUN; ++k) {
+        g[k] = offset_gauges(from - k, oy);
+    }
+#else
     float oy2 = float(oy * oy);
     float g[RUN]; // g[k] = gauge of the current column from centre k
     for (int k = 1; k < RUN; ++k) {
         g[k] = sqrt(float((from - k) * (from - k)) + oy2);
     }
+#endif
     for (int ox = from; ox <= to; ++ox) {
         vec4 pa = texelFetch(source_pa, row + ox);
         vec2 sa = texelFetch(source_sa, row + ox).xy;
+#ifdef DRBOKEH_LAYER_GAUGE
+        g[0] = offset_gauges(ox, oy);
+#else
         g[0] = sqrt(float(ox * ox) + oy2);
+#endif
         for (int k = 0; k < RUN; ++k) {
             int o = ox - k;
-            disk_tap(c[k], pa, sa, g[k], o >= -half_width && o <= half_width, o == 0 && oy == 0, occlusion);
+            bool inside = o >= span.x && o <= span.y;
+#ifdef DRBOKEH_LAYER_GAUGE
+            // Sources nearer than focus (s > 0) see the mirrored aperture.
+            float g_source = sa.x > 0.0 ? g[k].x : g[k].y;
+            float g_centre = c[k].s > 0.0 ? g[k].x : g[k].y;
+            span_tap(c[k], pa, sa, g_source, g_centre, inside, o == 0 && oy == 0, occlusion);
+#else
+            span_tap(c[k], pa, sa, g[k], g[k], inside, o == 0 && oy == 0, occlusion);
+#endif
         }
         for (int k = RUN - 1; k > 0; --k) {
             g[k] = g[k - 1];
@@ -160,9 +271,9 @@ void span_sum(int base, int a, int b, out vec4 pa, out float alpha) {
     alpha += texelFetch(block_alpha, base + b).x;
 }
 
-// Default model, disk aperture: the terms of drbokeh_lens / drbokeh_scatter / drbokeh_occlusion
-// with K = 1 and a Euclidean gauge, for RUN horizontally adjacent centres x0 + (k, 0) (same
-// 16x16 tile, same window): each source is loaded once for all of them, and centre k's gauge
+// Default model, gauge aperture (disk, polygon, ellipse): the terms of drbokeh_lens /
+// drbokeh_scatter / drbokeh_occlusion with K = 1 and the shape's gauge, for RUN horizontally
+// adjacent centres x0 + (k, 0) (same 16x16 tile, same window): each source is loaded once for all of them, and centre k's gauge
 // is the one centre k - 1 had a column earlier. Each centre still sums its own taps in the
 // first kernel's order.
 //
@@ -173,29 +284,31 @@ void span_sum(int base, int a, int b, out vec4 pa, out float alpha) {
 // middle columns of each row, interior for all RUN centres, add one span sum (span_sum) and
 // their count without any gauge. Another order than the full taps' (f32 rounding apart),
 // but the span is a function of global positions, so still the same bits for every tiling.
-void gather_disk_run(ivec2 x0, int h, float t, float outer, inout Centre c[RUN], bool occlusion) {
+void gather_span_run(ivec2 x0, int h, float t, float outer, int orientation, inout Centre c[RUN], bool occlusion) {
     int oy0 = max(-h, -x0.y);
     int oy1 = min(h, pc.height - 1 - x0.y);
     for (int oy = oy0; oy <= oy1; ++oy) {
-        int half_width = outer_half_width(outer, h, oy);
-        // Offsets from x0: centre k's row is [k - hw, k + hw], clipped to the image.
-        int ox0 = max(-half_width, -x0.x);
-        int ox1 = min(half_width + RUN - 1, pc.width - 1 - x0.x);
+        ivec2 span = outer_span(outer, h, oy, orientation);
+        if (span.x > span.y) {
+            continue;
+        }
+        // Offsets from x0: centre k's row is [k + span.x, k + span.y], clipped to the image.
+        int ox0 = max(span.x, -x0.x);
+        int ox1 = min(span.y + RUN - 1, pc.width - 1 - x0.x);
         int row = drbokeh_read_index(pc.layer, ivec2(x0.x, x0.y + oy));
-        float oy2 = float(oy * oy);
-        // Middle columns [mid0, mid1]: |ox - k| <= interior half-width for every centre k.
+        // Middle columns [mid0, mid1]: ox - k in the interior span for every centre k.
         int mid0 = ox1 + 1;
         int mid1 = ox1;
         if (!occlusion) {
-            int interior = interior_half_width(t, oy2, half_width);
-            int a = max(ox0, RUN - 1 - interior);
-            int b = min(ox1, interior);
+            ivec2 interior = interior_span(t, oy, span, orientation);
+            int a = max(ox0, interior.x + RUN - 1);
+            int b = min(ox1, interior.y);
             if (a <= b) {
                 mid0 = a;
                 mid1 = b;
             }
         }
-        full_taps(c, row, ox0, mid0 - 1, half_width, oy, occlusion);
+        full_taps(c, row, ox0, mid0 - 1, span, oy, occlusion);
         if (mid0 <= mid1) {
             vec4 pa;
             float alpha;
@@ -207,9 +320,10 @@ void gather_disk_run(ivec2 x0, int h, float t, float outer, inout Centre c[RUN],
                 c[k].vis_weight += count;
             }
         }
-        full_taps(c, row, mid1 + 1, ox1, half_width, oy, occlusion);
+        full_taps(c, row, mid1 + 1, ox1, span, oy, occlusion);
     }
 }
+#endif
 
 float visibility(float vis_sum, float vis_weight) {
     return vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
@@ -282,11 +396,14 @@ void main() {
     int h = tile_window[tile];
     vec4 cw[RUN];
     float vis[RUN];
-#ifdef DRBOKEH_LAYER_DISK
+#ifdef DRBOKEH_LAYER_SPANS
     {
+#ifdef DRBOKEH_LAYER_GAUGE
+        gauge_setup_rows();
+#endif
         Centre c[RUN];
         bool occluding = false;
-        vec2 radii = tile_radii[tile];
+        vec4 radii = tile_radii[tile];
         float t = radii.x + 0.5;
         for (int k = 0; k < RUN; ++k) {
             c[k] = centre_at(drbokeh_read_index(pc.layer, x0 + ivec2(min(k, last), 0)));
@@ -299,9 +416,9 @@ void main() {
         // Branches are masks on lavapipe: only a lane group with an occluding centre pays for
         // the occlusion terms.
         if (occluding) {
-            gather_disk_run(x0, h, t, radii.y, c, true);
+            gather_span_run(x0, h, t, radii.y, int(radii.z), c, true);
         } else {
-            gather_disk_run(x0, h, t, radii.y, c, false);
+            gather_span_run(x0, h, t, radii.y, int(radii.z), c, false);
         }
         for (int k = 0; k < RUN; ++k) {
             cw[k] = c[k].cw;

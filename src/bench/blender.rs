@@ -48,6 +48,8 @@ pub struct BlenderDefocus {
     pub z_scale: f32,
     pub width: usize,
     pub height: usize,
+    /// The node's `bokeh` shape: CIRCLE, or TRIANGLE .. OCTAGON for 3 .. 8 blades.
+    pub bokeh: &'static str,
 }
 
 impl BlenderDefocus {
@@ -70,6 +72,7 @@ impl BlenderDefocus {
             z_scale,
             width,
             height,
+            bokeh: "CIRCLE",
         })
     }
 
@@ -126,9 +129,26 @@ pub fn case_name(focus: Focus) -> String {
     format!("blender-1024-5l-coc40-{focus_name}")
 }
 
-/// Writes both inputs into `dir`, times `repeats` runs of each, saves both PNGs there.
-pub fn compare_with_blender(exe: &Path, dir: &Path, focus: Focus, repeats: usize) -> Result<BlenderComparison> {
-    let (side, layers, max_coc_px) = (1024, 5, 40.0);
+/// Blender's Defocus `bokeh` setting for a regular polygon of `blades` (3 to 8), if it has one.
+pub fn blender_bokeh(blades: u32) -> Option<&'static str> {
+    ["TRIANGLE", "SQUARE", "PENTAGON", "HEXAGON", "HEPTAGON", "OCTAGON"].get((blades as usize).checked_sub(3)?).copied()
+}
+
+/// The comparison frame's two inputs, written into `dir` (once per focus): the layered EXR
+/// `lensblur render` reads and the RGB+Z EXR Blender reads; and the settings Blender needs.
+pub struct ComparisonInputs {
+    pub name: String,
+    pub layered: PathBuf,
+    pub rgbz: PathBuf,
+    pub camera: PhysicalCamera,
+    pub blender: BlenderDefocus,
+}
+
+/// Side, layers and largest CoC of the comparison frame.
+const FRAME: (usize, usize, f32) = (1024, 5, 40.0);
+
+pub fn comparison_inputs(dir: &Path, focus: Focus) -> Result<ComparisonInputs> {
+    let (side, layers, max_coc_px) = FRAME;
     let (stack, lens) = layered_stack(side, side, layers, focus, max_coc_px)?;
     let camera = matching_camera(lens.coc.k_px, lens.coc.focus_disparity, side);
     let blender = BlenderDefocus::matching(&camera, side, side, max_coc_px)?;
@@ -137,6 +157,22 @@ pub fn compare_with_blender(exe: &Path, dir: &Path, focus: Focus, repeats: usize
     let (layered, rgbz) = (dir.join(format!("{name}-layers.exr")), dir.join(format!("{name}-rgbz.exr")));
     write_stack(&layered, &stack, &StackWriteOptions { depth_kind: DepthKind::Z, camera: Some(camera), ..Default::default() })?;
     write_rgbz(&rgbz, &stack, blender.z_scale)?;
+    Ok(ComparisonInputs { name, layered, rgbz, camera, blender })
+}
+
+/// Blender's Defocus with `bokeh` on the RGB+Z input: its compositing times (one per render
+/// call) and version, and the whole process's time; the result saved as `png`.
+pub fn time_blender(inputs: &ComparisonInputs, bokeh: &'static str, png: &Path, repeats: usize) -> Result<(Vec<f64>, String, f64)> {
+    let dir = inputs.rgbz.parent().unwrap_or(Path::new("."));
+    let settings = BlenderDefocus { bokeh, ..inputs.blender };
+    let (report, process_seconds) = run_blender(dir, &inputs.rgbz, png, &settings, repeats.max(1))?;
+    Ok((report.seconds, report.version, process_seconds))
+}
+
+/// Writes both inputs into `dir`, times `repeats` runs of each, saves both PNGs there.
+pub fn compare_with_blender(exe: &Path, dir: &Path, focus: Focus, repeats: usize) -> Result<BlenderComparison> {
+    let (side, layers, max_coc_px) = FRAME;
+    let ComparisonInputs { name, layered, rgbz, camera, blender } = comparison_inputs(dir, focus)?;
     let (ours_exr, ours_png, theirs_png) =
         (dir.join(format!("{name}-lensblur.exr")), dir.join(format!("{name}-lensblur.png")), dir.join(format!("{name}-blender.png")));
     let args = vec!["-o".to_string(), ours_exr.display().to_string()];

@@ -3,7 +3,7 @@
 Usage: blender -b --factory-startup --python-exit-code 1 --python blender_defocus.py --
        RGBZ.exr OUT.png PARAMS_JSON REPEATS
 RGBZ.exr is a Blender multilayer EXR (ViewLayer.Combined.RGBA + ViewLayer.Depth.Z, planar Z).
-PARAMS_JSON: lens_mm, sensor_mm, f_stop, focus_distance, blur_max, width, height (the mapping
+PARAMS_JSON: lens_mm, sensor_mm, f_stop, focus_distance, blur_max, width, height, bokeh (the mapping
 from lensblur's camera is worked out in src/bench/blender.rs). The scene has no Render Layers
 node, so bpy.ops.render.render() renders nothing but the compositor (the engine is the cheap
 Workbench anyway). Each render is timed with time.perf_counter around the call; the PNG is
@@ -42,7 +42,7 @@ tree.nodes.clear()
 image = tree.nodes.new("CompositorNodeImage")
 image.image = bpy.data.images.load(src)
 defocus = tree.nodes.new("CompositorNodeDefocus")
-defocus.bokeh = "CIRCLE"
+defocus.bokeh = params.get("bokeh", "CIRCLE")
 defocus.use_zbuffer = True
 defocus.use_preview = False
 defocus.use_gamma_correction = False

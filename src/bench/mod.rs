@@ -9,6 +9,7 @@ pub(crate) mod font;
 pub mod gt_cache;
 pub mod large;
 mod methods;
+pub mod apertures;
 pub mod blender;
 pub mod end_to_end;
 pub mod perf;

@@ -25,6 +25,12 @@ pub enum Aperture {
         /// 0 = straight blades, 1 = a disk.
         roundness: f32,
     },
+    /// An ellipse inscribed in the unit circle: semi-axes 1 and `1 / squeeze`, the long axis
+    /// at `rotation` (radians, from +u toward +v). The anamorphic aperture.
+    Ellipse {
+        squeeze: f32,
+        rotation: f32,
+    },
     /// A custom kernel image, sampled over the CoC disk.
     Kernel(KernelImage),
 }
@@ -40,8 +46,9 @@ pub struct KernelImage {
 /// sub-pixel and acts as a point, above the second it is sampled as it is.
 pub const KERNEL_FADE_PX: [f32; 2] = [0.5, 1.5];
 
-/// The aperture as a shader reads it (push constants): `[blades (0 = disk), rotation (rad),
-/// roundness, kernel (1 = sample the kernel buffer)]`.
+/// The aperture as a shader reads it (push constants): `[shape, rotation (rad), parameter,
+/// kernel (1 = sample the kernel buffer)]`, shape 0 = disk (or kernel image), 1 = ellipse
+/// (parameter = squeeze), >= 3 = polygon of that many blades (parameter = roundness).
 pub type ApertureGpu = [f32; 4];
 
 impl Aperture {
@@ -61,6 +68,23 @@ impl Aperture {
         let sector_deg = 360.0 / blades as f64;
         let rotation = (rotation_deg as f64).rem_euclid(sector_deg).to_radians() as f32;
         Ok(Aperture::Polygon { blades, rotation, roundness })
+    }
+
+    /// The anamorphic aperture: an ellipse `squeeze` times wider than tall, its long axis at
+    /// `rotation_deg` (the polygon's convention: from +u toward +v; `rotation=90` gives the tall
+    /// ovals of a desqueezed anamorphic plate).
+    pub fn anamorphic(squeeze: f32, rotation_deg: f32) -> Result<Self> {
+        if !(squeeze.is_finite() && (1.0..=8.0).contains(&squeeze)) {
+            return Err(Error::param(format!(
+                "anamorphic squeeze must be in [1, 8] (use rotation=90 for tall ovals), got {squeeze}"
+            )));
+        }
+        if !rotation_deg.is_finite() {
+            return Err(Error::param("anamorphic rotation must be finite"));
+        }
+        // An ellipse is unchanged by a half turn (reduced as the polygon's rotation is).
+        let rotation = (rotation_deg as f64).rem_euclid(180.0).to_radians() as f32;
+        Ok(Aperture::Ellipse { squeeze, rotation })
     }
 
     /// Parses the CLI form: `disk`, `polygon:BLADES[:rotation=DEG][:roundness=R]`,
@@ -94,7 +118,7 @@ impl Aperture {
                         _ => return Err(Error::param(format!("aperture '{spec}': unknown option '{key}' (rotation)"))),
                     }
                 }
-                Ok(Aperture::Kernel(crate::character::kernels::anamorphic(squeeze, rotation)?))
+                Aperture::anamorphic(squeeze, rotation)
             }
             "ring" => {
                 let inner = leading_number(spec, parts.next(), "ring:INNER, e.g. ring:0.5")?;
@@ -136,6 +160,7 @@ impl Aperture {
             Aperture::Polygon { blades, rotation, roundness } => {
                 polygon_gauge(u, v, blades as f32, rotation, roundness)
             }
+            Aperture::Ellipse { squeeze, rotation } => ellipse_gauge(u, v, squeeze, rotation),
             _ => (u * u + v * v).sqrt(),
         }
     }
@@ -165,7 +190,25 @@ impl Aperture {
                 }
                 (sum / samples as f64) as f32
             }
+            // The ellipse's area pi * 1 * (1 / squeeze).
+            &Aperture::Ellipse { squeeze, .. } => 1.0 / squeeze,
             Aperture::Kernel(kernel) => kernel.mean_over_disk(),
+        }
+    }
+
+    /// Whether the shape is a gauge's unit ball (disk, polygon, ellipse): weight 1 inside,
+    /// 0 outside, so a renderer needs only the gauge.
+    pub fn is_gauge_shape(&self) -> bool {
+        !matches!(self, Aperture::Kernel(_))
+    }
+
+    /// Whether the shape equals its mirror image through the centre (so near and far sources
+    /// see the same gauge): all but odd-bladed polygons and kernel images.
+    pub fn is_centrally_symmetric(&self) -> bool {
+        match self {
+            Aperture::Disk | Aperture::Ellipse { .. } => true,
+            Aperture::Polygon { blades, .. } => blades % 2 == 0,
+            Aperture::Kernel(_) => false,
         }
     }
 
@@ -201,6 +244,7 @@ impl Aperture {
         match *self {
             Aperture::Disk => [0.0, 0.0, 1.0, 0.0],
             Aperture::Polygon { blades, rotation, roundness } => [blades as f32, rotation, roundness, 0.0],
+            Aperture::Ellipse { squeeze, rotation } => [1.0, rotation, squeeze, 0.0],
             Aperture::Kernel(_) => [0.0, 0.0, 1.0, 1.0],
         }
     }
@@ -238,6 +282,16 @@ pub fn polygon_gauge(u: f32, v: f32, n: f32, rotation: f32, roundness: f32) -> f
     let folded = theta - sector * (theta / sector).round();
     let poly = length * folded.cos() / (PI / n).cos();
     poly + (length - poly) * roundness
+}
+
+/// Gauge of the ellipse with semi-axes 1 (at `rotation` from +u toward +v) and `1 / squeeze`.
+/// Mirrors `aperture_ellipse_gauge` in `glsl/common/aperture.glsl`.
+#[inline]
+pub fn ellipse_gauge(u: f32, v: f32, squeeze: f32, rotation: f32) -> f32 {
+    let (s, c) = rotation.sin_cos();
+    let along = u * c + v * s;
+    let across = (v * c - u * s) * squeeze;
+    (along * along + across * across).sqrt()
 }
 
 impl KernelImage {

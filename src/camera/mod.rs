@@ -4,9 +4,11 @@
 //! of confusion of signed radius `K * (d - d_f)` pixels, positive when nearer than focus.
 //! Everything that turns a lens into pixels goes through [`CocModel`].
 mod aperture;
+mod aperture_rows;
 pub(crate) mod hints;
 
 pub use aperture::{Aperture, ApertureGpu, KernelImage, KERNEL_FADE_PX};
+pub use aperture_rows::{aperture_row_table, closed_form_gauge, APERTURE_ROW_SEGMENTS};
 pub use hints::CameraHints;
 
 use crate::{Error, Result};

@@ -1,5 +1,5 @@
-//! Procedural aperture kernels: anamorphic (elliptic), catadioptric (ring) and the cat's-eye
-//! (vignetted) aperture. Each is a [`KernelImage`], which every renderer already samples over
+//! Procedural aperture kernels: catadioptric (ring) and the cat's-eye (vignetted) aperture (the
+//! anamorphic ellipse is a gauge shape, [`Aperture::Ellipse`]). Each is a [`KernelImage`], which every renderer already samples over
 //! the CoC disk and normalises exactly, so no shader needs to know these shapes.
 //!
 //! Aperture coordinates are image-oriented: `u` right, `v` down, unit radius = the CoC.
@@ -33,25 +33,6 @@ pub fn procedural(size: usize, mask: impl Fn(f32, f32) -> f32) -> Result<KernelI
         }
     }
     KernelImage::from_weights(size, weights)
-}
-
-/// An ellipse `squeeze` times wider than tall (semi-axes 1 and 1/squeeze), its long axis at
-/// `rotation_deg` (the polygon aperture's convention: from +u toward +v). `rotation=90` gives
-/// the vertical ovals of a desqueezed anamorphic plate.
-pub fn anamorphic(squeeze: f32, rotation_deg: f32) -> Result<KernelImage> {
-    if !(squeeze.is_finite() && (1.0..=8.0).contains(&squeeze)) {
-        return Err(Error::param(format!(
-            "anamorphic squeeze must be in [1, 8] (use rotation=90 for tall ovals), got {squeeze}"
-        )));
-    }
-    if !rotation_deg.is_finite() {
-        return Err(Error::param("anamorphic rotation must be finite"));
-    }
-    let (s, c) = rotation_deg.to_radians().sin_cos();
-    procedural(KERNEL_SIZE, |u, v| {
-        let (a, b) = (u * c + v * s, (-u * s + v * c) * squeeze);
-        if a * a + b * b <= 1.0 { 1.0 } else { 0.0 }
-    })
 }
 
 /// A catadioptric (mirror) lens: the disk with a central obstruction of radius `inner`

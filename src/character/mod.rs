@@ -1,7 +1,7 @@
 //! Lens character and artist controls (issue 12), on top of any rendering method and without
 //! touching its shaders: every control is either a remap of the input (blur multipliers and
-//! clamp, focus pick, highlight bloom), a procedural aperture kernel (anamorphic, ring,
-//! cat's-eye), or a combination of several renders (chromatic aberration: one per channel;
+//! clamp, focus pick, highlight bloom), a procedural aperture kernel (ring, cat's-eye; the
+//! anamorphic ellipse is a gauge shape of [`crate::camera::Aperture`]), or a combination of several renders (chromatic aberration: one per channel;
 //! cat's-eye: one per grid node). Each piece is a CPU function testable on its own.
 pub mod bloom;
 pub mod chromatic;

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use lensblur::bench::apertures::{compare_apertures, ApertureTiming};
 use lensblur::bench::blender::{case_name, compare_with_blender, BlenderComparison};
 use lensblur::bench::end_to_end::{run_end_to_end, EndToEndResult};
 use lensblur::bench::large::Focus;
@@ -13,7 +14,8 @@ use lensblur::vk::Context as GpuContext;
 
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  lensblur bench-perf --quick\n  lensblur bench-perf --cases 1024-2l-coc32 --json perf.json\n  \
-lensblur bench-perf --no-baseline\n  lensblur bench --perf --groups end-to-end\n  lensblur bench --perf --groups blender --out blender-cmp\n\n\
+lensblur bench-perf --no-baseline\n  lensblur bench --perf --groups end-to-end\n  lensblur bench --perf --groups blender --out blender-cmp\n  \
+lensblur bench --perf --groups apertures,blender\n\n\
 `lensblur bench --perf` is the same suite.")]
 pub struct Args {
     /// Only the 1024x1024 kernel cases.
@@ -32,7 +34,9 @@ pub struct Args {
 pub struct PerfFlags {
     /// Case groups to run: kernel (optimised vs baseline forward kernel), backward (forward vs
     /// forward+backward), end-to-end (whole `lensblur render` processes), blender (Blender's
-    /// Defocus node vs `lensblur render`, needs `blender` on PATH).
+    /// Defocus node vs `lensblur render`, needs `blender` on PATH), apertures (`lensblur render`
+    /// of the Blender frame with every aperture kind against the disk; with blender also
+    /// Blender's Defocus with the same shape where it has one).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "kernel,backward,end-to-end")]
     pub groups: Vec<PerfGroup>,
     /// Comma-separated substrings; run the kernel and backward cases whose name contains one
@@ -56,6 +60,7 @@ pub enum PerfGroup {
     Backward,
     EndToEnd,
     Blender,
+    Apertures,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -85,6 +90,9 @@ pub fn run_suite(quick: bool, json: Option<&Path>, flags: &PerfFlags) -> anyhow:
     if group(PerfGroup::Blender) {
         let focuses: Vec<Focus> = [Focus::MostlyInFocus, Focus::FullyDefocused].into_iter().filter(|&f| wanted(&case_name(f))).collect();
         report["blender"] = serde_json::to_value(blender_group(&focuses, &flags.out, flags.repeats)?)?;
+    }
+    if group(PerfGroup::Apertures) {
+        report["apertures"] = serde_json::to_value(apertures_group(&flags.out, flags.repeats, group(PerfGroup::Blender))?)?;
     }
     let load_after = load_average();
     println!("load average after: {}", format_load(load_after));
@@ -177,6 +185,20 @@ fn blender_group(focuses: &[Focus], out: &Path, repeats: usize) -> anyhow::Resul
         results.push(r);
     }
     Ok(results)
+}
+
+fn apertures_group(out: &Path, repeats: usize, blender: bool) -> anyhow::Result<Vec<ApertureTiming>> {
+    let exe = std::env::current_exe().context("finding the lensblur executable")?;
+    println!("apertures: `lensblur render` of the 1024^2 five-layer frame (CoC up to 40 px, defocused), medians of {} processes", repeats.max(1));
+    println!("{:<26} {:>10} {:>8} {:>10} {:>11} {:>10}", "aperture", "lensblur s", "/ disk", "Blender", "Blender s", "/ Blender");
+    let row = |t: &ApertureTiming| {
+        let (bokeh, seconds, ratio) = match (t.blender_median_seconds, t.ratio_to_blender) {
+            (Some(s), Some(r)) => (t.blender_bokeh.unwrap_or("-"), format!("{s:.3}"), format!("{r:.3}")),
+            _ => ("-", "-".to_string(), "-".to_string()),
+        };
+        println!("{:<26} {:>10.3} {:>8.2} {:>10} {:>11} {:>10}", t.name, t.lensblur_median_seconds, t.ratio_to_disk, bokeh, seconds, ratio);
+    };
+    compare_apertures(&exe, out, repeats, blender, &row).context("timing the aperture cases")
 }
 
 fn print_row(r: &PerfResult) {

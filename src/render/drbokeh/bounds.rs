@@ -96,8 +96,8 @@ pub fn grow_windows(mut windows: Vec<i32>, margin: i32) -> Vec<i32> {
     windows
 }
 
-/// Radii that bound the disk path's taps per layer and search tile of the frame tile `core`
-/// (the `tile_radii` vec2 buffer of `drbokeh_layer_disk.comp`, indexed like `windows`):
+/// Bounds of the span paths' taps per layer and search tile of the frame tile `core` (the
+/// `tile_radii` vec4 buffer of `drbokeh_layer_{disk,gauge}.comp`, indexed like `windows`):
 /// - interior: a lower bound of the f32 `|s|` the shader computes for every source with
 ///   alpha > 0 in the tile's window (square, so a superset of the disk), `f32::MAX` where
 ///   there is none; 0 disables the interior. Only a smaller bound is safe (it shrinks the
@@ -105,10 +105,13 @@ pub fn grow_windows(mut windows: Vec<i32>, margin: i32) -> Vec<i32> {
 /// - outer: an upper bound of every such source's support `|s| + 1/2` and of the tile's own
 ///   pixels' `|s| + 1/2` (V's reach): taps at least this far add exact zeros, so the shader
 ///   trims its rows to it. Only a larger bound is safe; `f32::MAX` disables the trim.
-/// Tiles outside the core hold `[0, f32::MAX]`: neither shortcut.
-pub fn disk_radii(params: &Params, stack: &LayerStack, windows: &[i32], core: Rect) -> Vec<[f32; 2]> {
+/// - orientation: 1 when every such source and every pixel of the tile is nearer than focus
+///   (f32 `s > 0`), -1 when every one is not, 0 when both occur. The gauge path then bounds
+///   its rows by the aperture alone (1) or its mirror alone (-1), not by both.
+/// Tiles outside the core hold `[0, f32::MAX, 0, 0]`: no shortcut.
+pub fn span_radii(params: &Params, stack: &LayerStack, windows: &[i32], core: Rect) -> Vec<[f32; 4]> {
     let per_layer = params.tiles_x * params.tiles_y;
-    let mut radii = vec![[0.0f32, f32::MAX]; windows.len()];
+    let mut radii = vec![NO_SPAN_RADII; windows.len()];
     for (l, layer) in stack.layers.iter().enumerate() {
         let mut tile_ranges = vec![None; per_layer];
         for t in search_tiles(params, core) {
@@ -124,23 +127,34 @@ pub fn disk_radii(params: &Params, stack: &LayerStack, windows: &[i32], core: Re
             };
             let mut range = *tile_ranges[t].get_or_insert_with(|| abs_s_range(params, layer, tx, ty));
             let own_reach = range.all_max;
+            let (mut near, mut far) = (range.all_near, range.all_far);
             for uy in cover(ty, params.height) {
                 for ux in cover(tx, params.width) {
                     let u = uy * params.tiles_x + ux;
                     let other = *tile_ranges[u].get_or_insert_with(|| abs_s_range(params, layer, ux, uy));
                     range.source_min = range.source_min.min(other.source_min);
                     range.source_max = range.source_max.max(other.source_max);
+                    near |= other.source_near;
+                    far |= other.source_far;
                 }
             }
             let m = range.source_min;
             let interior = if m.is_finite() { (m - (1e-3 + 1e-5 * m)).max(0.0) } else { f32::MAX };
             let reach = range.source_max.max(own_reach) + 0.5;
             let outer = if reach.is_finite() { reach + (1e-3 + 1e-5 * reach) } else { f32::MAX };
-            radii[l * per_layer + t] = [interior, outer];
+            let orientation = match (near, far) {
+                (true, false) => 1.0,
+                (false, true) => -1.0,
+                _ => 0.0,
+            };
+            radii[l * per_layer + t] = [interior, outer, orientation, 0.0];
         }
     }
     radii
 }
+
+/// [`span_radii`] of a tile without shortcuts: no interior, no trim, both orientations.
+pub const NO_SPAN_RADII: [f32; 4] = [0.0, f32::MAX, 0.0, 0.0];
 
 /// f32 `|s|` ranges of one tile, evaluated as `glsl/drbokeh_layer_sources.comp` does.
 #[derive(Clone, Copy, Debug)]
@@ -151,20 +165,40 @@ struct AbsSRange {
     source_max: f32,
     /// Largest over every pixel (V gathers at each; infinity if one is not finite).
     all_max: f32,
+    /// Whether a source with alpha > 0 is nearer than focus (f32 `s > 0`) / is not.
+    source_near: bool,
+    source_far: bool,
+    /// The same over every pixel (the centres: V's gauge takes their orientation).
+    all_near: bool,
+    all_far: bool,
 }
 
 fn abs_s_range(params: &Params, layer: &Layer, tx: usize, ty: usize) -> AbsSRange {
     let push = params.push(0);
-    let mut range = AbsSRange { source_min: f32::INFINITY, source_max: f32::NEG_INFINITY, all_max: f32::NEG_INFINITY };
+    let mut range = AbsSRange {
+        source_min: f32::INFINITY,
+        source_max: f32::NEG_INFINITY,
+        all_max: f32::NEG_INFINITY,
+        source_near: false,
+        source_far: false,
+        all_near: false,
+        all_far: false,
+    };
     for py in ty * TILE..((ty + 1) * TILE).min(params.height) {
         for px in tx * TILE..((tx + 1) * TILE).min(params.width) {
             let i = py * params.width + px;
-            let s = (push.k_px * (layer.disparity[i] - push.focus_disparity)).abs();
+            let signed = push.k_px * (layer.disparity[i] - push.focus_disparity);
+            let s = signed.abs();
             let finite = s.is_finite();
+            let near = signed > 0.0;
             range.all_max = range.all_max.max(if finite { s } else { f32::INFINITY });
+            range.all_near |= near;
+            range.all_far |= !near;
             if layer.rgba.pixels[i][3] > 0.0 {
                 range.source_min = range.source_min.min(if finite { s } else { 0.0 });
                 range.source_max = range.source_max.max(if finite { s } else { f32::INFINITY });
+                range.source_near |= near;
+                range.source_far |= !near;
             }
         }
     }

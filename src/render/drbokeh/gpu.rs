@@ -4,9 +4,9 @@
 //! ([`super::tiled`]). Every pixel reads the same sources in the same order whatever the
 //! tiling, so the output is bit-identical for every tile size and batch size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
 //! lens, area table, push constants) and the search windows are shared with it.
-use super::bounds::{disk_radii, search_windows};
+use super::bounds::{search_windows, span_radii, NO_SPAN_RADII};
 use super::tiled::{frame_cores, run_batches, run_tiled, Footprint, TilePlan};
-use super::{Model, Params, TILE};
+use super::{AperturePath, Model, Params, TILE};
 use crate::image::Image;
 use crate::render::Lens;
 use crate::shaders;
@@ -30,8 +30,10 @@ pub struct DrBokehGpu {
     /// Row block sums of the prepass for the disk path's interior spans.
     blocks: ComputePipeline,
     layer: ComputePipeline,
-    /// The optimised kernel's disk path (default model, disk aperture); `None` for the baseline.
+    /// The optimised kernel's span paths: disk (default model, disk aperture) and gauge
+    /// (default model, polygon or ellipse); `None` for the baseline.
     layer_disk: Option<ComputePipeline>,
+    layer_gauge: Option<ComputePipeline>,
     composite: ComputePipeline,
 }
 
@@ -107,6 +109,18 @@ const LAYER_SLOTS: [Slot; 13] = {
     ]
 };
 
+/// Bindings of `drbokeh_layer_gauge.comp`: the layer pass's and the aperture's row table.
+const LAYER_GAUGE_SLOTS: [Slot; 14] = {
+    let mut slots = [Slot::Storage; 14];
+    let mut i = 0;
+    while i < LAYER_SLOTS.len() {
+        slots[i] = LAYER_SLOTS[i];
+        i += 1;
+    }
+    slots[13] = Slot::Texels(TexelFormat::Vec4);
+    slots
+};
+
 /// Bindings of `drbokeh_layer_sources.comp` (inputs as texels) and of
 /// `drbokeh_layer_blocks.comp` (the prepass's outputs as texels).
 const SOURCES_SLOTS: [Slot; 5] = [
@@ -126,12 +140,13 @@ impl DrBokehGpu {
 
     pub fn with_kernel(ctx: &Context, kernel: LayerKernel) -> Result<Self> {
         let push = std::mem::size_of::<super::DrBokehPush>();
-        let (layer, layer_disk) = match kernel {
+        let (layer, layer_disk, layer_gauge) = match kernel {
             LayerKernel::Optimised | LayerKernel::OptimisedNoInterior => (
                 ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER, &LAYER_SLOTS, push)?,
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_DISK, &LAYER_SLOTS, push)?),
+                Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_GAUGE, &LAYER_GAUGE_SLOTS, push)?),
             ),
-            LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None),
+            LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None),
         };
         Ok(Self {
             ctx: ctx.clone(),
@@ -140,6 +155,7 @@ impl DrBokehGpu {
             blocks: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_BLOCKS, &BLOCKS_SLOTS, push)?,
             layer,
             layer_disk,
+            layer_gauge,
             composite: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_COMPOSITE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage], push)?,
         })
     }
@@ -216,9 +232,13 @@ impl DrBokehGpu {
         let per_invocation = TILE as u32 / self.layer.shader().local_size[0];
         let layer_groups =
             self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
-        let (layer_pipeline, disk) = match &self.layer_disk {
-            Some(disk) if disk_path(params) => (disk, true),
-            _ => (&self.layer, false),
+        // The layer pipeline, whether it sums row spans (from the block sums), and how many of
+        // the bindings below it declares.
+        let (layer_pipeline, spans, binding_count) = match (params.lens.path(params.model), &self.layer_disk, &self.layer_gauge) {
+            (AperturePath::Disk, Some(disk), _) => (disk, true, LAYER_SLOTS.len()),
+            (AperturePath::Gauge, _, Some(gauge)) => (gauge, true, LAYER_GAUGE_SLOTS.len()),
+            _ if self.kernel == LayerKernel::Baseline => (&self.layer, false, 7),
+            _ => (&self.layer, false, LAYER_SLOTS.len()),
         };
         let push = params.push_tile(0, b.core, b.read);
         if self.kernel != LayerKernel::Baseline {
@@ -226,7 +246,7 @@ impl DrBokehGpu {
             let bindings = [b.rgba.all(), b.disparity.all(), b.area_lut.all(), b.source_pa.all(), b.source_sa.all()];
             batch.dispatch(&self.sources, &bindings, &push, self.sources.groups_for(extent))?;
         }
-        if self.kernel == LayerKernel::Optimised && disk {
+        if self.kernel == LayerKernel::Optimised && spans {
             // One invocation per global 16-px block (of those the read rect touches) and row.
             let blocks = (b.read.x1 - 1) / TILE - b.read.x0 / TILE + 1;
             let extent = [blocks as u32, b.read.height() as u32, params.layer_count as u32];
@@ -249,12 +269,9 @@ impl DrBokehGpu {
                 b.block_prefix.all(),
                 b.block_suffix.all(),
                 b.block_alpha.all(),
+                b.aperture_rows.all(),
             ];
-            let bindings = match self.kernel {
-                LayerKernel::Optimised | LayerKernel::OptimisedNoInterior => &bindings[..],
-                LayerKernel::Baseline => &bindings[..7],
-            };
-            batch.dispatch(layer_pipeline, bindings, &params.push_tile(layer, b.core, b.read), layer_groups)?;
+            batch.dispatch(layer_pipeline, &bindings[..binding_count], &params.push_tile(layer, b.core, b.read), layer_groups)?;
         }
         batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
     }
@@ -270,14 +287,16 @@ pub(crate) struct ForwardBuffers {
     pub tile_window: Buffer,
     pub area_lut: Buffer,
     pub kernel: Buffer,
+    pub aperture_rows: Buffer,
     pub layer_cw: Buffer,
     pub layer_vis: Buffer,
     pub result: Buffer,
     /// Prepass outputs over the read rect: P / A(r) per source, and (s, alpha).
     pub source_pa: Buffer,
     pub source_sa: Buffer,
-    /// Per layer and search tile, the disk path's (interior, outer) radii ([`disk_radii`]):
-    /// where it sums whole row spans from block sums, and past which its taps add exact zeros.
+    /// Per layer and search tile, the span paths' (interior, outer, orientation) bounds
+    /// ([`span_radii`]): where they sum whole row spans from block sums, past which their taps
+    /// add exact zeros, and which side of focus the window's sources lie.
     pub tile_radii: Buffer,
     /// Over the read rect: per source, the sums of (P / A, alpha) from its global 16-px row
     /// block's first column to it (prefix) and from it to the block's last (suffix, with
@@ -294,8 +313,8 @@ impl ForwardBuffers {
     pub fn new(ctx: &Context, batch: &mut CommandBatch, frame: &ForwardFrame, core: Rect, read: Rect) -> Result<Self> {
         let (stack, params) = (frame.stack, frame.params);
         let tile_radii = match frame.interior {
-            true => disk_radii(params, stack, frame.windows, core),
-            false => vec![[0.0, f32::MAX]; frame.windows.len()],
+            true => span_radii(params, stack, frame.windows, core),
+            false => vec![NO_SPAN_RADII; frame.windows.len()],
         };
         let layers = params.layer_count as u64;
         let core_pixels = core.area() as u64;
@@ -324,6 +343,7 @@ impl ForwardBuffers {
             tile_window: frame.tile_window.clone(),
             area_lut: frame.area_lut.clone(),
             kernel: frame.kernel.clone(),
+            aperture_rows: frame.aperture_rows.clone(),
         })
     }
 }
@@ -337,6 +357,9 @@ pub(crate) struct ForwardFrame<'a> {
     tile_window: Buffer,
     area_lut: Buffer,
     kernel: Buffer,
+    /// The gauge path's row table (one dummy entry for other apertures: Vulkan buffers cannot
+    /// be empty).
+    aperture_rows: Buffer,
     /// False: tiles upload radii [0, f32::MAX] ([`LayerKernel::OptimisedNoInterior`]).
     interior: bool,
 }
@@ -356,16 +379,10 @@ impl<'a> ForwardFrame<'a> {
             tile_window: Buffer::from_slice(ctx, "drbokeh tile_window", windows)?,
             area_lut: Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?,
             kernel: Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?,
+            aperture_rows: Buffer::from_slice(ctx, "drbokeh aperture_rows", &params.row_table_f32())?,
             interior,
         })
     }
-}
-
-/// Whether the disk-path layer kernel applies: the default model with a disk aperture and no
-/// kernel image (mirrors the header of `glsl/drbokeh_layer_disk.comp`).
-fn disk_path(params: &Params) -> bool {
-    let [blades, _, _, kernel] = params.lens.aperture;
-    params.model == Model::DrBokeh && blades < 3.0 && (kernel < 0.5 || params.lens.kernel_size == 0)
 }
 
 /// The 16x16 search tiles a frame core overlaps (cores start on multiples of 16).

@@ -17,7 +17,7 @@ use super::backward_cpu::tile_reach_cpu;
 use super::bounds::{grow_windows, search_windows};
 use super::gpu::{crop, halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
 use super::tiled::{frame_cores, round_to_tile, run_batches, run_tiled, Footprint, TilePlan};
-use super::{DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
+use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
 use crate::render::Lens;
@@ -34,9 +34,13 @@ pub struct DrBokehGpuGrad {
     own: ComputePipeline,
     source: ComputePipeline,
     /// Passes 2 and 4 compiled for the default model with a disk aperture and no kernel image
-    /// (see [`disk_path`]): lavapipe runs every branch, so the general code costs every tap.
+    /// (see [`AperturePath::Disk`]): lavapipe runs every branch, so the general code costs every tap.
     own_disk: ComputePipeline,
     source_disk: ComputePipeline,
+    /// The same for a polygon or ellipse ([`AperturePath::Gauge`]): the disk path's code with
+    /// the shape's closed-form gauge.
+    own_gauge: ComputePipeline,
+    source_gauge: ComputePipeline,
     pub model: Model,
     pub options: BackwardOptions,
 }
@@ -99,6 +103,8 @@ impl DrBokehGpuGrad {
             source: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE, &SOURCE_SLOTS, push)?,
             own_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_DISK, &OWN_SLOTS, push)?,
             source_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_DISK, &SOURCE_SLOTS, push)?,
+            own_gauge: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_GAUGE, &OWN_SLOTS, push)?,
+            source_gauge: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_GAUGE, &SOURCE_SLOTS, push)?,
             model,
             options,
         })
@@ -227,8 +233,11 @@ impl DrBokehGpuGrad {
         let leaky_slope = self.options.leaky_slope as f32;
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
-        let (own_pipeline, source_pipeline) =
-            if disk_path(params) { (&self.own_disk, &self.source_disk) } else { (&self.own, &self.source) };
+        let (own_pipeline, source_pipeline) = match params.lens.path(params.model) {
+            AperturePath::Disk => (&self.own_disk, &self.source_disk),
+            AperturePath::Gauge => (&self.own_gauge, &self.source_gauge),
+            AperturePath::PerTap => (&self.own, &self.source),
+        };
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
         let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];
         let source_groups =
@@ -265,14 +274,6 @@ impl DrBokehGpuGrad {
         }
         Ok(())
     }
-}
-
-/// Whether passes 2 and 4 take their disk path: the default model with a disk aperture and no
-/// kernel image (K = 1, Euclidean gauge; mirrors the forward's disk path and the headers of
-/// `glsl/drbokeh_backward_{own,source}_disk.comp`).
-fn disk_path(params: &Params) -> bool {
-    let [blades, _, _, kernel] = params.lens.aperture;
-    params.model == Model::DrBokeh && blades < 3.0 && (kernel < 0.5 || params.lens.kernel_size == 0)
 }
 
 /// The frame the tiles cut: the forward's (inputs, grown search windows, device tables), the

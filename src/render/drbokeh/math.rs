@@ -141,11 +141,17 @@ pub fn to_aperture_coords(dx: f64, dy: f64, rel: f64) -> (f64, f64) {
     }
 }
 
-/// Mirrors `Aperture::gauge` from the GPU form `[blades (0 = disk), rotation, roundness, kernel]`.
+/// Mirrors `Aperture::gauge` from the GPU form `[shape (0 = disk, 1 = ellipse, >= 3 = blades),
+/// rotation, roundness or squeeze, kernel]`.
 pub fn gauge(aperture: &[f64; 4], u: f64, v: f64) -> f64 {
     let length = (u * u + v * v).sqrt();
-    if aperture[0] < 3.0 || length == 0.0 {
+    if aperture[0] < 0.5 || length == 0.0 {
         return length;
+    }
+    if aperture[0] < 1.5 {
+        let (s, c) = aperture[1].sin_cos();
+        let (along, across) = (u * c + v * s, (v * c - u * s) * aperture[2]);
+        return (along * along + across * across).sqrt();
     }
     let n = aperture[0];
     let sector = 2.0 * std::f64::consts::PI / n;

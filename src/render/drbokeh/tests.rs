@@ -95,8 +95,8 @@ fn area_table_is_the_exact_footprint_energy() {
 }
 
 #[test]
-fn disk_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
-    use super::bounds::{disk_radii, search_windows};
+fn span_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
+    use super::bounds::{search_windows, span_radii};
     use crate::tiling::Rect;
     let (w, h) = (70, 50);
     let coc = CocModel::new(20.0, 0.0).unwrap();
@@ -118,17 +118,20 @@ fn disk_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
     let lens = Lens { coc, aperture: Aperture::Disk };
     let params = Params::new(&stack, &lens, Model::DrBokeh).unwrap();
     let windows = search_windows(&params, &stack);
-    let radii = disk_radii(&params, &stack, &windows, Rect { x0: 0, y0: 0, x1: w, y1: h });
+    let radii = span_radii(&params, &stack, &windows, Rect { x0: 0, y0: 0, x1: w, y1: h });
     let per_layer = params.tiles_x * params.tiles_y;
     let push = params.push(0);
-    let abs_s = |layer: &Layer, i: usize| (push.k_px * (layer.disparity[i] - push.focus_disparity)).abs();
+    let signed_s = |layer: &Layer, i: usize| push.k_px * (layer.disparity[i] - push.focus_disparity);
+    let abs_s = |layer: &Layer, i: usize| signed_s(layer, i).abs();
     let mut trimmed = 0;
+    let mut orientations = std::collections::BTreeSet::new();
     for (l, layer) in stack.layers.iter().enumerate() {
         for t in 0..per_layer {
-            let (window, [interior, outer]) = (windows[l * per_layer + t], radii[l * per_layer + t]);
+            let (window, [interior, outer, orientation, _]) = (windows[l * per_layer + t], radii[l * per_layer + t]);
             if window < 0 {
                 continue;
             }
+            orientations.insert(orientation as i32);
             let (tx, ty) = ((t % params.tiles_x) * 16, (t / params.tiles_x) * 16);
             // Every source a pixel of the tile gathers from (the window square) and every
             // pixel of the tile itself (V's reach).
@@ -138,6 +141,9 @@ fn disk_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
                     let own = (tx..tx + 16).contains(&x) && (ty..ty + 16).contains(&y);
                     if layer.rgba.pixels[i][3] > 0.0 || own {
                         assert!(abs_s(layer, i) + 0.5 < outer, "layer {l} tile {t}: ({x},{y}) reaches past {outer}");
+                        // One side of focus only where every source and centre is on it.
+                        let near = signed_s(layer, i) > 0.0;
+                        assert!(orientation == 0.0 || (orientation == 1.0) == near, "layer {l} tile {t}: ({x},{y}) not on side {orientation}");
                     }
                     if layer.rgba.pixels[i][3] > 0.0 {
                         assert!(interior <= abs_s(layer, i), "layer {l} tile {t}: interior {interior} above ({x},{y})");
@@ -151,4 +157,6 @@ fn disk_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
         }
     }
     assert!(trimmed > 0, "the constant 10 px disc (window 10, reach 10.5) is trimmed");
+    // The plane is in focus (s = 0, not nearer) at its left edge only: both cases occur.
+    assert_eq!(orientations, [0, 1].into_iter().collect(), "tiles of one side and of both");
 }
