@@ -45,7 +45,7 @@ fn reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::
 }
 
 /// Width and height from the file's header alone, refused above `max_pixels`.
-fn header_size(path: &Path, max_pixels: u64) -> Result<(u32, u32)> {
+pub fn header_size(path: &Path, max_pixels: u64) -> Result<(u32, u32)> {
     let (w, h) = reader(path)?
         .into_dimensions()
         .map_err(|e| Error::input(path, format!("cannot read the image header: {e}")))?;
