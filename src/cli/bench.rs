@@ -21,8 +21,10 @@ pub struct Args {
     /// with a cold cache, seconds with a warm one.
     #[arg(long)]
     quick: bool,
-    /// Folder caching the ray-traced ground truths (keyed by scene and sampling options).
-    #[arg(long, value_name = "DIR", default_value = "target/lensblur-gt-cache")]
+    /// Folder caching the ray-traced ground truths (keyed by scene and sampling options); by
+    /// default in the user cache folder ($XDG_CACHE_HOME/lensblur, else ~/.cache/lensblur),
+    /// whichever folder the command runs in.
+    #[arg(long, value_name = "DIR", default_value_os_t = lensblur::cache_dir::cache_subdir("gt-cache"))]
     cache: PathBuf,
     /// Always ray-trace the ground truth; neither read nor write the cache.
     #[arg(long)]
@@ -43,7 +45,7 @@ pub struct Args {
     /// backward, end-to-end and Blender case groups; see --groups.
     #[arg(long)]
     perf: bool,
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = "Performance (with --perf)")]
     perf_flags: super::bench_perf::PerfFlags,
 }
 
