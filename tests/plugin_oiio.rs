@@ -155,7 +155,7 @@ fn oiio_script_reports_a_layer_without_depth_and_cleans_up() {
     let run = script(&dir, &args);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(!run.status.success());
-    assert!(stderr.contains("flat.exr: no Z channel (has: R,G,B)"), "{stderr}");
+    assert!(stderr.contains("flat.exr: no depth channel (looked for Z or depth.Z; has: R,G,B)"), "{stderr}");
     assert!(!dir.join("out.exr").exists());
     assert_tmp_is_empty(&dir);
 }
@@ -207,7 +207,7 @@ fn oiio_script_refuses_duplicate_layer_names() {
 
 /// `--depth-channel NAME`: per-layer files whose depth is called `depth` render exactly as
 /// with Z (the in-focus box untouched, the wall blurred); without the flag the script names
-/// the missing Z channel.
+/// the depth channels it looked for and the flag.
 #[test]
 fn oiio_script_reads_the_depth_channel_it_is_told() {
     let dir = fresh_dir("plugin-oiio-depth-channel");
@@ -228,6 +228,72 @@ fn oiio_script_reads_the_depth_channel_it_is_told() {
     args.extend(CAMERA);
     let run = script(&dir, &args);
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(!run.status.success() && stderr.contains("bg_d.exr: no Z channel"), "{stderr}");
+    assert!(!run.status.success(), "{stderr}");
+    assert!(stderr.contains("bg_d.exr: no depth channel (looked for Z or depth.Z; has: R,G,B,A,depth)"), "{stderr}");
+    assert!(stderr.contains("--depth-channel"), "{stderr}");
     assert_tmp_is_empty(&dir);
+}
+
+/// A layer named by a dotted file name is refused with the NAME=FILE spelling to use; files
+/// that call their depth Z and depth.Z mix under the default --depth-channel, and render as
+/// with Z alone.
+#[test]
+fn oiio_script_names_dotted_files_and_mixes_depth_channel_names() {
+    let dir = fresh_dir("plugin-oiio-dotted");
+    make_layers(&dir);
+    let (fg, dotted) = (dir.join("fg.exr"), dir.join("fg.v2.exr"));
+    oiiotool(&[fg.to_str().unwrap(), "--chnames", "R,G,B,A,depth.Z", "-o", dotted.to_str().unwrap()]);
+    let mut args = vec!["-q", "-o", "out.exr", "bg.exr", "fg.v2.exr", "--"];
+    args.extend(CAMERA);
+    let run = script(&dir, &args);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("layer name 'fg.v2' (from the file name fg.v2.exr)") && stderr.contains("e.g. fg_v2=fg.v2.exr"),
+        "{stderr}"
+    );
+    assert!(!dir.join("out.exr").exists());
+
+    let mut args = vec!["-q", "-o", "out.exr", "bg.exr", "fg_v2=fg.v2.exr", "--"];
+    args.extend(CAMERA);
+    let run = script(&dir, &args);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let out = read_rgba(&dir.join("out.exr"));
+    in_focus_box_is_untouched(&out);
+    wall_is_blurred(&out, &read_rgba(&dir.join("bg.exr")));
+    assert_tmp_is_empty(&dir);
+}
+
+/// oiiotool describes and loads only the first subimage of a file: a layer file with several
+/// is refused, naming how to split it, rather than half read.
+#[test]
+fn oiio_script_refuses_layer_files_with_several_subimages() {
+    let dir = fresh_dir("plugin-oiio-subimages");
+    make_layers(&dir);
+    let (fg, bg) = (dir.join("fg.exr"), dir.join("bg.exr"));
+    let both = dir.join("both.exr");
+    oiiotool(&[fg.to_str().unwrap(), bg.to_str().unwrap(), "--siappend", "-o", both.to_str().unwrap()]);
+    let mut args = vec!["-q", "-o", "out.exr", "both.exr", "--"];
+    args.extend(CAMERA);
+    let run = script(&dir, &args);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{stderr}");
+    assert!(stderr.contains("both.exr: has 2 subimages") && stderr.contains("--subimage N"), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "one message: {stderr}");
+    assert_tmp_is_empty(&dir);
+}
+
+/// macOS ships bash 3.2: the script must not use what came with bash 4 (associative arrays,
+/// mapfile/readarray, case-changing expansions, `&>>`, `|&`) nor expand an array that may be
+/// empty as "${a[@]}" under `set -u` (unbound before bash 4.4).
+#[test]
+fn oiio_script_uses_only_bash_3_2() {
+    let text = std::fs::read_to_string(plugins_dir().join("oiio/lensblur-oiio")).unwrap();
+    let code: Vec<&str> = text.lines().filter(|l| !l.trim_start().starts_with('#')).collect();
+    for feature in ["declare -A", "local -A", "mapfile", "readarray", ",,}", "^^}", "&>>", "|&", "coproc"] {
+        let found: Vec<&&str> = code.iter().filter(|l| l.contains(feature)).collect();
+        assert!(found.is_empty(), "bash 4 feature '{feature}': {found:?}");
+    }
+    // render_flags is empty when nothing follows `--`.
+    assert!(!code.iter().any(|l| l.contains("\"${render_flags[@]}\"") && !l.contains("${render_flags[@]+")), "unguarded empty-array expansion");
 }
