@@ -2,7 +2,7 @@
 //! before any blur (blurring encoded values darkens highlights) and encoded again on output.
 use std::path::Path;
 
-use super::DepthKind;
+use super::{DepthKind, OutputFormat};
 use crate::atomic_file::write_atomically;
 use crate::image::Image;
 use crate::{Error, Result};
@@ -131,11 +131,12 @@ pub fn is_ldr_path(path: &Path) -> bool {
     ldr_format(path).is_some()
 }
 
+/// The extension rule is [`OutputFormat`]'s, so inputs and outputs agree on what a PNG is.
 fn ldr_format(path: &Path) -> Option<image::ImageFormat> {
-    match path.extension()?.to_str()?.to_ascii_lowercase().as_str() {
-        "png" => Some(image::ImageFormat::Png),
-        "jpg" | "jpeg" => Some(image::ImageFormat::Jpeg),
-        _ => None,
+    match OutputFormat::from_extension(path)? {
+        OutputFormat::Png => Some(image::ImageFormat::Png),
+        OutputFormat::Jpeg => Some(image::ImageFormat::Jpeg),
+        OutputFormat::Exr => None,
     }
 }
 

@@ -57,10 +57,7 @@ impl OutputFormat {
         let supported: Vec<&str> = allowed.iter().map(|f| f.describe()).collect();
         Err(Error::input(
             path,
-            format!(
-                "{what} (the extension picks the format); use {}; nothing was rendered",
-                supported.join(", ")
-            ),
+            format!("{what} (the extension picks the format); use {}; nothing was rendered", supported.join(", ")),
         ))
     }
 }
