@@ -76,8 +76,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     let mut inputs = input_files(&args.input, &args.input_args, &args.camera);
     inputs.push(("the --target input file", &args.target));
-    OutputFormat::for_output(&args.output, "-o", OutputFormat::EXR)?;
+    // An output on an input is the graver mistake: said first.
     check_output_paths(&[("-o", &args.output)], &inputs)?;
+    OutputFormat::for_output(&args.output, "-o", OutputFormat::EXR)?;
     let loaded = args.input_args.load(&args.input, &args.camera, InputKind::SingleImage)?;
     let Some(info) = &loaded.info else { bail!("{}: fit-depth needs an EXR stack", args.input.display()) };
     let target = read_rgba(&args.target, None, args.input_args.max_pixels).context("--target")?;

@@ -80,8 +80,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     let mut inputs = input_files(&args.input, &args.input_args, &args.camera);
     inputs.push(("the --grad-output input file (dL/dB)", &args.grad_output));
-    OutputFormat::for_output(&args.output, "-o", OutputFormat::EXR)?;
+    // An output on an input is the graver mistake: said first.
     check_output_paths(&[("-o", &args.output)], &inputs)?;
+    OutputFormat::for_output(&args.output, "-o", OutputFormat::EXR)?;
     let model = match args.method {
         Method::DrBokeh => Model::DrBokeh,
         Method::DrBokehCompat => Model::Compat,

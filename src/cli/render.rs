@@ -126,13 +126,14 @@ struct Timings {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let total = Instant::now();
     let inputs = input_files(&args.input, &args.input_args, &args.camera);
+    let mut outputs = vec![("-o", args.output.as_path())];
+    outputs.extend(args.preview.as_deref().map(|p| ("--preview", p)));
+    // An output on an input is the graver mistake: said before the format.
+    check_output_paths(&outputs, &inputs)?;
     let format = OutputFormat::for_output(&args.output, "-o", OutputFormat::ALL)?;
     if let Some(preview) = &args.preview {
         OutputFormat::for_output(preview, "--preview", OutputFormat::LDR)?;
     }
-    let mut outputs = vec![("-o", args.output.as_path())];
-    outputs.extend(args.preview.as_deref().map(|p| ("--preview", p)));
-    check_output_paths(&outputs, &inputs)?;
     if args.keep_channels && is_ldr_path(&args.input) {
         anyhow::bail!(
             "--keep-channels copies the other channels of an EXR input; {} is a PNG/JPEG and has none \
