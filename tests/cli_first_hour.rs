@@ -249,6 +249,13 @@ fn reports_say_where_the_camera_came_from_and_print_plain_numbers() {
     }
     let (stdout, _) = ok(&dir, &["render", shot, "-o", "out.exr", "--json"], &[]);
     assert!(stdout.contains("\"fstop\": 1.4,"), "{stdout}");
+    let unclamped: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    // The reported CoC is the one rendered: --max-blur's clamp shows (the README's character
+    // command printed the unclamped 37.7 px under --max-blur 12).
+    let (stdout, _) = ok(&dir, &["render", shot, "-o", "out.exr", "--json", "--max-blur", "1"], &[]);
+    let clamped: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert!(unclamped["coc_range_px"][1].as_f64().unwrap() > 2.0, "{unclamped}");
+    assert!(clamped["coc_range_px"][1].as_f64().unwrap() <= 1.0 + 1e-4, "{clamped}");
 }
 
 #[test]

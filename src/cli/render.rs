@@ -173,7 +173,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ctx.finish()?;
     }
     let start = Instant::now();
-    let layers = layer_reports(&loaded.stack, &rendered.lens);
+    // As rendered: after --near-blur/--far-blur/--max-blur, which remap the disparity.
+    let layers = layer_reports(&rendered.prepared, &rendered.lens);
     args.character.write_debug_views(&rendered, settings.focus(args.method))?;
     // The stack is done with: free it before the write copies the image into EXR channels,
     // so the host never holds the stack, the image and the channels at once.
