@@ -94,6 +94,8 @@ fn the_output_extension_picks_the_format_and_others_are_refused() {
     let stderr = refused(&dir, &["render", shot, "-o", "ok.exr", "--preview", "a.tif"]);
     assert!(stderr.contains("a.tif: '.tif' is not a format --preview writes") && !stderr.contains(".exr"), "{stderr}");
     assert!(!dir.join("ok.exr").exists(), "nothing is rendered when the preview's name is refused");
+    let stderr = refused(&dir, &["bench", "--quick", "--sheet", "sheet.jpg"]);
+    assert!(stderr.contains("'.jpg' is not a format --sheet writes") && stderr.contains("use .png (8-bit sRGB);"), "{stderr}");
     let stderr = refused(&dir, &["grad", shot, "--grad-output", shot, "-o", "grads.png"]);
     assert!(stderr.contains("'.png' is not a format -o writes") && stderr.contains("use .exr (linear float);"), "{stderr}");
 

@@ -53,6 +53,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.perf {
         return super::bench_perf::run_suite(args.quick, args.json.as_deref(), &args.perf_flags);
     }
+    // Refused before minutes of ray tracing, like render's outputs: the sheet is a PNG.
+    if let Some(sheet) = &args.sheet {
+        lensblur::stack::OutputFormat::for_output(sheet, "--sheet", &[lensblur::stack::OutputFormat::Png])?;
+    }
     let gpu = open_device_or_warn(&args.methods)?;
     let methods = select_methods(all_methods(gpu.as_ref())?, &args.methods)?;
     let tracing = bar("ray tracing {msg}", "rows")?;

@@ -32,8 +32,9 @@ Input: Blender multilayer EXR (<ViewLayer>.Combined.RGBA + <ViewLayer>.Depth.Z),
 layer.R,G,B,A,Z, multi-part (one layer per part), plain R,G,B,A,Z; or PNG/JPEG + --depth. A file
 holding one image is split into layers automatically for layered methods (one layer picked out of a
 stack with --layers is not). Output: EXR (plain R,G,B,A, linear, premultiplied, on the input's display
-window; --output-layer names it in the input's convention) or, for .png/.jpg, 8-bit sRGB. Files
-appear atomically; the input is never overwritten.";
+window; --output-layer names it in the input's convention) or, for .png/.jpg/.jpeg, 8-bit sRGB; the
+extension picks the format and any other is refused. Files appear atomically; the input is never
+overwritten.";
 
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
