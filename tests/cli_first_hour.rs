@@ -276,4 +276,20 @@ fn fit_depth_counts_its_steps_and_says_how_long_it_will_take() {
     // --json keeps stderr for errors: no estimate there.
     let (_, stderr) = ok(&dir, &[&args[..], &["--json"]].concat(), &[]);
     assert!(!stderr.contains("fitting depth"), "{stderr}");
+
+    // The bar, drawn only on a terminal: under `script` (a pseudo-terminal) every frame counts
+    // steps out of 3 (it showed 1/4 .. 4/4), starting at 0/3, with an ETA.
+    let command = format!("{} {}", env!("CARGO_BIN_EXE_lensblur"), args.join(" "));
+    let output = Command::new("script")
+        .args(["-qec", &command, "/dev/null"])
+        .current_dir(&dir)
+        .env("LENSBLUR_VALIDATION", "1")
+        .output()
+        .expect("script (util-linux) runs the command on a pseudo-terminal");
+    let terminal = String::from_utf8_lossy(&output.stdout).replace('\r', "\n");
+    assert!(output.status.success(), "{terminal}");
+    let frames: Vec<&str> = terminal.lines().filter_map(|l| l.split("iteration ").nth(1)?.split(' ').next()).collect();
+    assert!(frames.contains(&"0/3"), "{terminal}");
+    assert!(frames.iter().all(|f| matches!(*f, "0/3" | "1/3" | "2/3" | "3/3")), "{frames:?}");
+    assert!(terminal.contains("ETA"), "{terminal}");
 }
