@@ -172,7 +172,7 @@ mod tests {
             w.write_all(b"more bytes after the interrupt").map_err(|e| Error::Io { path: out.clone(), source: e })
         });
         assert!(claimed.is_some());
-        let message = result.unwrap_err().to_string();
+        let message = crate::error::full_message(&result.unwrap_err());
         assert!(message.contains("out.bin") && message.contains("interrupted"), "{message}");
         assert!(write_atomically(&dir.join("later.bin"), |_| Ok(())).is_err(), "no output after an interrupt");
         assert_eq!(listing(&dir), ["before.bin"]);

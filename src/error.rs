@@ -1,4 +1,8 @@
 //! The library's one error type. The CLI adds `anyhow` context on top of it.
+//!
+//! A variant that wraps another error returns it from `source()` and leaves it out of its own
+//! message: the CLI prints the whole chain (`{:#}`), so a cause named in both places would be
+//! printed twice (`x.exr: No such file or directory: No such file or directory`).
 use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]
@@ -10,11 +14,11 @@ pub enum Error {
     NoVulkan(String),
     #[error("Vulkan validation reported {count} message(s); first: {first}")]
     Validation { count: usize, first: String },
-    #[error("GPU memory allocation failed: {0}")]
+    #[error("GPU memory allocation failed")]
     Allocation(#[from] gpu_allocator::AllocationError),
     /// Out of device memory with the smallest tiles: retrying smaller cannot help.
     #[error(
-        "out of device memory even with {tile} px tiles, one per submission ({source}); free device memory \
+        "out of device memory even with {tile} px tiles, one per submission; free device memory \
          (close other programs using the GPU), choose a device with more memory (LENSBLUR_DEVICE, see \
          `lensblur devices`), or render on the CPU (`lensblur render --device cpu`)"
     )]
@@ -23,7 +27,8 @@ pub enum Error {
     Input { path: PathBuf, message: String },
     #[error("invalid parameter: {0}")]
     Parameter(String),
-    #[error("{path}: {source}")]
+    /// The I/O error is the `source()`; the message names the file only (see the module note).
+    #[error("{path}")]
     Io { path: PathBuf, source: std::io::Error },
 }
 
@@ -66,9 +71,29 @@ impl Error {
     }
 }
 
+/// The message of `error` and of every error behind it, joined with ": " (what the CLI
+/// prints through anyhow's `{:#}`), for callers that report a library error as one line.
+pub fn full_message(error: &(dyn std::error::Error + 'static)) -> String {
+    let mut message = error.to_string();
+    let mut cause = error.source();
+    while let Some(inner) = cause {
+        message.push_str(": ");
+        message.push_str(&inner.to_string());
+        cause = inner.source();
+    }
+    message
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn io_errors_name_the_cause_once() {
+        let missing = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file or directory");
+        let error = Error::Io { path: "nofile.exr".into(), source: missing };
+        assert_eq!(full_message(&error), "nofile.exr: No such file or directory");
+    }
 
     #[test]
     fn device_loss_says_what_happened_and_what_to_do() {

@@ -6,6 +6,7 @@
 //! - [`camera`]: the circle-of-confusion model and aperture shapes, shared by CPU and GPU paths.
 //! - [`image`]: the in-memory RGBA float image.
 //! - [`stack`]: layer stacks and their file formats (EXR, PNG/JPEG) — I/O lives at the edges.
+//! - [`cache_dir`]: the user cache folder every rebuildable file goes to.
 //! - [`atomic_file`]: outputs appear whole (temporary file, rename) and interrupts remove parts.
 //! - [`render`]: one module per rendering method, each with GPU host code and a CPU reference.
 //! - [`character`]: lens character and artist controls layered on any method.
@@ -13,6 +14,7 @@
 //! - [`metrics`]: image quality metrics used by the benchmark.
 //! - [`bench`]: the method registry, benchmark runner, report table and contact sheet.
 pub mod atomic_file;
+pub mod cache_dir;
 pub mod camera;
 pub mod character;
 pub mod error;

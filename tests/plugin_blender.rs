@@ -180,3 +180,33 @@ fn blender_addon_bokeh_has_the_orientation_of_cycles() {
     println!("bokeh PSNR vs Cycles: add-on {addon:.2} dB, mirrored {wrong:.2} dB");
     assert!(addon >= wrong + 5.0, "add-on {addon:.2} dB vs mirrored {wrong:.2} dB");
 }
+
+/// Blender hands f32 settings to Python widened to f64: the printed command line must show
+/// the value as typed (`--fstop 1.4`, not 1.399999976158142; `rotation=0`, not -0), and each
+/// spelling must read back as the same f32. Runs the add-on's camera module in plain Python
+/// (it needs no bpy), so it checks values Blender cannot easily be made to produce.
+#[test]
+fn printed_camera_values_are_the_shortest_f32_spelling() {
+    let program = r#"
+import importlib.util, json, struct, sys, types
+package = types.ModuleType("lensblur_addon")
+package.__path__ = [sys.argv[1]]
+sys.modules["lensblur_addon"] = package
+spec = importlib.util.spec_from_file_location("lensblur_addon.camera", sys.argv[1] + "/camera.py")
+camera = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(camera)
+f32 = lambda v: struct.unpack("f", struct.pack("f", v))[0]
+values = [1.4, 2.8, 50.0, 36.0, 0.1, 3.3333333, -0.0, -10.0, 1e-7, 123456789.0]
+print(json.dumps([[f32(v), camera.fmt(f32(v))] for v in values]))
+"#;
+    let addon = plugins_dir().join("blender/lensblur");
+    let output = Command::new("python3").args(["-c", program, addon.to_str().unwrap()]).output().expect("python3");
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let pairs: Vec<(f64, String)> = serde_json::from_slice(&output.stdout).unwrap();
+    let printed: Vec<&str> = pairs.iter().map(|(_, s)| s.as_str()).collect();
+    assert_eq!(printed, ["1.4", "2.8", "50", "36", "0.1", "3.3333333", "0", "-10", "1e-07", "123456790"]);
+    for (value, text) in &pairs {
+        let parsed: f32 = text.parse().unwrap();
+        assert_eq!(parsed, *value as f32, "{text} does not read back as {value}");
+    }
+}

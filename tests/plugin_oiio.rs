@@ -80,6 +80,37 @@ fn assert_tmp_is_empty(dir: &Path) {
     assert!(left.is_empty(), "left in TMPDIR: {left:?}");
 }
 
+/// Runs the script quietly on `layers` (and `options` before them) into out.exr with CAMERA.
+fn render_layers(dir: &Path, options: &[&str], layers: &[&str]) -> Output {
+    let mut args = vec!["-q", "-o", "out.exr"];
+    args.extend(options);
+    args.extend(layers);
+    args.push("--");
+    args.extend(CAMERA);
+    script(dir, &args)
+}
+
+/// The script must refuse `layers`, leaving no output and nothing in TMPDIR; returns stderr.
+fn refusal(dir: &Path, options: &[&str], layers: &[&str]) -> String {
+    let run = render_layers(dir, options, layers);
+    let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
+    assert!(!run.status.success(), "{layers:?} accepted");
+    assert!(!dir.join("out.exr").exists());
+    assert_tmp_is_empty(dir);
+    stderr
+}
+
+/// The script must render `layers` (the box in front of the wall, however their files are
+/// named and their depth called) as make_layers' files render.
+fn renders_box_over_wall(dir: &Path, options: &[&str], layers: &[&str]) {
+    let run = render_layers(dir, options, layers);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let out = read_rgba(&dir.join("out.exr"));
+    in_focus_box_is_untouched(&out);
+    wall_is_blurred(&out, &read_rgba(&dir.join("bg.exr")));
+    assert_tmp_is_empty(dir);
+}
+
 #[test]
 fn oiio_script_assembles_renders_and_inspects_per_layer_exrs() {
     let dir = fresh_dir("plugin-oiio");
@@ -155,7 +186,7 @@ fn oiio_script_reports_a_layer_without_depth_and_cleans_up() {
     let run = script(&dir, &args);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(!run.status.success());
-    assert!(stderr.contains("flat.exr: no Z channel (has: R,G,B)"), "{stderr}");
+    assert!(stderr.contains("flat.exr: no depth channel (looked for Z or depth.Z; has: R,G,B)"), "{stderr}");
     assert!(!dir.join("out.exr").exists());
     assert_tmp_is_empty(&dir);
 }
@@ -207,7 +238,7 @@ fn oiio_script_refuses_duplicate_layer_names() {
 
 /// `--depth-channel NAME`: per-layer files whose depth is called `depth` render exactly as
 /// with Z (the in-focus box untouched, the wall blurred); without the flag the script names
-/// the missing Z channel.
+/// the depth channels it looked for and the flag.
 #[test]
 fn oiio_script_reads_the_depth_channel_it_is_told() {
     let dir = fresh_dir("plugin-oiio-depth-channel");
@@ -216,18 +247,55 @@ fn oiio_script_reads_the_depth_channel_it_is_told() {
         let (from, to) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}_d.exr")));
         oiiotool(&[from.to_str().unwrap(), "--chnames", "R,G,B,A,depth", "-o", to.to_str().unwrap()]);
     }
-    let mut args = vec!["-q", "-o", "out.exr", "--depth-channel", "depth", "bg=bg_d.exr", "front=fg_d.exr", "--"];
-    args.extend(CAMERA);
-    let run = script(&dir, &args);
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    let out = read_rgba(&dir.join("out.exr"));
-    in_focus_box_is_untouched(&out);
-    wall_is_blurred(&out, &read_rgba(&dir.join("bg.exr")));
+    renders_box_over_wall(&dir, &["--depth-channel", "depth"], &["bg=bg_d.exr", "front=fg_d.exr"]);
+    std::fs::remove_file(dir.join("out.exr")).unwrap();
+    let stderr = refusal(&dir, &[], &["bg=bg_d.exr"]);
+    assert!(stderr.contains("bg_d.exr: no depth channel (looked for Z or depth.Z; has: R,G,B,A,depth)"), "{stderr}");
+    assert!(stderr.contains("--depth-channel"), "{stderr}");
+}
 
-    let mut args = vec!["-o", "z.exr", "bg=bg_d.exr", "--"];
-    args.extend(CAMERA);
-    let run = script(&dir, &args);
-    let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(!run.status.success() && stderr.contains("bg_d.exr: no Z channel"), "{stderr}");
-    assert_tmp_is_empty(&dir);
+/// A layer named by a dotted file name is refused with the NAME=FILE spelling to use; files
+/// that call their depth Z and depth.Z mix under the default --depth-channel, and render as
+/// with Z alone.
+#[test]
+fn oiio_script_names_dotted_files_and_mixes_depth_channel_names() {
+    let dir = fresh_dir("plugin-oiio-dotted");
+    make_layers(&dir);
+    let (fg, dotted) = (dir.join("fg.exr"), dir.join("fg.v2.exr"));
+    oiiotool(&[fg.to_str().unwrap(), "--chnames", "R,G,B,A,depth.Z", "-o", dotted.to_str().unwrap()]);
+    let stderr = refusal(&dir, &[], &["bg.exr", "fg.v2.exr"]);
+    assert!(
+        stderr.contains("layer name 'fg.v2' (from the file name fg.v2.exr)") && stderr.contains("e.g. fg_v2=fg.v2.exr"),
+        "{stderr}"
+    );
+    renders_box_over_wall(&dir, &[], &["bg.exr", "fg_v2=fg.v2.exr"]);
+}
+
+/// oiiotool describes and loads only the first subimage of a file: a layer file with several
+/// is refused, naming how to split it, rather than half read.
+#[test]
+fn oiio_script_refuses_layer_files_with_several_subimages() {
+    let dir = fresh_dir("plugin-oiio-subimages");
+    make_layers(&dir);
+    let (fg, bg) = (dir.join("fg.exr"), dir.join("bg.exr"));
+    let both = dir.join("both.exr");
+    oiiotool(&[fg.to_str().unwrap(), bg.to_str().unwrap(), "--siappend", "-o", both.to_str().unwrap()]);
+    let stderr = refusal(&dir, &[], &["both.exr"]);
+    assert!(stderr.contains("both.exr: has 2 subimages") && stderr.contains("--subimage N"), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "one message: {stderr}");
+}
+
+/// macOS ships bash 3.2: the script must not use what came with bash 4 (associative arrays,
+/// mapfile/readarray, case-changing expansions, `&>>`, `|&`) nor expand an array that may be
+/// empty as "${a[@]}" under `set -u` (unbound before bash 4.4).
+#[test]
+fn oiio_script_uses_only_bash_3_2() {
+    let text = std::fs::read_to_string(plugins_dir().join("oiio/lensblur-oiio")).unwrap();
+    let code: Vec<&str> = text.lines().filter(|l| !l.trim_start().starts_with('#')).collect();
+    for feature in ["declare -A", "local -A", "mapfile", "readarray", ",,}", "^^}", "&>>", "|&", "coproc"] {
+        let found: Vec<&&str> = code.iter().filter(|l| l.contains(feature)).collect();
+        assert!(found.is_empty(), "bash 4 feature '{feature}': {found:?}");
+    }
+    // render_flags is empty when nothing follows `--`.
+    assert!(!code.iter().any(|l| l.contains("\"${render_flags[@]}\"") && !l.contains("${render_flags[@]+")), "unguarded empty-array expansion");
 }

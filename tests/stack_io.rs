@@ -496,9 +496,10 @@ fn layer_selection_by_name_and_glob_in_any_order() {
 #[test]
 fn errors_name_the_problem() {
     let dir = common::temp_dir("stack-io", "errors");
-    let missing = read_stack(&dir.join("missing.exr"), &ReadOptions::default())
-        .unwrap_err()
-        .to_string();
+    // The I/O cause is the error's source (printed after it by the CLI), not its message.
+    let missing = lensblur::error::full_message(
+        &read_stack(&dir.join("missing.exr"), &ReadOptions::default()).unwrap_err(),
+    );
     assert!(
         missing.contains("missing.exr") && missing.to_lowercase().contains("no such file"),
         "{missing}"

@@ -21,8 +21,10 @@ pub struct Args {
     /// with a cold cache, seconds with a warm one.
     #[arg(long)]
     quick: bool,
-    /// Folder caching the ray-traced ground truths (keyed by scene and sampling options).
-    #[arg(long, value_name = "DIR", default_value = "target/lensblur-gt-cache")]
+    /// Folder caching the ray-traced ground truths (keyed by scene and sampling options); by
+    /// default in the user cache folder ($XDG_CACHE_HOME/lensblur, else ~/.cache/lensblur),
+    /// whichever folder the command runs in.
+    #[arg(long, value_name = "DIR", default_value_os_t = lensblur::cache_dir::cache_subdir("gt-cache"))]
     cache: PathBuf,
     /// Always ray-trace the ground truth; neither read nor write the cache.
     #[arg(long)]
@@ -43,13 +45,17 @@ pub struct Args {
     /// backward, end-to-end and Blender case groups; see --groups.
     #[arg(long)]
     perf: bool,
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = "Performance (with --perf)")]
     perf_flags: super::bench_perf::PerfFlags,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     if args.perf {
         return super::bench_perf::run_suite(args.quick, args.json.as_deref(), &args.perf_flags);
+    }
+    // Refused before minutes of ray tracing, like render's outputs: the sheet is a PNG.
+    if let Some(sheet) = &args.sheet {
+        lensblur::stack::OutputFormat::for_output(sheet, "--sheet", &[lensblur::stack::OutputFormat::Png])?;
     }
     let gpu = open_device_or_warn(&args.methods)?;
     let methods = select_methods(all_methods(gpu.as_ref())?, &args.methods)?;

@@ -24,13 +24,14 @@ pub struct Args {
     /// Also write the results as JSON to FILE.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = "Performance")]
     pub flags: PerfFlags,
 }
 
 /// The suite's flags that `lensblur bench` does not have already (it has --quick and --json).
+/// The help heading is set where it is flattened: `bench` lists these under "(with --perf)",
+/// `bench-perf` has no such flag.
 #[derive(clap::Args, Clone)]
-#[command(next_help_heading = "Performance (with --perf)")]
 pub struct PerfFlags {
     /// Case groups to run: kernel (optimised vs baseline forward kernel), backward (forward vs
     /// forward+backward), end-to-end (whole `lensblur render` processes), blender (Blender's
@@ -49,8 +50,10 @@ pub struct PerfFlags {
     /// Skip the baseline kernel (it is several times slower).
     #[arg(long)]
     pub no_baseline: bool,
-    /// Folder for the end-to-end and Blender inputs and the Blender comparison's PNGs.
-    #[arg(long, value_name = "DIR", default_value = "target/lensblur-perf")]
+    /// Folder for the end-to-end and Blender inputs and the Blender comparison's PNGs; by
+    /// default in the user cache folder ($XDG_CACHE_HOME/lensblur, else ~/.cache/lensblur),
+    /// whichever folder the command runs in.
+    #[arg(long, value_name = "DIR", default_value_os_t = lensblur::cache_dir::cache_subdir("perf"))]
     pub out: PathBuf,
 }
 

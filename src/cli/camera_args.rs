@@ -53,6 +53,9 @@ impl Default for CameraArgs {
 pub struct ResolvedCamera {
     pub lens: Lens,
     pub physical: Option<PhysicalCamera>,
+    /// Which physical parameters came from the file's header rather than flags
+    /// (`focal-length`, `fstop`, `focus-distance`, `sensor-width`), for reports.
+    pub from_header: Vec<&'static str>,
 }
 
 /// Sensor width when neither the flags nor the file say (Blender's default camera).
@@ -79,13 +82,25 @@ impl CameraArgs {
                     aperture,
                 },
                 physical: None,
+                from_header: Vec::new(),
             });
         }
         let physical = self.physical(header)?;
         let coc = CocModel::from_physical(&physical, width_px)?;
+        let from_header = [
+            ("focal-length", self.focal_length, header.focal_length_mm),
+            ("fstop", self.fstop, header.fstop),
+            ("focus-distance", self.focus_distance, header.focus_distance),
+            ("sensor-width", self.sensor_width, header.sensor_width_mm),
+        ]
+        .into_iter()
+        .filter(|(_, flag, header)| flag.is_none() && header.is_some())
+        .map(|(name, _, _)| name)
+        .collect();
         Ok(ResolvedCamera {
             lens: Lens { coc, aperture },
             physical: Some(physical),
+            from_header,
         })
     }
 

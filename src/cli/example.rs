@@ -64,7 +64,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("ray-tracing scene '{}'", scene.name))?;
     bar.finish_and_clear();
     output::write_ground_truth(&truth, &args.output)
-        .with_context(|| format!("writing {}", args.output.display()))?;
+        .context("writing the scene's files")?;
     println!(
         "ray-traced '{}' ({}x{}) in {:.1} s -> {}",
         scene.name,
@@ -110,8 +110,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     report_lens(&camera.lens);
+    // Named as this process was started (`target/release/lensblur` under `cargo run`, `lensblur`
+    // once installed), so the line runs as printed wherever lensblur is not on PATH yet.
+    let program = std::env::args().next().unwrap_or_else(|| "lensblur".into());
     println!(
-        "same render from the command line: lensblur render {} -o {}",
+        "same render from the command line: {program} render {} -o {}",
         layers_path.display(),
         render_path.display()
     );

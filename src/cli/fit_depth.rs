@@ -15,7 +15,7 @@ use lensblur::render::grad::Differentiable;
 use lensblur::render::InputKind;
 use lensblur::render::Lens;
 use lensblur::stack::{
-    read_rgba, replace_channels, ChannelReplacement, DepthKind, HeaderEdits, LayerStack, StackInfo,
+    read_rgba, replace_channels, OutputFormat, ChannelReplacement, DepthKind, HeaderEdits, LayerStack, StackInfo,
 };
 use lensblur::vk::Context;
 
@@ -76,10 +76,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     let mut inputs = input_files(&args.input, &args.input_args, &args.camera);
     inputs.push(("the --target input file", &args.target));
+    // An output on an input is the graver mistake: said first.
     check_output_paths(&[("-o", &args.output)], &inputs)?;
+    OutputFormat::for_output(&args.output, "-o", OutputFormat::EXR)?;
     let loaded = args.input_args.load(&args.input, &args.camera, InputKind::SingleImage)?;
     let Some(info) = &loaded.info else { bail!("{}: fit-depth needs an EXR stack", args.input.display()) };
-    let target = read_rgba(&args.target, None, args.input_args.max_pixels).with_context(|| format!("reading the target {}", args.target.display()))?;
+    let target = read_rgba(&args.target, None, args.input_args.max_pixels).context("--target")?;
     let ctx = Context::from_env().context("opening the Vulkan device")?;
     let renderer: Box<dyn Differentiable> = match args.renderer.as_str() {
         "drbokeh" => Box::new(DrBokehGpuGrad::new(&ctx, Model::DrBokeh, BackwardOptions::leaky())?),
@@ -94,11 +96,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         fixed_layers: args.fixed_layers.clone(),
         ..FitOptions::default()
     };
-    let bar = if args.json { ProgressBar::hidden() } else { ProgressBar::new(args.iters as u64 + 1) };
-    bar.set_style(ProgressStyle::with_template("fitting depth [{bar:40}] {pos}/{len} loss {msg} {elapsed}").unwrap_or_else(|_| ProgressStyle::default_bar()));
+    // The fit reports iteration 0 (the starting loss) to `iters` (after the last step): the
+    // bar counts steps, 0/N to N/N, and shows an ETA because a fit takes minutes.
+    let bar = if args.json { ProgressBar::hidden() } else { ProgressBar::new(args.iters as u64) };
+    bar.set_style(
+        ProgressStyle::with_template("fitting depth [{bar:40}] iteration {pos}/{len} loss {msg} {elapsed}, ETA {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    // Between the reports of iterations 1 and 2 lies exactly one step (backward + forward);
+    // the first report also holds pipeline creation, so it is not timed.
+    let mut first_step_start = None;
     let fitted = fit_depth(renderer.as_ref(), &loaded.stack, &loaded.camera.lens, &target, &options, |i, loss| {
-        bar.set_position(i as u64 + 1);
+        bar.set_position(i as u64);
         bar.set_message(format!("{loss:.5}"));
+        match (i, first_step_start) {
+            (1, _) => first_step_start = Some(Instant::now()),
+            (2, Some(start)) if !args.json => {
+                // Said once, in plain text, so it reaches logs and non-terminals too.
+                bar.suspend(|| eprintln!("{}", eta_line(args.iters, start.elapsed())));
+            }
+            _ => {}
+        }
     })?;
     bar.finish_and_clear();
     drop(renderer);
@@ -109,7 +127,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let replacements = depth_replacements(info, &fitted.stack, loaded.depth_kind);
     let edits = HeaderEdits { focus: focus.distance.filter(|_| args.fit_focus) };
     replace_channels(&args.input, &args.output, &replacements, edits, args.input_args.max_pixels)
-        .with_context(|| format!("writing {}", args.output.display()))?;
+        .context("writing -o")?;
     let (first, best) = (fitted.history.first().copied().unwrap_or(f64::NAN), fitted.history.iter().copied().fold(f64::INFINITY, f64::min));
     if args.json {
         let report = serde_json::json!({
@@ -125,6 +143,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// What is left of a fit of `iterations` steps after two, one step having taken `step`.
+fn eta_line(iterations: usize, step: std::time::Duration) -> String {
+    let per = step.as_secs_f64();
+    let rest = per * iterations.saturating_sub(2) as f64;
+    format!(
+        "fitting depth: {iterations} iterations at about {per:.1} s each; about {rest:.0} s to go \
+         (--iters N sets the count)"
+    )
 }
 
 /// The focus after fitting, as a disparity and, for a physical camera, as a distance.

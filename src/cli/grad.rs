@@ -1,6 +1,7 @@
-//! `lensblur grad FILE --grad-output G.exr -o GRADS.exr`: the backward pass on files. GRADS
-//! has the channel names of FILE, each holding dL/d(that channel as stored): colour and alpha
-//! directly (premultiplied, as stored), depth through the file's depth convention; channels
+//! `lensblur grad STACK.exr --grad-output DL_DB.exr -o GRADS.exr`: the backward pass on files.
+//! The three files keep these names in the help, examples and errors (one name per file:
+//! `--grad-output` is an input, dL/dB, despite its flag). GRADS has the channel names of STACK,
+//! each holding dL/d(that channel as stored): colour and alpha directly (premultiplied, as stored), depth through the file's depth convention; channels
 //! that do not reach the render (unselected layers, passes) are zero. The camera gradients are
 //! printed (and in `--json`).
 use std::path::{Path, PathBuf};
@@ -12,7 +13,7 @@ use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpuGrad, Model, RenderOp
 use lensblur::render::grad::StackGradients;
 use lensblur::render::{InputKind, Method};
 use lensblur::stack::fill::push_pull_adjoint;
-use lensblur::stack::{read_rgba, write_named_channels, DepthKind, Layer, StackInfo};
+use lensblur::stack::{read_rgba, OutputFormat, write_named_channels, DepthKind, Layer, StackInfo};
 use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
@@ -23,10 +24,11 @@ use super::progress;
 const EXAMPLES: &str = "\
 Examples:
   lensblur grad shot.exr --grad-output dL_dB.exr -o grads.exr --focal-length 50 --fstop 2 --focus-distance 3
-  lensblur grad shot.exr --grad-output g.exr -o grads.exr --blur 30 --focus-disparity 0.4 --leaky --json
+  lensblur grad shot.exr --grad-output dL_dB.exr -o grads.exr --blur 30 --focus-disparity 0.4 --leaky --json
 
-G (--grad-output) holds dL/dB of the rendered image in its R,G,B channels (same size as FILE;
-alpha is not differentiated). GRADS has FILE's channel names: dL/dR,G,B,A of each layer as stored
+STACK.exr is the layered input. DL_DB.exr (--grad-output, an input) holds dL/dB, the gradient of the
+loss with respect to the rendered image B, in its R,G,B channels (same size as STACK.exr; alpha is not
+differentiated). GRADS.exr (-o, the output) has STACK.exr's channel names: dL/dR,G,B,A of each layer as stored
 (premultiplied), dL/dZ through the depth convention (--depth-kind), zero for channels that do not
 reach the render (depth where alpha is 0 is filled from the covered pixels when the file is read, so
 its gradient lands on those). Multi-part inputs are written single-part as <part>.<channel>.
@@ -37,12 +39,13 @@ dL/d(f-stop) and dL/d(focal length).";
 #[command(after_help = EXAMPLES)]
 pub struct Args {
     /// Layered EXR (the stack to differentiate).
+    #[arg(value_name = "STACK.exr")]
     pub input: PathBuf,
-    /// EXR holding dL/d(rendered image) in R,G,B.
-    #[arg(long, value_name = "G.exr")]
+    /// Input: EXR holding dL/dB, the loss gradient of the rendered image B, in R,G,B.
+    #[arg(long, value_name = "DL_DB.exr")]
     pub grad_output: PathBuf,
-    /// Output EXR of gradients, named after FILE's channels.
-    #[arg(short, long)]
+    /// Output: EXR of gradients, named after STACK.exr's channels.
+    #[arg(short, long, value_name = "GRADS.exr")]
     pub output: PathBuf,
     #[command(flatten)]
     pub input_args: InputArgs,
@@ -76,8 +79,10 @@ struct CameraGradients {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     let mut inputs = input_files(&args.input, &args.input_args, &args.camera);
-    inputs.push(("the --grad-output input file", &args.grad_output));
+    inputs.push(("the --grad-output input file (dL/dB)", &args.grad_output));
+    // An output on an input is the graver mistake: said first.
     check_output_paths(&[("-o", &args.output)], &inputs)?;
+    OutputFormat::for_output(&args.output, "-o", OutputFormat::EXR)?;
     let model = match args.method {
         Method::DrBokeh => Model::DrBokeh,
         Method::DrBokehCompat => Model::Compat,
@@ -103,7 +108,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let channels = gradient_channels(info, &loaded, &grads)?;
     let origin = (info.display_window.x, info.display_window.y);
     write_named_channels(&args.output, (loaded.stack.width, loaded.stack.height), origin, channels)
-        .with_context(|| format!("writing {}", args.output.display()))?;
+        .context("writing -o")?;
     spinner.finish_and_clear();
     let camera = camera_gradients(&loaded, &grads);
     if args.json {
@@ -125,10 +130,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn read_grad_output(path: &Path, loaded: &LoadedInput, max_pixels: u64) -> anyhow::Result<Image> {
-    let mut g = read_rgba(path, None, max_pixels).with_context(|| format!("reading the output gradient {}", path.display()))?;
+    let mut g = read_rgba(path, None, max_pixels).context("--grad-output")?;
     if (g.width, g.height) != (loaded.stack.width, loaded.stack.height) {
         bail!(
-            "{}: the output gradient is {}x{} but the stack is {}x{}",
+            "{}: --grad-output (dL/dB) is {}x{} but the stack is {}x{}",
             path.display(),
             g.width,
             g.height,

@@ -1,33 +1,42 @@
 //! `lensblur info FILE`: what a stack file holds and how lensblur will interpret it.
 use std::path::PathBuf;
 
-use anyhow::Context;
-use lensblur::stack::{read_parts, read_stack, DepthKind, ReadOptions, StackInfo};
+use lensblur::stack::{is_ldr_path, ldr_size, read_ldr, read_parts, read_stack, DepthKind, ReadOptions, StackInfo};
 
 #[derive(clap::Args)]
 pub struct InfoArgs {
-    /// EXR file to describe.
+    /// EXR stack, or PNG/JPEG image (with --depth) to describe.
     pub file: PathBuf,
-    /// How the file's depth channel is encoded: z (planar, 1e10/inf = far), disparity
-    /// (normalised, 1 = near) or inverse-z (1/z, 0 = far).
-    #[arg(long, default_value = "z")]
-    pub depth_kind: DepthKind,
+    /// Depth image of a PNG/JPEG FILE (PNG, 8/16-bit grey), as `render --depth` takes it.
+    #[arg(long, value_name = "FILE")]
+    pub depth: Option<PathBuf>,
+    /// How depth is stored: z (planar, 1e10/inf = far), disparity (normalised, 1 = near) or
+    /// inverse-z (1/z, 0 = far). [default: z for EXR, disparity for a --depth image]
+    #[arg(long, value_name = "KIND")]
+    pub depth_kind: Option<DepthKind>,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
 }
 
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
-    let options = ReadOptions { depth_kind: args.depth_kind, ..ReadOptions::default() };
-    let (parts, camera) =
-        read_parts(&args.file, options.max_pixels).with_context(|| format!("reading {}", args.file.display()))?;
+    if is_ldr_path(&args.file) {
+        return ldr_info(&args);
+    }
+    if args.depth.is_some() {
+        anyhow::bail!("--depth is for PNG/JPEG inputs; {} carries its depth in its channels", args.file.display());
+    }
+    let options = ReadOptions { depth_kind: args.depth_kind.unwrap_or(DepthKind::Z), ..ReadOptions::default() };
+    // The library's errors name the file already: no "reading FILE" context on top.
+    let (parts, camera) = read_parts(&args.file, options.max_pixels)?;
     // A file that is not a usable stack is still described; the reason is reported.
     let stack = read_stack(&args.file, &options).map(|f| f.info);
     if args.json {
         let value = match &stack {
             Ok(info) => serde_json::to_value(info)?,
             Err(e) => {
-                serde_json::json!({ "path": args.file, "parts": parts, "camera": camera, "stack_error": e.to_string() })
+                let error = lensblur::error::full_message(e);
+                serde_json::json!({ "path": args.file, "parts": parts, "camera": camera, "stack_error": error })
             }
         };
         println!("{}", serde_json::to_string_pretty(&value)?);
@@ -44,10 +53,39 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     }
     match stack {
         Ok(info) => print_stack(&info),
-        Err(e) => println!("not a usable layer stack: {e}"),
+        Err(e) => println!("not a usable layer stack: {}", lensblur::error::full_message(&e)),
     }
     for (key, value) in &camera {
         println!("camera attribute {key} = {value}");
+    }
+    Ok(())
+}
+
+/// A PNG/JPEG: its size and, with `--depth`, the disparity range its depth image gives.
+fn ldr_info(args: &InfoArgs) -> anyhow::Result<()> {
+    let max_pixels = lensblur::stack::DEFAULT_MAX_PIXELS;
+    let (w, h) = ldr_size(&args.file, max_pixels)?;
+    let kind = args.depth_kind.unwrap_or(DepthKind::Disparity);
+    let disparity = match &args.depth {
+        Some(depth) => {
+            let ldr = read_ldr(&args.file, depth, kind, max_pixels)?;
+            let (lo, hi) = ldr.disparity.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &d| (lo.min(d), hi.max(d)));
+            Some((depth, [lo, hi]))
+        }
+        None => None,
+    };
+    if args.json {
+        let value = serde_json::json!({
+            "path": args.file, "width": w, "height": h, "depth": disparity.map(|(p, _)| p),
+            "depth_kind": kind, "disparity_range": disparity.map(|(_, r)| r),
+        });
+        println!("{}", serde_json::to_string_pretty(&value)?);
+        return Ok(());
+    }
+    println!("{}: PNG/JPEG image {w}x{h}, 8-bit sRGB colour, one layer (auto-layered before rendering)", args.file.display());
+    match disparity {
+        Some((depth, [lo, hi])) => println!("depth {} read as {}: disparity {lo}..{hi}", depth.display(), kind.name()),
+        None => println!("no depth: give its depth image with --depth DEPTH.png (here and to `lensblur render`)"),
     }
     Ok(())
 }

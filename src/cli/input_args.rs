@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use anyhow::{bail, Context as _};
+use anyhow::bail;
 use lensblur::camera::CameraHints;
 use lensblur::render::InputKind;
 use lensblur::stack::{
@@ -77,6 +77,11 @@ impl InputArgs {
             .map(|i| CameraHints::from_attributes(&i.camera))
             .unwrap_or_default();
         let camera = camera.resolve(stack.width, &hints)?;
+        if camera.physical.is_some() {
+            if let Some(warning) = depth_kind.physical_camera_warning() {
+                eprintln!("lensblur: warning: {warning}");
+            }
+        }
         let start = Instant::now();
         let single = info.as_ref().map_or(true, |i| i.single_image) && stack.layers.len() == 1;
         let (stack, auto_layered) = if single && input == InputKind::Layers {
@@ -139,8 +144,8 @@ impl InputArgs {
             max_pixels: self.max_pixels,
             replace_nonfinite: self.replace_nonfinite,
         };
-        let file =
-            read_stack(path, &options).with_context(|| format!("reading {}", path.display()))?;
+        // The library's errors name the file already: no "reading FILE" context on top.
+        let file = read_stack(path, &options)?;
         for warning in &file.info.warnings {
             eprintln!("lensblur: warning: {warning}");
         }

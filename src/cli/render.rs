@@ -7,7 +7,7 @@ use lensblur::image::Image;
 use lensblur::render::drbokeh::RenderOptions;
 use lensblur::render::{Lens, Method};
 use lensblur::stack::{
-    is_ldr_path, write_image, write_ldr, write_png_preview, LayerStack, SampleType, StackNaming, WriteOptions,
+    is_ldr_path, write_image, write_ldr, LayerStack, OutputFormat, SampleType, StackNaming, WriteOptions,
 };
 use lensblur::vk::Context;
 
@@ -32,15 +32,17 @@ Input: Blender multilayer EXR (<ViewLayer>.Combined.RGBA + <ViewLayer>.Depth.Z),
 layer.R,G,B,A,Z, multi-part (one layer per part), plain R,G,B,A,Z; or PNG/JPEG + --depth. A file
 holding one image is split into layers automatically for layered methods (one layer picked out of a
 stack with --layers is not). Output: EXR (plain R,G,B,A, linear, premultiplied, on the input's display
-window; --output-layer names it in the input's convention) or, for .png/.jpg, 8-bit sRGB. Files
-appear atomically; the input is never overwritten.";
+window; --output-layer names it in the input's convention) or, for .png/.jpg/.jpeg, 8-bit sRGB; the
+extension picks the format and any other is refused. Files appear atomically; the input is never
+overwritten.";
 
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
     /// Layered EXR, or PNG/JPEG with --depth.
     pub input: PathBuf,
-    /// Output file: .exr (linear) or .png/.jpg (8-bit sRGB).
+    /// Output file: .exr (linear float) or .png/.jpg/.jpeg (8-bit sRGB), by its extension;
+    /// any other extension is refused.
     #[arg(short, long)]
     pub output: PathBuf,
     #[command(flatten)]
@@ -52,7 +54,7 @@ pub struct Args {
     #[command(flatten)]
     pub method_args: MethodArgs,
     /// Rendering method: drbokeh, drbokeh-compat, multiview, vdslr, oracle, gather, scatter.
-    #[arg(long, default_value = "drbokeh", help_heading = "Output")]
+    #[arg(long, default_value = "drbokeh", help_heading = "Method")]
     pub method: Method,
     /// Write colour as a layer NAME in the input's convention: NAME.Combined.R,G,B,A for
     /// Blender multilayer, plain and PNG/JPEG inputs (what Blender's Image node reads as a
@@ -66,7 +68,7 @@ pub struct Args {
     /// input only).
     #[arg(long, help_heading = "Output")]
     pub keep_channels: bool,
-    /// Also write an 8-bit sRGB PNG preview.
+    /// Also write an 8-bit sRGB preview: .png (with alpha) or .jpg/.jpeg (over black).
     #[arg(long, value_name = "FILE.png", help_heading = "Output")]
     pub preview: Option<PathBuf>,
     /// Frame tile side in pixels (default: the largest the device's limits and memory allow).
@@ -76,7 +78,8 @@ pub struct Args {
     /// be opened), gpu (fail without one), cpu (the CPU references: slow, for checking).
     #[arg(long, value_enum, default_value = "auto", help_heading = "Output")]
     pub device: DeviceChoice,
-    /// Print a JSON report (layers and their order, CoC range, timings) on stdout.
+    /// Print a JSON report (camera and aperture, layers and their order, CoC range, timings) on
+    /// stdout.
     #[arg(long, help_heading = "Output")]
     pub json: bool,
 }
@@ -93,6 +96,10 @@ struct Report<'a> {
     k_px: f32,
     focus_disparity: f32,
     camera: Option<lensblur::camera::PhysicalCamera>,
+    /// The camera parameters taken from the input's header (the rest came from flags).
+    camera_from_header: Vec<&'static str>,
+    /// `--aperture` as given.
+    aperture: &'a str,
     depth_kind: lensblur::stack::DepthKind,
     auto_layered: bool,
     /// Front to back.
@@ -122,7 +129,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let inputs = input_files(&args.input, &args.input_args, &args.camera);
     let mut outputs = vec![("-o", args.output.as_path())];
     outputs.extend(args.preview.as_deref().map(|p| ("--preview", p)));
+    // An output on an input is the graver mistake: said before the format.
     check_output_paths(&outputs, &inputs)?;
+    let format = OutputFormat::for_output(&args.output, "-o", OutputFormat::ALL)?;
+    if let Some(preview) = &args.preview {
+        OutputFormat::for_output(preview, "--preview", OutputFormat::LDR)?;
+    }
     if args.keep_channels && is_ldr_path(&args.input) {
         anyhow::bail!(
             "--keep-channels copies the other channels of an EXR input; {} is a PNG/JPEG and has none \
@@ -162,7 +174,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ctx.finish()?;
     }
     let start = Instant::now();
-    let layers = layer_reports(&loaded.stack, &rendered.lens);
+    // As rendered: after --near-blur/--far-blur/--max-blur, which remap the disparity.
+    let layers = layer_reports(&rendered.prepared, &rendered.lens);
     args.character.write_debug_views(&rendered, settings.focus(args.method))?;
     // The stack is done with: free it before the write copies the image into EXR channels,
     // so the host never holds the stack, the image and the channels at once.
@@ -170,7 +183,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     drop(prepared);
     drop(std::mem::take(&mut loaded.stack.layers));
     spinner.set_message(format!("writing {}", args.output.display()));
-    write_output(&args, &loaded, &image)?;
+    write_output(&args, format, &loaded, &image)?;
     let write_time = start.elapsed();
     spinner.finish_and_clear();
     let timings = Timings {
@@ -227,8 +240,8 @@ fn open_device(choice: DeviceChoice, method: Method) -> anyhow::Result<Option<Co
     }
 }
 
-fn write_output(args: &Args, loaded: &LoadedInput, image: &Image) -> anyhow::Result<()> {
-    if is_ldr_path(&args.output) {
+fn write_output(args: &Args, format: OutputFormat, loaded: &LoadedInput, image: &Image) -> anyhow::Result<()> {
+    if format != OutputFormat::Exr {
         if args.output_layer.is_some() || args.keep_channels || args.half {
             anyhow::bail!(
                 "--output-layer, --keep-channels and --half apply to EXR output; {} is 8-bit",
@@ -254,10 +267,10 @@ fn write_output(args: &Args, loaded: &LoadedInput, image: &Image) -> anyhow::Res
             extra_channels,
             camera: loaded.camera.physical,
         };
-        write_image(&args.output, image, &options).with_context(|| format!("writing {}", args.output.display()))?;
+        write_image(&args.output, image, &options).context("writing -o")?;
     }
     if let Some(preview) = &args.preview {
-        write_png_preview(preview, image).with_context(|| format!("writing {}", preview.display()))?;
+        write_ldr(preview, image).context("writing --preview")?;
     }
     Ok(())
 }
@@ -283,6 +296,8 @@ fn report<'a>(
         k_px: lens.coc.k_px,
         focus_disparity: lens.coc.focus_disparity,
         camera: loaded.camera.physical,
+        camera_from_header: loaded.camera.from_header.clone(),
+        aperture: &args.camera.aperture,
         depth_kind: loaded.depth_kind,
         auto_layered: loaded.auto_layered.is_some(),
         layers,
@@ -333,8 +348,28 @@ fn print_summary(report: &Report) {
         report.timings_ms.total,
         if report.auto_layered { " (auto-layered from one image)" } else { "" },
     );
+    println!("{}", describe_camera(report));
 }
 
+/// The lens the render used, and where its values came from: flags, or the input's header
+/// (a stamped file renders without camera flags, and the user should see what it held).
+fn describe_camera(report: &Report) -> String {
+    let lens = match &report.camera {
+        Some(c) => format!(
+            "camera {} mm, f/{}, focus distance {}, sensor width {} mm",
+            c.focal_length_mm, c.fstop, c.focus_distance, c.sensor_width_mm
+        ),
+        None => format!("normalised model: K = {} px, focus disparity {}", report.k_px, report.focus_disparity),
+    };
+    let source = match report.camera_from_header.as_slice() {
+        [] => String::new(),
+        names => format!(" ({} from {}'s header)", names.join(", "), report.input.display()),
+    };
+    format!("{lens}, aperture {}{source}", report.aperture)
+}
+
+/// Milliseconds to the microsecond: `as_secs_f64() * 1e3` prints binary noise such as
+/// `0.00009999999999999999`.
 fn ms(d: Duration) -> f64 {
-    d.as_secs_f64() * 1e3
+    d.as_micros() as f64 / 1e3
 }

@@ -174,8 +174,8 @@ pub(super) fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
     if !is_exr {
         return Err(Error::input(
             path,
-            "not an OpenEXR file (missing EXR magic number; empty or another format?); give a layered \
-             EXR, or a PNG/JPEG with --depth",
+            "not an OpenEXR file (missing EXR magic number; empty or another format?); lensblur reads \
+             layered EXRs, and PNG/JPEG images with their depth image (--depth DEPTH.png)",
         ));
     }
     let meta = MetaData::read_from_file(path, false).map_err(|e| {

@@ -2,7 +2,7 @@
 //! before any blur (blurring encoded values darkens highlights) and encoded again on output.
 use std::path::Path;
 
-use super::DepthKind;
+use super::{DepthKind, OutputFormat};
 use crate::atomic_file::write_atomically;
 use crate::image::Image;
 use crate::{Error, Result};
@@ -45,7 +45,7 @@ fn reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::
 }
 
 /// Width and height from the file's header alone, refused above `max_pixels`.
-fn header_size(path: &Path, max_pixels: u64) -> Result<(u32, u32)> {
+pub fn header_size(path: &Path, max_pixels: u64) -> Result<(u32, u32)> {
     let (w, h) = reader(path)?
         .into_dimensions()
         .map_err(|e| Error::input(path, format!("cannot read the image header: {e}")))?;
@@ -131,11 +131,12 @@ pub fn is_ldr_path(path: &Path) -> bool {
     ldr_format(path).is_some()
 }
 
+/// The extension rule is [`OutputFormat`]'s, so inputs and outputs agree on what a PNG is.
 fn ldr_format(path: &Path) -> Option<image::ImageFormat> {
-    match path.extension()?.to_str()?.to_ascii_lowercase().as_str() {
-        "png" => Some(image::ImageFormat::Png),
-        "jpg" | "jpeg" => Some(image::ImageFormat::Jpeg),
-        _ => None,
+    match OutputFormat::from_extension(path)? {
+        OutputFormat::Png => Some(image::ImageFormat::Png),
+        OutputFormat::Jpeg => Some(image::ImageFormat::Jpeg),
+        OutputFormat::Exr => None,
     }
 }
 

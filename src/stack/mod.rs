@@ -14,14 +14,16 @@ pub mod fill;
 pub mod info;
 pub mod ldr;
 pub mod naming;
+pub mod output_format;
 
 pub use autolayer::{split_into_layers, AutoLayerOptions};
 pub use exr_read::{known_depth_weight, read_parts, read_rgba, read_stack, ReadOptions, DEFAULT_MAX_PIXELS};
 pub use exr_replace::{replace_channels, ChannelReplacement, HeaderEdits};
 pub use exr_write::{write_image, write_named_channels, write_stack, StackNaming, StackWriteOptions, WriteOptions};
 pub use info::{ExtraChannel, LayerInfo, SampleType, StackFile, StackInfo, Window};
-pub use ldr::{is_ldr_path, read_ldr, write_ldr, write_png_preview, LdrInput};
+pub use ldr::{header_size as ldr_size, is_ldr_path, read_ldr, write_ldr, write_png_preview, LdrInput};
 pub use naming::Convention;
+pub use output_format::OutputFormat;
 
 use crate::image::Image;
 use crate::{Error, Result};
@@ -63,6 +65,21 @@ impl DepthKind {
             DepthKind::Disparity => "disparity",
             DepthKind::InverseZ => "inverse-z",
         }
+    }
+
+    /// Why this depth encoding cannot drive a physical camera, if it cannot. A physical camera
+    /// focuses at a distance in scene units and needs disparity in 1/scene-units; normalised
+    /// disparity has no scale, so the blur it gives is arbitrary (a 16-bit depth PNG read so
+    /// blurs a few pixels at most) and nothing else would tell the user.
+    pub fn physical_camera_warning(self) -> Option<String> {
+        (self == DepthKind::Disparity).then(|| {
+            "depth is read as normalised disparity (--depth-kind disparity, the default for a --depth \
+             image), which has no scene scale, but the camera is physical (--focal-length, --fstop, \
+             --focus-distance in scene units), so the blur amount is meaningless. Say what the depth \
+             holds: --depth-kind z (distance in scene units) or --depth-kind inverse-z (1/distance); \
+             or keep disparity and use the normalised model (--blur K --focus-disparity DF)"
+                .to_string()
+        })
     }
 
     /// Converts one stored depth value to the renderer's disparity.

@@ -60,8 +60,7 @@ impl CacheIdentity {
 
 /// The default folder: `$XDG_CACHE_HOME/lensblur`, else `$HOME/.cache/lensblur`.
 pub(crate) fn default_dir() -> Option<PathBuf> {
-    let nonempty = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty()).map(PathBuf::from);
-    nonempty("XDG_CACHE_HOME").or_else(|| nonempty("HOME").map(|home| home.join(".cache"))).map(|d| d.join("lensblur"))
+    crate::cache_dir::user_cache_dir()
 }
 
 pub(crate) struct PipelineCache {

@@ -6,6 +6,11 @@ temporary EXR, runs the `lensblur` command-line tool, and loads the result as th
 `lensblur_result`. Works in the UI and in `blender -b`:
 
     bpy.ops.lensblur.defocus(layers="L_*", exclude="L_fx", save_path="//defocus.exr")
+
+Debian's and Ubuntu's Blender are built without OpenImageDenoise: rendering the layers with
+denoising on fails ("Build without OpenImageDenoiser"); turn Render > Sampling > Denoise off
+(scene.cycles.use_denoising = False). In a fresh profile the add-ons folder does not exist yet:
+create it (mkdir -p ~/.config/blender/<version>/scripts/addons) before linking this folder.
 """
 
 bl_info = {

@@ -7,6 +7,7 @@ focal length and the sensor width, and a planar focus distance in scene units. T
 and its settings describe the lens to simulate.
 """
 import math
+import struct
 
 from .errors import LensblurError
 
@@ -48,8 +49,19 @@ def camera_flags(scene):
 
 
 def fmt(value):
-    # repr round-trips a Python float exactly; the CLI parses it as f32.
-    return repr(float(value))
+    """The shortest decimal that reads back as the same 32-bit float. Blender stores camera
+    settings as f32 and hands them to Python widened to f64, whose repr prints the widening
+    noise (an f-stop of 1.4 as 1.399999976158142); lensblur parses flags as f32, so the
+    shortest f32 spelling loses nothing. Negative zero prints as 0."""
+    value = float(value) + 0.0  # -0.0 + 0.0 is +0.0
+    as_f32 = struct.unpack("f", struct.pack("f", value))[0]
+    for digits in range(1, 10):
+        text = f"{value:.{digits}g}"
+        short = float(text)
+        if struct.unpack("f", struct.pack("f", short))[0] == as_f32:
+            # Whole numbers without exponent or ".0" (5e+01 -> 50), others as Python spells them.
+            return str(int(short)) if short.is_integer() and abs(short) < 1e15 else repr(short)
+    return repr(value)
 
 
 def effective_sensor_width(scene, cam):
@@ -89,7 +101,7 @@ def aperture_spec(dof):
     if dof.aperture_blades < 3 or dof.aperture_blades > MAX_BLADES:
         return "disk"
     rotation = -math.degrees(dof.aperture_rotation)
-    return f"polygon:{dof.aperture_blades}:rotation={rotation:.6g}"
+    return f"polygon:{dof.aperture_blades}:rotation={fmt(rotation)}"
 
 
 def warnings_for(scene, dof):

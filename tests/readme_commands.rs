@@ -1,0 +1,165 @@
+//! The README is what a new user follows from a fresh clone (issue 27): every `lensblur`
+//! command it shows must run as written. Commands on the quick start's `example-out/` (and
+//! any other quick one) are run, in README order, in a scratch folder with `lensblur` on PATH
+//! as `cargo install --path .` puts it; those that take minutes (benchmarks) or name a
+//! placeholder (`SCENE`, `DIR`) are checked for a valid subcommand and flags by running them
+//! with `--help` appended (clap rejects an unknown flag before it reaches `--help`). Also:
+//! the install step comes before the first command, its links and the toolchain note exist,
+//! the files its commands leave in a checkout are ignored, and the method table covers every
+//! method.
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use lensblur::render::Method;
+
+const README: &str = include_str!("../README.md");
+const REPO: &str = env!("CARGO_MANIFEST_DIR");
+
+/// One command as a user would type it, with the README line it starts on.
+#[derive(Debug)]
+struct ReadmeCommand {
+    line: usize,
+    text: String,
+}
+
+/// The commands in the README's indented code blocks that start with `lensblur` or run it
+/// through `cargo run --release --` (the quick start, which is `lensblur` once built). A
+/// trailing `\` joins the next line; two or more spaces end the command (the tour's
+/// descriptions follow them on the same line).
+fn readme_commands() -> Vec<ReadmeCommand> {
+    let lines: Vec<&str> = README.lines().collect();
+    let command_part = |line: &str| line.trim().split("  ").next().unwrap_or("").trim().to_string();
+    let mut commands = Vec::new();
+    let mut i = 0;
+    while i < lines.len() {
+        let line = lines[i];
+        let start = i;
+        i += 1;
+        let Some(code) = line.strip_prefix("    ") else { continue };
+        let mut text = command_part(code);
+        if let Some((_, args)) = text.split_once("cargo run --release -- ") {
+            text = format!("lensblur {args}");
+        }
+        if !text.starts_with("lensblur ") {
+            continue;
+        }
+        while let Some(head) = text.strip_suffix('\\') {
+            text = format!("{} {}", head.trim_end(), command_part(lines[i]));
+            i += 1;
+        }
+        commands.push(ReadmeCommand { line: start + 1, text });
+    }
+    commands
+}
+
+/// Whether running a command fully would take minutes or needs a file the README leaves to
+/// the reader (an upper-case placeholder such as `SCENE` or `DIR`).
+fn check_flags_only(command: &str) -> bool {
+    let words: Vec<&str> = command.split_whitespace().collect();
+    let slow = matches!(words.get(1), Some(&"bench") | Some(&"bench-large") | Some(&"bench-depth"));
+    let placeholder = words.iter().any(|w| w.len() > 1 && w.chars().all(|c| c.is_ascii_uppercase()));
+    slow || placeholder
+}
+
+/// Runs `command` with bash in `dir`, `lensblur` on PATH, validation on.
+fn shell(dir: &Path, command: &str) -> Output {
+    let bin_dir = Path::new(env!("CARGO_BIN_EXE_lensblur")).parent().unwrap();
+    let path = format!("{}:{}", bin_dir.display(), std::env::var("PATH").unwrap_or_default());
+    Command::new("bash")
+        .args(["-c", command])
+        .current_dir(dir)
+        .env("PATH", path)
+        .env("LENSBLUR_VALIDATION", "1")
+        .env_remove("LENSBLUR_DEVICE")
+        .output()
+        .unwrap()
+}
+
+fn succeeded(command: &ReadmeCommand, what: &str, output: &Output) -> String {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "README line {}: `{what}` failed:\n{stderr}", command.line);
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+#[test]
+fn every_readme_command_runs_as_written() {
+    let dir = common::temp_dir("readme", "commands");
+    let commands = readme_commands();
+    assert_eq!(
+        commands.first().map(|c| c.text.as_str()),
+        Some("lensblur example -o example-out"),
+        "the quick start comes first and makes example-out/"
+    );
+    let (mut ran, mut checked) = (Vec::new(), Vec::new());
+    for command in &commands {
+        assert!(!command.text.contains(['[', '<']), "README line {}: placeholder syntax in `{}`", command.line, command.text);
+        if check_flags_only(&command.text) {
+            succeeded(command, &command.text, &shell(&dir, &format!("{} --help", command.text)));
+            checked.push(command.text.clone());
+            continue;
+        }
+        let stdout = succeeded(command, &command.text, &shell(&dir, &command.text));
+        // The example ends with the same render as a command line: it must run as printed.
+        if let Some((_, printed)) = stdout.split_once("same render from the command line: ") {
+            let printed = printed.lines().next().unwrap_or_default();
+            succeeded(command, printed, &shell(&dir, printed));
+        }
+        ran.push(command.text.clone());
+    }
+    // Guards against the extraction silently finding nothing: the tour's commands on the
+    // example (render, grad, fit-depth, info, the lens-character render) all ran.
+    let on_example = ran.iter().filter(|c| c.contains("example-out/")).count();
+    assert!(on_example >= 5, "only {on_example} README commands ran on example-out: {ran:#?}");
+    assert!(checked.len() >= 5, "flag checks: {checked:#?}");
+    for output in ["out.exr", "grads.exr", "fitted.exr", "character.exr", "dbg/coc.png"] {
+        assert!(dir.join("example-out").join(output).is_file(), "example-out/{output} was not written");
+    }
+}
+
+#[test]
+fn the_readme_says_how_to_get_lensblur_on_path_before_using_it() {
+    let install = README.find("cargo install --path .").expect("the README says how to install the binary");
+    let first_use = README.find("\n    lensblur ").expect("the README uses lensblur");
+    assert!(install < first_use, "`cargo install --path .` comes after the first `lensblur` command");
+}
+
+/// Relative links in the README and the paths `.cargo/config.toml` refers a reader to exist in
+/// the repository (the config used to point at a file outside it).
+#[test]
+fn the_readme_and_cargo_config_point_only_at_files_in_the_repository() {
+    let links = README.split("](").skip(1).filter_map(|rest| rest.split(')').next());
+    for link in links.filter(|l| !l.contains("://") && !l.starts_with('#')) {
+        assert!(Path::new(REPO).join(link).exists(), "README links to missing {link}");
+    }
+    let config = std::fs::read_to_string(Path::new(REPO).join(".cargo/config.toml")).unwrap();
+    assert!(!config.contains("../"), ".cargo/config.toml refers outside the repository");
+    assert!(config.contains("docs/TOOLCHAIN.md"), ".cargo/config.toml says where the link recipe is explained");
+    let toolchain = std::fs::read_to_string(Path::new(REPO).join("docs/TOOLCHAIN.md")).unwrap();
+    for needle in ["shaderc_combined", "libshaderc-dev", "order"] {
+        assert!(toolchain.contains(needle), "docs/TOOLCHAIN.md does not explain '{needle}'");
+    }
+}
+
+/// What the README's commands write inside a checkout stays out of `git status`.
+#[test]
+fn files_the_readme_makes_in_a_checkout_are_ignored() {
+    for path in ["example-out/render.exr", "plugins/blender/lensblur.zip"] {
+        let status = Command::new("git").args(["check-ignore", "-q", path]).current_dir(REPO).status().unwrap();
+        assert!(status.success(), "{path} is not in .gitignore");
+    }
+}
+
+/// The "which method for which input" table names every method, so none is left to trial.
+#[test]
+fn the_method_table_covers_every_method() {
+    let table: Vec<&str> =
+        README.lines().skip_while(|l| !l.starts_with("Which method for which input")).skip(1).skip_while(|l| !l.starts_with('|')).take_while(|l| l.starts_with('|')).collect();
+    assert!(table.len() > 3, "no method table in the README");
+    let text = table.join("\n");
+    for method in Method::ALL {
+        assert!(text.contains(&format!("`{}`", method.name())), "the method table does not mention `{}`", method.name());
+    }
+    assert!(text.contains("thin near structures"), "the table says which method suits thin near structures");
+}
