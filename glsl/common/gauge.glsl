@@ -5,21 +5,26 @@
 // - a polygon's gauge is max_i p . n_i over its edge normals n_i scaled by 1 / cos(pi / n)
 //   (the nearest normal gives len * cos(folded)), blended toward len by roundness; the
 //   mirrored aperture's (a near source's) is max_i -p . n_i = -min_i p . n_i, from the same
-//   products. An even polygon is symmetric: half its normals, |p . n_i|. The normals are
-//   stepped by the sector's rotation rather than kept in an array: a private array indexed in
-//   a loop is memory on lavapipe, the rotation stays in registers.
+//   products. An even polygon is symmetric: half its normals, |p . n_i|.
 // - an ellipse's is |(p . a, p . b)| with a, b its axes scaled by 1 and the squeeze.
 // Constants: `closed_form_gauge` in src/camera/aperture_rows.rs (f64), or gauge_constants
-// below (in the shader's f32) where no table carries them.
+// below (in the shader's f32) where no table carries them; the shape itself is a
+// specialization constant (`gauge_specialization` in src/render/drbokeh/gpu.rs).
 #ifndef LENSBLUR_GAUGE_GLSL
 #define LENSBLUR_GAUGE_GLSL
 
 #include "aperture.glsl"
 
-vec2 gauge_first;  // polygon: first edge normal / cos(pi / n); ellipse: its long axis
-vec2 gauge_second; // polygon: (cos, sin) of the sector angle; ellipse: short axis * squeeze
-int gauge_steps;   // polygon: normals visited (n, or n / 2 when even); 0: the ellipse
-bool gauge_even;
+// The shape, a specialization constant (ComputePipeline::specialized): 0 = ellipse, else the
+// polygon's blades. As a literal the loops over the normals unroll and the normals stay in
+// registers (a loop with a run-time bound is ~1.5x slower on lavapipe).
+layout(constant_id = 0) const int GAUGE_BLADES = 6;
+const bool GAUGE_EVEN = GAUGE_BLADES % 2 == 0;
+// Normals visited: n, or n / 2 for an even polygon (|p . n_i|); 0 for the ellipse.
+const int GAUGE_STEPS = GAUGE_BLADES < 3 ? 0 : (GAUGE_EVEN ? GAUGE_BLADES / 2 : GAUGE_BLADES);
+const int GAUGE_MAX_STEPS = 16; // Aperture::polygon's limit
+
+vec2 gauge_normals[GAUGE_MAX_STEPS]; // polygon: edge normals / cos(pi / n); ellipse: [0], [1] its axes
 float gauge_roundness;
 
 // `closed_form_gauge` of Aperture::gpu_params (shape, rotation, roundness or squeeze, kernel).
@@ -34,18 +39,20 @@ vec4 gauge_constants(vec4 aperture) {
     return vec4(first, cos(sector), sin(sector));
 }
 
-// Once per invocation, before any gauge below.
+// Once per invocation, before any gauge below: the normals from the first one and the sector's
+// rotation (constants.zw).
 void gauge_setup(vec4 aperture, vec4 constants) {
-    gauge_first = constants.xy;
-    gauge_second = constants.zw;
-    int blades = int(aperture.x);
-    gauge_even = blades % 2 == 0;
-    gauge_steps = blades < 3 ? 0 : (gauge_even ? blades / 2 : blades);
-    gauge_roundness = blades < 3 ? 0.0 : aperture.z;
-}
-
-vec2 gauge_rotate(vec2 normal) {
-    return vec2(normal.x * gauge_second.x - normal.y * gauge_second.y, normal.x * gauge_second.y + normal.y * gauge_second.x);
+    gauge_roundness = GAUGE_STEPS == 0 ? 0.0 : aperture.z;
+    if (GAUGE_STEPS == 0) {
+        gauge_normals[0] = constants.xy;
+        gauge_normals[1] = constants.zw;
+        return;
+    }
+    vec2 normal = constants.xy;
+    for (int i = 0; i < GAUGE_STEPS; ++i) {
+        gauge_normals[i] = normal;
+        normal = vec2(normal.x * constants.z - normal.y * constants.w, normal.x * constants.w + normal.y * constants.z);
+    }
 }
 
 vec2 gauge_round(vec2 poly, vec2 p) {
@@ -58,19 +65,17 @@ vec2 gauge_round(vec2 poly, vec2 p) {
 // (G(p), G(-p)): the aperture's gauge of p and its mirror's (aperture_coords mirrors the
 // aperture for sources nearer than focus).
 vec2 gauge_pair(vec2 p) {
-    if (gauge_steps == 0) {
-        return vec2(length(vec2(dot(p, gauge_first), dot(p, gauge_second))));
+    if (GAUGE_STEPS == 0) {
+        return vec2(length(vec2(dot(p, gauge_normals[0]), dot(p, gauge_normals[1]))));
     }
-    vec2 normal = gauge_first;
     float most = -1.0e30;
     float least = 1.0e30;
-    for (int i = 0; i < gauge_steps; ++i) {
-        float d = dot(p, normal);
+    for (int i = 0; i < GAUGE_STEPS; ++i) {
+        float d = dot(p, gauge_normals[i]);
         most = max(most, d);
         least = min(least, d);
-        normal = gauge_rotate(normal);
     }
-    return gauge_round(gauge_even ? vec2(max(most, -least)) : vec2(most, -least), p);
+    return gauge_round(GAUGE_EVEN ? vec2(max(most, -least)) : vec2(most, -least), p);
 }
 
 #endif

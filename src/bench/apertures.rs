@@ -59,17 +59,25 @@ pub struct ApertureTiming {
     pub ratio_to_blender: Option<f64>,
 }
 
-/// Times every case on the defocused comparison frame written into `dir`; Blender's Defocus
-/// too where it has the shape and `blender` is set. `progress` gets each finished case.
+/// Times the disk and every `wanted` case on the defocused comparison frame written into
+/// `dir`; Blender's Defocus too where it has the shape and `blender` is set. `progress` gets
+/// each finished case.
 pub fn compare_apertures(
     exe: &Path,
     dir: &Path,
     repeats: usize,
     blender: bool,
+    wanted: &dyn Fn(&str) -> bool,
     progress: &dyn Fn(&ApertureTiming),
 ) -> Result<Vec<ApertureTiming>> {
     let inputs = comparison_inputs(dir, Focus::FullyDefocused)?;
-    let cases = aperture_cases(&dir.join("aperture-star.png"))?;
+    let mut cases = aperture_cases(&dir.join("aperture-star.png"))?;
+    // The disk (first) is every ratio's reference.
+    let mut index = 0;
+    cases.retain(|case| {
+        index += 1;
+        index == 1 || wanted(&case.name)
+    });
     let output: PathBuf = dir.join("aperture-case.exr");
     let mut timings: Vec<ApertureTiming> = Vec::new();
     for case in cases {

@@ -40,8 +40,8 @@ pub struct PerfFlags {
     /// Blender's Defocus with the same shape where it has one).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "kernel,backward,end-to-end")]
     pub groups: Vec<PerfGroup>,
-    /// Comma-separated substrings; run the kernel and backward cases whose name contains one
-    /// (e.g. 1024-2l-coc32, backward-256).
+    /// Comma-separated substrings; run the kernel, backward and aperture cases whose name
+    /// contains one (e.g. 1024-2l-coc32, backward-256, polygon; the apertures' disk always runs).
     #[arg(long)]
     pub cases: Option<String>,
     /// Renders per kernel and case; the median is reported (end-to-end: processes, at least 5).
@@ -95,7 +95,7 @@ pub fn run_suite(quick: bool, json: Option<&Path>, flags: &PerfFlags) -> anyhow:
         report["blender"] = serde_json::to_value(blender_group(&focuses, &flags.out, flags.repeats)?)?;
     }
     if group(PerfGroup::Apertures) {
-        report["apertures"] = serde_json::to_value(apertures_group(&flags.out, flags.repeats, group(PerfGroup::Blender))?)?;
+        report["apertures"] = serde_json::to_value(apertures_group(&flags.out, flags.repeats, group(PerfGroup::Blender), &wanted)?)?;
     }
     let load_after = load_average();
     println!("load average after: {}", format_load(load_after));
@@ -190,7 +190,7 @@ fn blender_group(focuses: &[Focus], out: &Path, repeats: usize) -> anyhow::Resul
     Ok(results)
 }
 
-fn apertures_group(out: &Path, repeats: usize, blender: bool) -> anyhow::Result<Vec<ApertureTiming>> {
+fn apertures_group(out: &Path, repeats: usize, blender: bool, wanted: &dyn Fn(&str) -> bool) -> anyhow::Result<Vec<ApertureTiming>> {
     let exe = std::env::current_exe().context("finding the lensblur executable")?;
     println!("apertures: `lensblur render` of the 1024^2 five-layer frame (CoC up to 40 px, defocused), medians of {} processes", repeats.max(1));
     println!("{:<26} {:>10} {:>8} {:>10} {:>11} {:>10}", "aperture", "lensblur s", "/ disk", "Blender", "Blender s", "/ Blender");
@@ -201,7 +201,7 @@ fn apertures_group(out: &Path, repeats: usize, blender: bool) -> anyhow::Result<
         };
         println!("{:<26} {:>10.3} {:>8.2} {:>10} {:>11} {:>10}", t.name, t.lensblur_median_seconds, t.ratio_to_disk, bokeh, seconds, ratio);
     };
-    compare_apertures(&exe, out, repeats, blender, &row).context("timing the aperture cases")
+    compare_apertures(&exe, out, repeats, blender, wanted, &row).context("timing the aperture cases")
 }
 
 fn print_row(r: &PerfResult) {

@@ -33,4 +33,4 @@ pub mod validation;
 pub use buffer::{Binding, Buffer};
 pub use command::CommandBatch;
 pub use device::{list_devices, Context, ContextOptions, DeviceInfo, MemoryBudget};
-pub use pipeline::{ComputePipeline, Slot, TexelFormat};
+pub use pipeline::{ComputePipeline, PipelineVariants, Slot, TexelFormat};

@@ -84,6 +84,13 @@ impl ComputePipeline {
 
     /// A pipeline whose binding i is `slots[i]` (set 0).
     pub fn with_slots(ctx: &Context, shader: &ShaderSource, slots: &[Slot], push_size: usize) -> Result<Self> {
+        Self::specialized(ctx, shader, slots, push_size, &[])
+    }
+
+    /// [`Self::with_slots`] with the shader's specialization constants `constant_id = i` set to
+    /// `constants[i]` (32-bit ints or bools): the driver compiles the shader with them as
+    /// literals, so loops over them unroll.
+    pub fn specialized(ctx: &Context, shader: &ShaderSource, slots: &[Slot], push_size: usize, constants: &[u32]) -> Result<Self> {
         let device = &ctx.device;
         check_slots(shader, slots)?;
         let limit = device.info.max_push_constants_size.min(128) as usize;
@@ -125,10 +132,18 @@ impl ComputePipeline {
         let module_info = vk::ShaderModuleCreateInfo::default().code(shader.spirv);
         // SAFETY: SPIR-V produced by shaderc at build time.
         let module = unsafe { device.raw.create_shader_module(&module_info, None) }.call("vkCreateShaderModule")?;
-        let stage = vk::PipelineShaderStageCreateInfo::default()
+        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
+            .map(|i| vk::SpecializationMapEntry::default().constant_id(i).offset(4 * i).size(4))
+            .collect();
+        let data: &[u8] = bytemuck::cast_slice(constants);
+        let specialization = vk::SpecializationInfo::default().map_entries(&entries).data(data);
+        let mut stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
             .name(c"main");
+        if !constants.is_empty() {
+            stage = stage.specialization_info(&specialization);
+        }
         let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(inner.layout);
         // SAFETY: module, layout and cache are live; the module may be destroyed once the pipeline exists.
         let created = unsafe { device.raw.create_compute_pipelines(device.pipeline_cache.raw, &[info], None) };
@@ -149,6 +164,38 @@ impl ComputePipeline {
     pub fn groups_for(&self, extent: [u32; 3]) -> [u32; 3] {
         let local = self.0.shader.local_size;
         [0, 1, 2].map(|i| extent[i].div_ceil(local[i]).max(1))
+    }
+}
+
+/// One shader's pipelines, specialized per set of constants ([`ComputePipeline::specialized`])
+/// and created on first use: a renderer holds one and asks for the variant a render needs.
+pub struct PipelineVariants {
+    ctx: Context,
+    shader: ShaderSource,
+    slots: Vec<Slot>,
+    push_size: usize,
+    made: std::sync::Mutex<Vec<(Vec<u32>, ComputePipeline)>>,
+}
+
+impl PipelineVariants {
+    pub fn new(ctx: &Context, shader: &ShaderSource, slots: &[Slot], push_size: usize) -> Result<Self> {
+        check_slots(shader, slots)?;
+        Ok(Self { ctx: ctx.clone(), shader: *shader, slots: slots.to_vec(), push_size, made: Default::default() })
+    }
+
+    /// The pipeline specialized with `constants`, created the first time they are asked for.
+    pub fn get(&self, constants: &[u32]) -> Result<ComputePipeline> {
+        let mut made = self.made.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if let Some((_, pipeline)) = made.iter().find(|(c, _)| c == constants) {
+            return Ok(pipeline.clone());
+        }
+        let pipeline = ComputePipeline::specialized(&self.ctx, &self.shader, &self.slots, self.push_size, constants)?;
+        made.push((constants.to_vec(), pipeline.clone()));
+        Ok(pipeline)
+    }
+
+    pub fn shader(&self) -> &ShaderSource {
+        &self.shader
     }
 }
 

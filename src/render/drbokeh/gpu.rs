@@ -12,7 +12,7 @@ use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tiling::Rect;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, Slot, TexelFormat};
 use crate::Result;
 
 /// Bytes per read pixel of one layer: uploaded rgba + disparity, prepass P / A + (s, alpha),
@@ -33,7 +33,8 @@ pub struct DrBokehGpu {
     /// The optimised kernel's span paths: disk (default model, disk aperture) and gauge
     /// (default model, polygon or ellipse); `None` for the baseline.
     layer_disk: Option<ComputePipeline>,
-    layer_gauge: Option<ComputePipeline>,
+    /// Specialized per shape (blades, or the ellipse), made on first use.
+    layer_gauge: Option<PipelineVariants>,
     composite: ComputePipeline,
 }
 
@@ -144,7 +145,7 @@ impl DrBokehGpu {
             LayerKernel::Optimised | LayerKernel::OptimisedNoInterior => (
                 ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER, &LAYER_SLOTS, push)?,
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_DISK, &LAYER_SLOTS, push)?),
-                Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_GAUGE, &LAYER_GAUGE_SLOTS, push)?),
+                Some(PipelineVariants::new(ctx, &shaders::DRBOKEH_LAYER_GAUGE, &LAYER_GAUGE_SLOTS, push)?),
             ),
             LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None),
         };
@@ -234,9 +235,13 @@ impl DrBokehGpu {
             self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
         // The layer pipeline, whether it sums row spans (from the block sums), and how many of
         // the bindings below it declares.
+        let gauge;
         let (layer_pipeline, spans, binding_count) = match (params.lens.path(params.model), &self.layer_disk, &self.layer_gauge) {
             (AperturePath::Disk, Some(disk), _) => (disk, true, LAYER_SLOTS.len()),
-            (AperturePath::Gauge, _, Some(gauge)) => (gauge, true, LAYER_GAUGE_SLOTS.len()),
+            (AperturePath::Gauge, _, Some(variants)) => {
+                gauge = variants.get(&params.lens.gauge_specialization())?;
+                (&gauge, true, LAYER_GAUGE_SLOTS.len())
+            }
             _ if self.kernel == LayerKernel::Baseline => (&self.layer, false, 7),
             _ => (&self.layer, false, LAYER_SLOTS.len()),
         };

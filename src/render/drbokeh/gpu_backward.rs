@@ -24,7 +24,7 @@ use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tiling::Rect;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, Slot, TexelFormat};
 use crate::{Error, Result};
 
 /// The Dr.Bokeh forward and backward pipelines on one device, for one model and options.
@@ -39,8 +39,8 @@ pub struct DrBokehGpuGrad {
     source_disk: ComputePipeline,
     /// The same for a polygon or ellipse ([`AperturePath::Gauge`]): the disk path's code with
     /// the shape's closed-form gauge.
-    own_gauge: ComputePipeline,
-    source_gauge: ComputePipeline,
+    own_gauge: PipelineVariants,
+    source_gauge: PipelineVariants,
     pub model: Model,
     pub options: BackwardOptions,
 }
@@ -103,8 +103,8 @@ impl DrBokehGpuGrad {
             source: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE, &SOURCE_SLOTS, push)?,
             own_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_DISK, &OWN_SLOTS, push)?,
             source_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_DISK, &SOURCE_SLOTS, push)?,
-            own_gauge: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_GAUGE, &OWN_SLOTS, push)?,
-            source_gauge: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_GAUGE, &SOURCE_SLOTS, push)?,
+            own_gauge: PipelineVariants::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN_GAUGE, &OWN_SLOTS, push)?,
+            source_gauge: PipelineVariants::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_GAUGE, &SOURCE_SLOTS, push)?,
             model,
             options,
         })
@@ -233,9 +233,14 @@ impl DrBokehGpuGrad {
         let leaky_slope = self.options.leaky_slope as f32;
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
+        let gauge;
         let (own_pipeline, source_pipeline) = match params.lens.path(params.model) {
             AperturePath::Disk => (&self.own_disk, &self.source_disk),
-            AperturePath::Gauge => (&self.own_gauge, &self.source_gauge),
+            AperturePath::Gauge => {
+                let constants = params.lens.gauge_specialization();
+                gauge = (self.own_gauge.get(&constants)?, self.source_gauge.get(&constants)?);
+                (&gauge.0, &gauge.1)
+            }
             AperturePath::PerTap => (&self.own, &self.source),
         };
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).

@@ -167,6 +167,12 @@ impl LensView {
         }
     }
 
+    /// The specialization constants of the gauge paths' shaders (`GAUGE_BLADES` in
+    /// `glsl/common/gauge.glsl`): the polygon's blades, 0 for the ellipse.
+    pub fn gauge_specialization(&self) -> [u32; 1] {
+        [if self.aperture[0] >= 3.0 { self.aperture[0] as u32 } else { 0 }]
+    }
+
     /// The layer-pass variant for this lens under `model`.
     pub fn path(&self, model: Model) -> AperturePath {
         let kernel = self.aperture[3] >= 0.5 && self.kernel_size > 0;
