@@ -148,3 +148,17 @@ fn gpu_baselines_score_as_their_cpu_references() {
     drop(methods);
     common::finish(ctx);
 }
+
+#[test]
+fn a_peer_that_cannot_run_says_why_instead_of_scoring() {
+    // Only this test touches the variable; the other tests of this binary never run the peer.
+    std::env::set_var(lensblur::bench::OPENDEFOCUS_ENV, "/nonexistent/lensblur-peer-opendefocus");
+    let scenes = scenes();
+    match lensblur::bench::run_opendefocus(&scenes) {
+        lensblur::bench::PeerRun::Unavailable(reason) => {
+            assert!(reason.contains("not built") && reason.contains("/nonexistent/"), "{reason}")
+        }
+        lensblur::bench::PeerRun::Rendered { .. } => panic!("no peer binary there"),
+    }
+    std::env::remove_var(lensblur::bench::OPENDEFOCUS_ENV);
+}
