@@ -1,8 +1,10 @@
 //! Auto-layering of one flat RGB+Z image (DESIGN.md, "Layer stacks").
 //!
-//! 1. Slices uniformly spaced in signed CoC (Lee, Eisemann, Seidel 2009, Eq. 4: a constant
-//!    CoC growth `delta` per layer), each boundary moved to the emptiest depth bin within
-//!    half a slice, so cuts fall at depth discontinuities rather than through surfaces.
+//! 1. Layers follow the depth structure: every empty gap of more than `discontinuity_px` in
+//!    the signed-CoC histogram is a cut, so surfaces blurred differently by more than a pixel
+//!    never share a layer; a surface spanning more than `coc_spacing_px` of CoC (slanted) is
+//!    sliced uniformly (Lee, Eisemann, Seidel 2009, Eq. 4), each cut moved to the emptiest
+//!    depth bin within half a slice. The count adapts (at most `max_layers`).
 //! 2. Depth is not anti-aliased but colour is: pixels within `band_px` of a cut whose CoC
 //!    jumps by at least `discontinuity_px` mix both sides. There alpha is estimated by
 //!    projecting the colour onto the line between the local foreground and background
@@ -10,7 +12,10 @@
 //!    reproduces the input exactly while a blurred foreground can become transparent.
 //! 3. Every farther layer is filled under every nearer one by push-pull from its own pixels
 //!    only (so no nearer colour can leak in), weighted towards the far side of its slice as
-//!    disocclusion fills prefer background.
+//!    disocclusion fills prefer background, in a range-compressed colour space so that an
+//!    HDR light beside the cut does not smear under it. Its coverage is extended the same
+//!    way from where it is seen (1 own, 0 farther), so a layer continues under a wire only
+//!    where it is seen on both sides, not across the sky behind it.
 use super::fill::push_pull;
 use super::{Layer, LayerStack};
 use crate::camera::CocModel;
@@ -34,41 +39,78 @@ impl Default for AutoLayerOptions {
     }
 }
 
-/// Slice boundaries in signed CoC, descending (nearest first).
+/// Histogram resolution of the signed CoC when looking for depth structure.
+const BIN_PX: f32 = 0.25;
+
+/// Slice boundaries in signed CoC, descending (nearest first), from the depth structure:
+/// 1. every gap of at least `discontinuity_px` of CoC that no pixel occupies is a cut (at its
+///    middle), so surfaces whose blur differs by more than that never share a layer, however
+///    close in depth (the 4 m and 12 m planes of issue 22 differ by 3 px at 256^2);
+/// 2. an occupied run wider than `coc_spacing_px` (a slanted surface) is sliced uniformly
+///    (Lee et al. 2009, Eq. 4), each cut moved to the emptiest bin within half a slice;
+/// 3. beyond `max_layers`, the in-surface cuts go first, then the narrowest gaps.
 fn boundaries(coc: &[f32], options: &AutoLayerOptions) -> Vec<f32> {
     let (lo, hi) = coc.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &s| (lo.min(s), hi.max(s)));
-    let spacing = options.coc_spacing_px.max(1e-3);
     if lo.is_nan() || hi.is_nan() || hi - lo <= 1e-6 {
         return Vec::new();
     }
-    let slices = (((hi - lo) / spacing).ceil() as usize).clamp(1, options.max_layers.max(1));
-    let step = (hi - lo) / slices as f32;
-    const BINS_PER_SLICE: usize = 8;
-    let bin = step / BINS_PER_SLICE as f32;
-    let bins = slices * BINS_PER_SLICE;
+    let bin = BIN_PX.max((hi - lo) / (1 << 20) as f32);
+    let bins = ((hi - lo) / bin).floor() as usize + 1;
     let mut histogram = vec![0usize; bins];
     for &s in coc {
         histogram[(((s - lo) / bin) as usize).min(bins - 1)] += 1;
     }
-    let mut out: Vec<f32> = Vec::new();
-    for i in 1..slices {
-        let target = hi - i as f32 * step;
-        let centre = |b: usize| lo + (b as f32 + 0.5) * bin;
-        let first = ((target - 0.5 * step - lo) / bin).floor().max(0.0) as usize;
-        let last = (((target + 0.5 * step - lo) / bin).ceil() as usize).min(bins - 1);
-        let best = (first..=last).min_by(|&a, &b| {
-            (histogram[a], (centre(a) - target).abs())
-                .partial_cmp(&(histogram[b], (centre(b) - target).abs()))
-                .unwrap_or(std::cmp::Ordering::Equal)
-        });
-        if let Some(b) = best {
-            if !out.iter().any(|&x| (x - centre(b)).abs() < 0.5 * bin) {
-                out.push(centre(b));
-            }
+    let centre = |b: usize| lo + (b as f32 + 0.5) * bin;
+    // (cut, priority): gaps by their width, in-surface cuts below every gap.
+    let mut cuts: Vec<(f32, f32)> = Vec::new();
+    // Two occupied bins `d` px of CoC apart leave `d / bin - 1` empty ones between them.
+    let min_gap = ((options.discontinuity_px / bin).round() - 1.0).max(1.0) as usize;
+    let mut run_start = 0usize;
+    let mut b = 0usize;
+    while b < bins {
+        if histogram[b] > 0 {
+            b += 1;
+            continue;
+        }
+        let gap_start = b;
+        while b < bins && histogram[b] == 0 {
+            b += 1;
+        }
+        if b - gap_start >= min_gap && b < bins {
+            slice_run(&histogram, run_start, gap_start, bin, lo, options, &mut cuts);
+            cuts.push((0.5 * (centre(gap_start) + centre(b - 1)), (b - gap_start) as f32));
+            run_start = b;
         }
     }
+    slice_run(&histogram, run_start, bins, bin, lo, options, &mut cuts);
+    cuts.sort_by(|a, b| b.1.total_cmp(&a.1));
+    cuts.truncate(options.max_layers.max(1) - 1);
+    let mut out: Vec<f32> = cuts.into_iter().map(|c| c.0).collect();
     out.sort_by(|a, b| b.total_cmp(a));
     out
+}
+
+/// Uniform cuts inside one occupied run of bins `[first, end)` wider than the layer spacing,
+/// each at the emptiest bin within half a slice of its target (priority 0).
+fn slice_run(histogram: &[usize], first: usize, end: usize, bin: f32, lo: f32, options: &AutoLayerOptions, cuts: &mut Vec<(f32, f32)>) {
+    let width = (end - first) as f32 * bin;
+    let slices = (width / options.coc_spacing_px.max(1e-3)).ceil() as usize;
+    if slices < 2 {
+        return;
+    }
+    let per_slice = (end - first) as f32 / slices as f32;
+    for i in 1..slices {
+        let target = first as f32 + i as f32 * per_slice;
+        let from = (target - 0.5 * per_slice).floor().max(first as f32 + 1.0) as usize;
+        let to = ((target + 0.5 * per_slice).ceil() as usize).min(end - 1);
+        let best = (from..=to).min_by(|&a, &b| {
+            (histogram[a], (a as f32 + 0.5 - target).abs()).partial_cmp(&(histogram[b], (b as f32 + 0.5 - target).abs())).unwrap_or(std::cmp::Ordering::Equal)
+        });
+        if let Some(b) = best {
+            // The cut sits at the bin's lower edge: the bin itself goes to the nearer slice.
+            cuts.push((lo + b as f32 * bin, 0.0));
+        }
+    }
 }
 
 /// Layer index per pixel (0 = nearest), with empty slices removed; returns (labels, count).
@@ -136,6 +178,20 @@ fn band_pairs(
     out
 }
 
+/// Reversible range compression `c / (1 + max(r, g, b))` (alpha kept): averages taken in it
+/// are not ruled by a few HDR lights, so a light next to a cut cannot smear over the hidden
+/// background or into a matte (issue 22, failure 1).
+fn compress(c: [f32; 4]) -> [f32; 4] {
+    let s = 1.0 / (1.0 + c[0].max(c[1]).max(c[2]).max(0.0));
+    [c[0] * s, c[1] * s, c[2] * s, c[3]]
+}
+
+/// The inverse of [`compress`].
+fn expand(c: [f32; 4]) -> [f32; 4] {
+    let s = 1.0 / (1.0 - c[0].max(c[1]).max(c[2]).clamp(0.0, 0.999));
+    [c[0] * s, c[1] * s, c[2] * s, c[3]]
+}
+
 /// Mean colour of non-band pixels of layer `l` around (x, y), searching wider if needed.
 fn local_colour(
     image: &Image,
@@ -154,14 +210,14 @@ fn local_colour(
             for qx in (x as i64 - r).max(0)..=(x as i64 + r).min(w - 1) {
                 let q = qy as usize * image.width + qx as usize;
                 if label[q] == l && pairs[q].is_none() {
-                    let c = image.pixels[q];
+                    let c = compress(image.pixels[q]);
                     (0..4).for_each(|k| sum[k] += c[k]);
                     n += 1;
                 }
             }
         }
         if n > 0 {
-            return Some(sum.map(|s| s / n as f32));
+            return Some(expand(sum.map(|s| s / n as f32)));
         }
     }
     None
@@ -246,21 +302,35 @@ fn build_layer(k: usize, image: &Image, disparity: &[f32], label: &[usize], band
     let mut rgba = vec![[0.0f32; 4]; n];
     let mut colour_weight = vec![0.0f32; n];
     let mut hidden = vec![false; n];
+    // Coverage where it is seen (own 1, partial alpha, farther 0), to be extended under the
+    // nearer layers: a layer continues under a thin near structure only where it is seen on
+    // both sides of it, not across the sky behind a wire (issue 22, failure 3).
+    let mut coverage = vec![[0.0f32; 1]; n];
+    let mut coverage_weight = vec![1.0f32; n];
     for p in 0..n {
         match cell(k, p, image, label, bands) {
             Cell::Own(c) => {
                 rgba[p] = c;
                 colour_weight[p] = guide(disparity[p]);
+                coverage[p] = [1.0];
             }
-            Cell::Partial(c) => rgba[p] = c,
-            Cell::Hidden => hidden[p] = true,
+            Cell::Partial(c) => {
+                rgba[p] = c;
+                coverage[p] = [c[3]];
+            }
+            Cell::Hidden => {
+                hidden[p] = true;
+                coverage_weight[p] = 0.0;
+            }
             Cell::Empty => {}
         }
     }
-    let mut filled = rgba.clone();
+    let mut filled: Vec<[f32; 4]> = rgba.iter().map(|&c| compress(c)).collect();
     push_pull(w, h, &mut filled, &colour_weight);
+    push_pull(w, h, &mut coverage, &coverage_weight);
     for p in (0..n).filter(|&p| hidden[p]) {
-        rgba[p] = filled[p];
+        let (colour, alpha) = (expand(filled[p]), coverage[p][0].clamp(0.0, 1.0));
+        rgba[p] = colour.map(|v| v * alpha / colour[3].max(1e-6));
     }
     let mut layer_disparity: Vec<[f32; 1]> = disparity.iter().map(|&d| [d]).collect();
     let depth_weight: Vec<f32> = label.iter().map(|&l| if l == k { 1.0 } else { 0.0 }).collect();
