@@ -192,7 +192,12 @@ fn expand(c: [f32; 4]) -> [f32; 4] {
     [c[0] * s, c[1] * s, c[2] * s, c[3]]
 }
 
-/// Mean colour of non-band pixels of layer `l` around (x, y), searching wider if needed.
+fn is_hdr(c: [f32; 4]) -> bool {
+    c[0].max(c[1]).max(c[2]) > 1.0
+}
+
+/// Mean colour (range-compressed) of non-band pixels of layer `l` around (x, y), searching
+/// wider if needed, then among its band pixels.
 fn local_colour(
     image: &Image,
     label: &[usize],
@@ -203,13 +208,16 @@ fn local_colour(
     r0: usize,
 ) -> Option<[f32; 4]> {
     let (w, h) = (image.width as i64, image.height as i64);
-    for r in [r0, 2 * r0, 4 * r0] {
+    // A structure thinner than the band (a wire, a hair) has no pixel outside it: its band
+    // pixels nearby are the best guess of its colour, else its mixed neighbours would keep
+    // a crisp ghost of it (issue 22, failure 3).
+    for (r, thin) in [(r0, false), (2 * r0, false), (4 * r0, false), (r0, true)] {
         let r = r as i64;
         let (mut sum, mut n) = ([0.0f32; 4], 0usize);
         for qy in (y as i64 - r).max(0)..=(y as i64 + r).min(h - 1) {
             for qx in (x as i64 - r).max(0)..=(x as i64 + r).min(w - 1) {
                 let q = qy as usize * image.width + qx as usize;
-                if label[q] == l && pairs[q].is_none() {
+                if label[q] == l && (pairs[q].is_none() || thin) {
                     let c = compress(image.pixels[q]);
                     (0..4).for_each(|k| sum[k] += c[k]);
                     n += 1;
@@ -224,16 +232,37 @@ fn local_colour(
 }
 
 /// Splits a band pixel's colour `c` between foreground `f` and background `b`; returns
-/// (front colour, back colour, squared residual of the two-colour model).
+/// (front colour, back colour, squared residual of the two-colour model). Alpha comes from
+/// the projection in range-compressed colour where any is HDR, so an HDR light in `c` or `b` does not decide
+/// it alone. The front keeps at most what its own colour explains (`alpha f`, with margin for
+/// texture); the rest of `c` is background light seen past the edge (a light behind hair)
+/// and goes to the back layer, which must not stay in focus in the front one. "Over" still
+/// gives `c` exactly: front + (1 - alpha) back = c.
 fn split_colour(c: [f32; 4], f: [f32; 4], b: [f32; 4], hard_alpha: f32) -> ([f32; 4], [f32; 4], f32) {
-    let fb = sub_scaled(f, b, 1.0);
+    // Display-range colours mix linearly: their alpha is exact in linear colour.
+    let hdr = is_hdr(c) || is_hdr(f) || is_hdr(b);
+    let (cc, fc, bc) = if hdr { (compress(c), compress(f), compress(b)) } else { (c, f, b) };
+    let fb = sub_scaled(fc, bc, 1.0);
     let norm = dot(fb, fb);
     // Indistinguishable colours carry no alpha information: keep the depth map's decision.
-    let alpha = if norm > 1e-6 { (dot(sub_scaled(c, b, 1.0), fb) / norm).clamp(0.0, 1.0) } else { hard_alpha };
-    let model = sub_scaled(sub_scaled(c, b, 1.0 - alpha), f, alpha);
-    let front = sub_scaled(c, b, 1.0 - alpha).map(|v| v.max(0.0));
-    (front, b, dot(model, model))
+    let alpha = if norm > 1e-6 { (dot(sub_scaled(cc, bc, 1.0), fb) / norm).clamp(0.0, 1.0) } else { hard_alpha };
+    let model = sub_scaled(sub_scaled(cc, bc, 1.0 - alpha), fc, alpha);
+    let mut front = sub_scaled(c, b, 1.0 - alpha).map(|v| v.max(0.0));
+    if alpha > FRONT_ONLY_ALPHA {
+        return (front, b, dot(model, model));
+    }
+    for k in 0..3 {
+        front[k] = front[k].min(alpha * (FRONT_MARGIN * f[k] + 0.05));
+    }
+    let back = [0, 1, 2, 3].map(|k| ((c[k] - front[k]) / (1.0 - alpha)).max(0.0));
+    (front, back, dot(model, model))
 }
+
+/// Above this alpha the back layer is not seen enough to hold the excess: the split is the
+/// plain `c - (1 - alpha) b`.
+const FRONT_ONLY_ALPHA: f32 = 0.95;
+/// How much brighter than the local front colour a mixed pixel's front share may be.
+const FRONT_MARGIN: f32 = 1.5;
 
 /// The split of pixel `p` against another layer `other`, if both sides have local colour.
 fn band_with(
