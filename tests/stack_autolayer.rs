@@ -180,3 +180,32 @@ fn a_layer_is_not_extended_under_a_thin_wire_where_it_is_absent() {
     assert!(subject.get(16, 16)[3] > 0.9, "under the wire inside the disc: {:?}", subject.get(16, 16));
     assert!(subject.get(2, 16)[3] < 0.1, "under the wire in the sky: {:?}", subject.get(2, 16));
 }
+
+#[test]
+fn a_sharp_hair_strand_keeps_its_darkness_out_of_the_background() {
+    // In focus (disparity 1, CoC 0): a skin block and a dark 1 px strand leaving it to the
+    // right along row 16; one pixel above the strand is half strand, half sky (depth: sky).
+    // The means would pair the sky with the skin beside the strand; sampling finds the strand.
+    const HAIR: [f32; 4] = [0.05, 0.03, 0.02, 1.0];
+    let skin = |x: usize, y: usize| (4..12).contains(&x) && (10..23).contains(&y);
+    let strand = |x: usize, y: usize| y == 16 && (12..28).contains(&x);
+    let image = Image::from_fn(32, 32, |x, y| {
+        if skin(x, y) {
+            FG
+        } else if strand(x, y) {
+            HAIR
+        } else if (x, y) == (20, 15) {
+            mix(HAIR, BG, 0.5)
+        } else {
+            BG
+        }
+    });
+    let disparity: Vec<f32> = (0..32 * 32).map(|i| if skin(i % 32, i / 32) || strand(i % 32, i / 32) { 1.0 } else { 0.25 }).collect();
+    let stack = split_into_layers(&image, &disparity, &CocModel::new(20.0, 1.0).unwrap(), &AutoLayerOptions::default());
+    assert_eq!(stack.layers.len(), 2);
+    let back = stack.layers[1].rgba.get(20, 15);
+    assert!((0..3).all(|k| (back[k] - BG[k]).abs() < 0.05), "background under the mixed pixel: {back:?}");
+    let front = stack.layers[0].rgba.get(20, 15);
+    assert!((front[3] - 0.5).abs() < 0.1, "the strand covers half the pixel: {front:?}");
+    assert!(max_diff(&composite(&stack), &image) < 1e-5);
+}

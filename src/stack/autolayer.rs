@@ -269,6 +269,7 @@ fn band_with(
     image: &Image,
     label: &[usize],
     pairs: &[Option<(usize, usize)>],
+    coc: &[f32],
     p: usize,
     other: usize,
     radius: usize,
@@ -278,13 +279,88 @@ fn band_with(
     let f = local_colour(image, label, pairs, front, x, y, radius)?;
     let b = local_colour(image, label, pairs, back, x, y, radius)?;
     let hard = if label[p] == front { 1.0 } else { 0.0 };
-    let (front_rgba, back_rgba, residual) = split_colour(image.pixels[p], f, b, hard);
+    let c = image.pixels[p];
+    let sharp_front = sharp_near(label, coc, image.width, p, front);
+    // Sample-based matting: the local means and the nearby pixels of either side are
+    // candidate colours; the pair that explains `c` best wins. A hair strand's own colour
+    // is then its front, not the skin beside it (which would leave the strand's darkness
+    // in the background, blurred into a smudge).
+    // A blurred front is seen through its blur, where the robust means do better (a thin
+    // blurred wire's neighbours are as mixed as it is): sample only for a sharp front.
+    let means = split_colour(c, f, b, hard);
+    let (mut best, mut score) = (means, means.2);
+    if sharp_front {
+        // A strand is all band, so band pixels serve as candidates on both sides. A mixed
+        // neighbour as mixed as `c` explains it with alpha 0 or 1, i.e. the depth map's cut:
+        // measured, that beats a matte of a fuzzy edge from these few samples (excluding the
+        // back's band pixels: silhouette-hdr 28.53 -> 25.95 dB).
+        let fronts = candidates(image, label, p, front, f);
+        let backs = candidates(image, label, p, back, b);
+        // The means' split stands unless a pair explains `c` clearly better.
+        score *= MEAN_PREFERENCE;
+        for &fc in &fronts {
+            for &bc in &backs {
+                let split = split_colour(c, fc, bc, hard);
+                if split.2 < score {
+                    (best, score) = (split, split.2);
+                }
+            }
+        }
+    }
+    let (front_rgba, back_rgba, residual) = best;
     Some((Band { front, back, front_rgba, back_rgba }, residual))
+}
+
+/// Whether layer `l` is in focus (CoC under [`SHARP_PX`]) at its pixels next to `p`.
+fn sharp_near(label: &[usize], coc: &[f32], width: usize, p: usize, l: usize) -> bool {
+    let (w, h) = (width as i64, (label.len() / width) as i64);
+    let (x, y) = ((p % width) as i64, (p / width) as i64);
+    let mut sharp = false;
+    for qy in (y - 1).max(0)..=(y + 1).min(h - 1) {
+        for qx in (x - 1).max(0)..=(x + 1).min(w - 1) {
+            let q = (qy * w + qx) as usize;
+            if label[q] == l {
+                if coc[q].abs() >= SHARP_PX {
+                    return false;
+                }
+                sharp = true;
+            }
+        }
+    }
+    sharp
+}
+
+/// CoC radius (px) under which a front is matted per pixel by sampling.
+const SHARP_PX: f32 = 2.0;
+
+/// How much smaller a sampled pair's residual must be than the means' to replace them.
+const MEAN_PREFERENCE: f32 = 0.25;
+
+
+/// Radius of the candidate window of [`band_with`] (5 x 5).
+const SAMPLE_RADIUS: i64 = 2;
+
+/// The colours of layer `l` within [`SAMPLE_RADIUS`] of `p` (not `p` itself), HDR ones left
+/// out (a light seen past an edge is no surface colour), and the local mean `mean`.
+fn candidates(image: &Image, label: &[usize], p: usize, l: usize, mean: [f32; 4]) -> Vec<[f32; 4]> {
+    let (w, h) = (image.width as i64, image.height as i64);
+    let (x, y) = ((p % image.width) as i64, (p / image.width) as i64);
+    let mut out = vec![mean];
+    for qy in (y - SAMPLE_RADIUS).max(0)..=(y + SAMPLE_RADIUS).min(h - 1) {
+        for qx in (x - SAMPLE_RADIUS).max(0)..=(x + SAMPLE_RADIUS).min(w - 1) {
+            let q = (qy * w + qx) as usize;
+            if q != p && label[q] == l && !is_hdr(image.pixels[q]) {
+                out.push(image.pixels[q]);
+            }
+        }
+    }
+    out
 }
 
 fn bands(
     image: &Image,
     label: &[usize],
+    coc: &[f32],
     pairs: &[Option<(usize, usize)>],
     options: &AutoLayerOptions,
 ) -> Vec<Option<Band>> {
@@ -293,8 +369,8 @@ fn bands(
         .map(|p| {
             // Mixed with whichever neighbouring layer explains the colour best.
             let (near, far) = pairs[p]?;
-            let a = band_with(image, label, pairs, p, near, radius);
-            let b = if far != near { band_with(image, label, pairs, p, far, radius) } else { None };
+            let a = band_with(image, label, pairs, coc, p, near, radius);
+            let b = if far != near { band_with(image, label, pairs, coc, p, far, radius) } else { None };
             match (a, b) {
                 (Some(a), Some(b)) => Some(if b.1 < a.1 { b.0 } else { a.0 }),
                 (a, b) => a.or(b).map(|(band, _)| band),
@@ -381,7 +457,7 @@ pub fn split_into_layers(image: &Image, disparity: &[f32], coc: &CocModel, optio
     let signed: Vec<f32> = disparity.iter().map(|&d| coc.signed_radius(d)).collect();
     let (label, count) = labels(&signed, options);
     let pairs = band_pairs(image.width, image.height, &label, &signed, options);
-    let bands = bands(image, &label, &pairs, options);
+    let bands = bands(image, &label, &signed, &pairs, options);
     let layers = (0..count).map(|k| build_layer(k, image, disparity, &label, &bands)).collect();
     LayerStack { width: image.width, height: image.height, layers }
 }
