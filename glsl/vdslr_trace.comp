@@ -109,7 +109,11 @@ void main() {
         }
         precise vec2 u = vec2(s.x * pc.k, s.y * pc.k);
         Hit hit = search(p, u, centre);
-        if (!hit.valid) {
+        bool centre_hit = hits(p, u, x, texelFetch(relative, centre).x);
+        // Passes beside the centre's surface: keep the farther pixel, not the mirror (CPU
+        // reference: `Tracer::shade`).
+        bool beside = !centre_hit && texelFetch(disparity, hit.index).x < texelFetch(disparity, centre).x;
+        if (!hit.valid && !beside) {
             Hit mirrored = search(p, -u, centre);
             if (mirrored.valid) {
                 hit = mirrored;
@@ -117,7 +121,6 @@ void main() {
         }
         // Guard as in the CPU reference: when the centre is a nearer hit of this ray.
         bool farther = texelFetch(disparity, hit.index).x < texelFetch(disparity, centre).x;
-        bool centre_hit = hits(p, u, x, texelFetch(relative, centre).x);
         bool guard = pc.bleeding_guard != 0 && farther && centre_hit;
         int index = guard ? centre : hit.index;
         vec4 colour = texelFetch(source, index);

@@ -148,3 +148,36 @@ fn gpu_baselines_score_as_their_cpu_references() {
     drop(methods);
     common::finish(ctx);
 }
+
+#[test]
+fn a_peer_that_cannot_run_says_why_instead_of_scoring() {
+    point_the_peer_nowhere();
+    let scenes = scenes();
+    match lensblur::bench::run_opendefocus(&scenes) {
+        lensblur::bench::PeerRun::Unavailable(reason) => {
+            assert!(reason.contains("not built") && reason.contains("/nonexistent/"), "{reason}")
+        }
+        lensblur::bench::PeerRun::Rendered { .. } => panic!("no peer binary there"),
+    }
+}
+
+/// Every test of this binary that runs the peer sets the same value (so their order does not
+/// matter) and none removes it.
+fn point_the_peer_nowhere() {
+    std::env::set_var(lensblur::bench::OPENDEFOCUS_ENV, "/nonexistent/lensblur-peer-opendefocus");
+}
+
+#[test]
+fn single_image_table_has_a_row_per_scene_and_a_peer_column_that_says_why_it_is_empty() {
+    point_the_peer_nowhere();
+    let scenes = scenes();
+    let methods = select_methods(cpu_methods(), &["gather-cpu".into()]).expect("registered");
+    let table = lensblur::bench::run_single_image(&scenes, &methods, &indicatif::ProgressBar::hidden()).expect("runs");
+    assert!(table.peer_missing.as_deref().is_some_and(|r| r.contains("not built")));
+    let text = table.to_string();
+    for needle in ["opendefocus", "gather-cpu", "mild", "strong", "mean", "worst", "n/a, not built"] {
+        assert!(text.contains(needle), "table lacks '{needle}':\n{text}");
+    }
+    assert_eq!(text.lines().count(), 1 + 2 + 2 + 2, "header, two scenes, mean and worst, two notes:\n{text}");
+    assert!(table.psnr("strong", "gather-cpu").is_some_and(|p| p.is_finite()) && table.psnr("strong", "opendefocus").is_none());
+}

@@ -1,7 +1,7 @@
 //! Properties of the thin-lens ground-truth tracer that the whole benchmark rests on.
 use std::sync::Arc;
 
-use lensblur::camera::PhysicalCamera;
+use lensblur::camera::{CocModel, PhysicalCamera};
 use lensblur::image::Image;
 use lensblur::raytrace::texture::{Rgba, Texture};
 use lensblur::raytrace::{builtin_scenes, render_ground_truth, Scene, Surface, TraceOptions, EMPTY_DEPTH};
@@ -230,4 +230,23 @@ fn layers_exr_uses_blender_channel_names() {
     }
     assert!(dir.join("camera.json").exists() && dir.join("defocused.png").exists());
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn single_image_scenes_are_square_and_match_their_coc_table() {
+    // The table in `single_image_scenes`' documentation, CoC radius per plane at 256^2.
+    let table: [(&str, &[f32]); 3] =
+        [("silhouette-hdr", &[0.0, 10.7]), ("five-planes", &[6.9, 0.0, 4.4, 6.9, 9.9]), ("thin-near", &[17.1, 0.0, 3.0])];
+    let scenes = lensblur::raytrace::single_image_scenes();
+    assert_eq!(scenes.len(), table.len());
+    for (scene, (name, radii)) in scenes.iter().zip(table) {
+        assert_eq!((scene.name.as_str(), scene.width, scene.height), (name, 256, 256));
+        let coc = CocModel::from_physical(&scene.camera, 256).unwrap();
+        let got: Vec<f32> = scene.surfaces.iter().map(|s| coc.radius(1.0 / s.z0)).collect();
+        assert_eq!(got.len(), radii.len(), "{name}");
+        for (g, r) in got.iter().zip(radii) {
+            assert!((g - r).abs() < 0.05, "{name}: CoC {got:?} px, table {radii:?}");
+        }
+        assert!(lensblur::raytrace::builtin_scene(name).is_ok(), "{name} found by name");
+    }
 }

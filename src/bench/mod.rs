@@ -14,11 +14,15 @@ pub mod blender;
 pub mod end_to_end;
 pub mod perf;
 pub mod perf_backward;
+mod peer;
 mod runner;
+mod single_image;
 mod sheet;
 mod table;
 pub mod scenes;
 
 pub use methods::{all_methods, cpu_methods, gpu_methods, select_methods, BenchCase, InputKind, Method};
-pub use runner::{run, run_with_progress, BenchReport, CaseResult, MethodSummary, Worst};
+pub use peer::{opendefocus_binary, run_opendefocus, PeerRun, OPENDEFOCUS_ENV};
+pub use runner::{append_external, run, run_with_progress, BenchReport, CaseResult, MethodSummary, Worst};
 pub use sheet::{contact_sheet, write_png, HEAT_MAX};
+pub use single_image::{run_single_image, SingleImageTable, PEER, SINGLE_IMAGE_METHODS};

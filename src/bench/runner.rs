@@ -82,12 +82,28 @@ pub fn run_with_progress(scenes: &[GroundTruth], methods: &[Method], progress: &
         renders.push(scene_renders);
     }
     progress.finish_and_clear();
-    let summaries = methods.iter().map(|m| summarise(m, &cases)).collect();
+    let summaries = methods.iter().map(|m| summarise(m.name, m.input, &cases)).collect();
     Ok(BenchReport { scenes: scenes.iter().map(|s| s.name.clone()).collect(), methods: summaries, cases, renders })
 }
 
-fn summarise(method: &Method, cases: &[CaseResult]) -> MethodSummary {
-    let mine: Vec<&CaseResult> = cases.iter().filter(|c| c.method == method.name).collect();
+/// Adds a method that ran outside the registry (a peer program) with its renders, one per
+/// scene in the report's order, and the seconds it measured for each.
+pub fn append_external(report: &mut BenchReport, truths: &[GroundTruth], name: &'static str, input: InputKind, renders: Vec<(Image, f64)>) -> Result<()> {
+    if renders.len() != report.scenes.len() || truths.len() != report.scenes.len() {
+        return Err(Error::param(format!("{name}: {} renders for {} scenes", renders.len(), report.scenes.len())));
+    }
+    for (i, ((image, seconds), truth)) in renders.into_iter().zip(truths).enumerate() {
+        let metrics = compare(&image, &truth.defocused)?;
+        report.cases.push(CaseResult { scene: truth.name.clone(), method: name.into(), metrics, seconds });
+        report.renders[i].push(image);
+    }
+    let summary = summarise(name, input, &report.cases);
+    report.methods.push(summary);
+    Ok(())
+}
+
+fn summarise(name: &str, input: InputKind, cases: &[CaseResult]) -> MethodSummary {
+    let mine: Vec<&CaseResult> = cases.iter().filter(|c| c.method == name).collect();
     let n = mine.len() as f64;
     let mut mean = [0.0f64; 5];
     let mut worst: Vec<Worst> = Vec::new();
@@ -106,8 +122,8 @@ fn summarise(method: &Method, cases: &[CaseResult]) -> MethodSummary {
         worst.push(Worst { metric, value: pick.metrics.values()[i], scene: pick.scene.clone() });
     }
     MethodSummary {
-        name: method.name.into(),
-        input: method.input,
+        name: name.into(),
+        input,
         mean: Metrics::from_values(mean),
         worst,
         mean_seconds: mine.iter().map(|c| c.seconds).sum::<f64>() / n,

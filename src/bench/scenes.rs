@@ -6,7 +6,7 @@ use std::path::Path;
 use indicatif::ProgressBar;
 
 use super::gt_cache;
-use crate::raytrace::{builtin_scenes, render_ground_truth, GroundTruth, TraceOptions};
+use crate::raytrace::{builtin_scenes, render_ground_truth, single_image_scenes, GroundTruth, Scene, TraceOptions};
 use crate::{Error, Result};
 
 /// The sampling of the benchmark's ground truth. Rounds of 8 x 8 stratified rays until the
@@ -30,7 +30,15 @@ pub fn trace_options(quick: bool, progress: Option<ProgressBar>) -> TraceOptions
 /// order; unknown names are an error that lists the valid ones. With `cache`, truths are
 /// loaded from and stored in that folder.
 pub fn ground_truths(names: &[String], quick: bool, progress: Option<ProgressBar>, cache: Option<&Path>) -> Result<Vec<GroundTruth>> {
-    let scenes = builtin_scenes();
+    truths_of(builtin_scenes(), names, quick, progress, cache)
+}
+
+/// [`ground_truths`] of the single-image scenes (`raytrace::single_image_scenes`).
+pub fn single_image_truths(names: &[String], quick: bool, progress: Option<ProgressBar>, cache: Option<&Path>) -> Result<Vec<GroundTruth>> {
+    truths_of(single_image_scenes(), names, quick, progress, cache)
+}
+
+fn truths_of(scenes: Vec<Scene>, names: &[String], quick: bool, progress: Option<ProgressBar>, cache: Option<&Path>) -> Result<Vec<GroundTruth>> {
     if let Some(unknown) = names.iter().find(|n| !scenes.iter().any(|s| &s.name == *n)) {
         let known: Vec<&str> = scenes.iter().map(|s| s.name.as_str()).collect();
         return Err(Error::param(format!("no built-in scene '{unknown}'; available: {}", known.join(", "))));

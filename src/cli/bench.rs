@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use lensblur::bench::{all_methods, contact_sheet, cpu_methods, run_with_progress, scenes, select_methods, write_png, HEAT_MAX};
+use lensblur::bench::{all_methods, contact_sheet, cpu_methods, run_single_image, run_with_progress, scenes, select_methods, write_png, HEAT_MAX, SINGLE_IMAGE_METHODS};
 use lensblur::vk::Context as GpuContext;
 
 #[derive(clap::Args)]
@@ -45,6 +45,11 @@ pub struct Args {
     /// backward, end-to-end and Blender case groups; see --groups.
     #[arg(long)]
     perf: bool,
+    /// The single-image table instead: the single-image scenes, drbokeh-auto, vdslr and gather
+    /// beside the OpenDefocus peer (peers/opendefocus, run as a separate program), PSNR and
+    /// seconds per scene.
+    #[arg(long)]
+    single_image: bool,
     #[command(flatten, next_help_heading = "Performance (with --perf)")]
     perf_flags: super::bench_perf::PerfFlags,
 }
@@ -56,6 +61,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Refused before minutes of ray tracing, like render's outputs: the sheet is a PNG.
     if let Some(sheet) = &args.sheet {
         lensblur::stack::OutputFormat::for_output(sheet, "--sheet", &[lensblur::stack::OutputFormat::Png])?;
+    }
+    if args.single_image {
+        return run_single_image_table(args);
     }
     let gpu = open_device_or_warn(&args.methods)?;
     let methods = select_methods(all_methods(gpu.as_ref())?, &args.methods)?;
@@ -78,6 +86,30 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(gpu) = gpu {
         gpu.finish()?;
     }
+    Ok(())
+}
+
+fn run_single_image_table(args: Args) -> anyhow::Result<()> {
+    let gpu = GpuContext::from_env().context("the single-image table needs a Vulkan device")?;
+    let names: Vec<String> = if args.methods.is_empty() { SINGLE_IMAGE_METHODS.map(String::from).to_vec() } else { args.methods.clone() };
+    let methods = select_methods(all_methods(Some(&gpu))?, &names)?;
+    let tracing = bar("ray tracing {msg}", "rows")?;
+    let truths = scenes::single_image_truths(&args.scenes, args.quick, Some(tracing.clone()), (!args.no_cache).then_some(args.cache.as_path()))
+        .context("ray tracing the single-image scenes")?;
+    tracing.finish_and_clear();
+    let progress = bar("{msg}", "renders")?;
+    let table = run_single_image(&truths, &methods, &progress)?;
+    println!("{table}");
+    if let Some(path) = &args.json {
+        std::fs::write(path, serde_json::to_string_pretty(&table.report)?).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    if let Some(path) = &args.sheet {
+        write_png(&contact_sheet(&truths, &table.report)?, path)?;
+        eprintln!("wrote {} (error scale: 0 to {HEAT_MAX} in display values)", path.display());
+    }
+    drop(methods);
+    gpu.finish()?;
     Ok(())
 }
 

@@ -19,7 +19,7 @@ mod trace;
 
 pub use render::{render_ground_truth, EMPTY_DEPTH};
 pub use scene::{Scene, Surface};
-pub use scenes::{builtin_scene, builtin_scenes};
+pub use scenes::{builtin_scene, builtin_scenes, single_image_scenes};
 pub use trace::TraceOptions;
 
 use crate::camera::{CocModel, PhysicalCamera};

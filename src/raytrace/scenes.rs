@@ -40,9 +40,23 @@ pub fn builtin_scenes() -> Vec<Scene> {
     vec![portrait_night(), branches(), fence(), letters(), fairy_lights(), tilted_wall(), five_layers(), small_coc(), macro_scene()]
 }
 
-/// A built-in scene by name; the error lists the valid names.
+/// The single-image scenes (issue 22): square 256 x 256 like the held-out Cycles set, each
+/// built around one failure of single-image methods seen there. Kept apart from
+/// [`builtin_scenes`] (the layered benchmark), found by name all the same.
+///
+/// | scene           | lens, focus          | planes (m)                | CoC px (256^2)            |
+/// |-----------------|----------------------|---------------------------|---------------------------|
+/// | silhouette-hdr  | 85 mm f/1.4, 1.5 m   | 1.5, 12                   | 0, 10.7                   |
+/// | five-planes     | 85 mm f/1.4, 1.6 m   | 1.0, 1.6, 2.6, 4.0, 12    | 6.9, 0, 4.4, 6.9, 9.9     |
+/// | thin-near       | 85 mm f/2, 3 m       | 0.6, 3, 10                | 17.1, 0, 3.0              |
+pub fn single_image_scenes() -> Vec<Scene> {
+    vec![silhouette_hdr(), five_planes(), thin_near()]
+}
+
+/// A built-in scene by name (layered or single-image set); the error lists the valid names.
 pub fn builtin_scene(name: &str) -> Result<Scene> {
-    let scenes = builtin_scenes();
+    let mut scenes = builtin_scenes();
+    scenes.extend(single_image_scenes());
     let names: Vec<String> = scenes.iter().map(|s| s.name.clone()).collect();
     scenes
         .into_iter()
@@ -252,5 +266,62 @@ fn macro_scene() -> Scene {
     scene("macro", "close-up flower in focus, far background with highlights: large bokeh balls", cam, vec![
         Surface::billboard("flower", 0.5, &cam, arc(flower)),
         Surface::billboard("background", 50.0, &cam, arc(background)),
+    ])
+}
+
+fn square(name: &str, description: &str, camera: PhysicalCamera, surfaces: Vec<Surface>) -> Scene {
+    Scene { name: name.into(), description: description.into(), camera, width: 256, height: 256, surfaces }
+}
+
+/// Lights stay a blur radius inside the frame: one cut by the frame edge spreads light from
+/// outside it, which no single-image method (nor the true layers) can know.
+///
+/// Failure 1: an in-focus silhouette over a dark, far background whose HDR lights sit right
+/// behind and just outside its outline; anti-aliased edge pixels mix the two.
+fn silhouette_hdr() -> Scene {
+    let cam = camera(85.0, 1.4, 1.5);
+    let near_outline = lights(71, 45, [-0.55, 0.55, -0.75, 0.2], [0.012, 0.03]);
+    let night = arc(Photo { sky_top: [0.01, 0.012, 0.03], sky_horizon: [0.06, 0.035, 0.03], ground: [0.02, 0.018, 0.015], buildings: [0.03, 0.03, 0.04], horizon: 0.3, seed: 73 });
+    let background = arc(Over(vec![arc(near_outline), arc(lights(72, 20, [-0.85, 0.85, -0.85, 0.85], [0.01, 0.02])), night]));
+    square("silhouette-hdr", "in-focus silhouette, HDR lights just behind its outline on a dark far background", cam, vec![
+        Surface::billboard("subject", 1.5, &cam, person(0.0, -0.55, 1.25, 74)),
+        Surface::billboard("background", 12.0, &cam, background),
+    ])
+}
+
+/// Failure 2: five planes whose far two (4 m, 12 m) differ by 3 px of CoC at 256^2 (12 px at
+/// 1024^2) and must stay separate layers; blurred bars in front outline nothing.
+fn five_planes() -> Scene {
+    let cam = camera(85.0, 1.4, 1.6);
+    let bars = Strokes::new(strokes::fence(-1.5, 1.5, -2.0, 2.0, 0.55, 0.06));
+    let subject = person(-0.2, -0.45, 1.0, 81);
+    let pillar = Cutout { shape: Shape::Rect { min: [0.25, -0.6], max: [0.75, 2.0] }, fill: arc(Checker { period: 0.07, a: [0.75, 0.72, 0.65], b: [0.25, 0.2, 0.18] }) };
+    let wall = Cutout { shape: Shape::Rect { min: [-2.0, -0.15], max: [0.15, 2.0] }, fill: arc(Stripes { period: 0.05, angle: 0.6, duty: 0.5, a: [0.6, 0.25, 0.15], b: [0.3, 0.1, 0.08] }) };
+    let background = Over(vec![arc(lights(82, 30, [-0.85, 0.85, -0.85, 0.3], [0.012, 0.025])), dusk_photo(83)]);
+    square("five-planes", "bars 1 m, subject 1.6 m (focus), pillar 2.6 m, wall 4 m, lit city 12 m", cam, vec![
+        Surface::billboard("bars", 1.0, &cam, arc(Cutout { shape: Shape::Strokes(bars), fill: arc(Mottled { a: [0.1, 0.1, 0.12], b: [0.3, 0.28, 0.25], frequency: 30.0, seed: 84 }) })),
+        Surface::billboard("subject", 1.6, &cam, subject),
+        Surface::billboard("pillar", 2.6, &cam, arc(pillar)),
+        Surface::billboard("wall", 4.0, &cam, arc(wall)),
+        Surface::billboard("background", 12.0, &cam, arc(background)),
+    ])
+}
+
+/// Failure 3: thin bright wires and twigs far in front of an in-focus subject: a blurred wire
+/// must spread into a faint wide band, not stay a crisp line or leave a ghost of itself.
+fn thin_near() -> Scene {
+    let cam = camera(85.0, 2.0, 3.0);
+    let mut wires: Vec<strokes::Segment> = (0..5)
+        .map(|i| {
+            let v = -0.8 + 0.38 * i as f32;
+            strokes::Segment { a: [-2.0, v], b: [2.0, v + 0.25], half_width: 0.006 }
+        })
+        .collect();
+    wires.extend(strokes::branches([1.2, 1.1], 2.5, 0.6, 0.02, 5, 91));
+    let wire = arc(Cutout { shape: Shape::Strokes(Strokes::new(wires)), fill: arc(Solid([0.85, 0.8, 0.7, 1.0])) });
+    square("thin-near", "thin wires and twigs at 0.6 m in front of an in-focus subject at 3 m", cam, vec![
+        Surface::billboard("wires", 0.6, &cam, wire),
+        Surface::billboard("subject", 3.0, &cam, person(0.0, -0.5, 1.1, 92)),
+        Surface::billboard("background", 10.0, &cam, day_photo(93)),
     ])
 }
