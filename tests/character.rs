@@ -450,3 +450,31 @@ fn bloom_makes_a_clipped_highlight_a_bright_bokeh_ball_and_leaves_darker_pixels_
     drop(renderer);
     finish(ctx);
 }
+
+/// The renders a look takes, as progress displays count them, equal the renders it makes.
+#[test]
+fn render_count_is_the_number_of_renders_a_look_makes() {
+    use std::cell::Cell;
+    let stack = point_lights(40, 30, &[(20, 15)]);
+    let lens = lens(6.0, Aperture::Disk);
+    let eye = CatsEye { strength: 1.0, grid: 3 };
+    let looks = [
+        Character::default(),
+        Character { chromatic: Some([1.0, 0.0, -1.0]), ..Character::default() },
+        Character { cats_eye: Some(eye), ..Character::default() },
+        Character { chromatic: Some([1.0, 0.0, -1.0]), cats_eye: Some(eye), ..Character::default() },
+        // No channel differs: one render is the answer.
+        Character { chromatic: Some([0.0; 3]), ..Character::default() },
+    ];
+    let expected = [1, 3, 9, 27, 1];
+    for (look, want) in looks.iter().zip(expected) {
+        let calls = Cell::new(0);
+        let counting = |s: &LayerStack, _: &Lens| {
+            calls.set(calls.get() + 1);
+            Ok(Image::new(s.width, s.height))
+        };
+        look.render_prepared(&counting, &stack, &lens).unwrap();
+        assert_eq!(calls.get(), want, "renders made");
+        assert_eq!(look.render_count(&stack, &lens), want, "renders counted");
+    }
+}

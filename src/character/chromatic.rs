@@ -17,6 +17,16 @@ pub fn parse_offsets(spec: &str) -> Result<[f32; 3]> {
 }
 
 /// Renders through `lens` with a per-channel focus offset (CoC pixels).
+/// How many renders [`render_chromatic`] makes: one per channel, or one when no channel
+/// differs (without blur, K = 0, or without offsets: one render is the exact answer).
+pub fn chromatic_renders(lens: &Lens, offsets_px: [f32; 3]) -> usize {
+    if lens.coc.k_px == 0.0 || offsets_px == [0.0; 3] {
+        1
+    } else {
+        3
+    }
+}
+
 pub fn render_chromatic(
     render: &dyn Fn(&LayerStack, &Lens) -> Result<Image>,
     stack: &LayerStack,
@@ -26,8 +36,7 @@ pub fn render_chromatic(
     if offsets_px.iter().any(|o| !o.is_finite()) {
         return Err(Error::param("chromatic focus offsets must be finite"));
     }
-    // Without blur (K = 0) or offsets no channel differs: one render is the exact answer.
-    if lens.coc.k_px == 0.0 || offsets_px == [0.0; 3] {
+    if chromatic_renders(lens, offsets_px) == 1 {
         return render(stack, lens);
     }
     let mut shifted = Vec::with_capacity(3);

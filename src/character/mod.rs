@@ -80,6 +80,14 @@ impl Character {
         }
     }
 
+    /// How many renders [`Self::render_prepared`] makes of `stack` through `lens` (progress
+    /// displays count them): x3 for chromatic aberration, x grid nodes for cat's-eye.
+    pub fn render_count(&self, stack: &LayerStack, lens: &Lens) -> usize {
+        let channels = self.chromatic.map_or(1, |offsets| chromatic::chromatic_renders(lens, offsets));
+        let nodes = self.cats_eye.as_ref().map_or(1, |eye| vignette::cats_eye_renders(eye, stack.width, stack.height));
+        channels * nodes
+    }
+
     /// Refuses the controls that assume one focal plane through the frame centre when the
     /// method renders another focus field (Virtual DSLR's tilt-shift or several planes).
     pub fn check_focus_field(&self, focus: &FocusField) -> Result<()> {

@@ -56,6 +56,11 @@ impl CatsEye {
     }
 }
 
+/// How many renders [`render_cats_eye`] makes of a `width` x `height` frame: one per node.
+pub fn cats_eye_renders(eye: &CatsEye, width: usize, height: usize) -> usize {
+    nodes(width, eye.grid).len() * nodes(height, eye.grid).len()
+}
+
 /// Node positions along one axis of `n` pixels (first and last pixel included).
 fn nodes(n: usize, grid: usize) -> Vec<f32> {
     let count = grid.min(n).max(1);

@@ -98,7 +98,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let options = if args.leaky { BackwardOptions::leaky() } else { BackwardOptions::exact() };
     let renderer = DrBokehGpuGrad::new(&ctx, model, options)?;
     let what = format!("differentiating {} layer(s) with {}", loaded.stack.layers.len(), args.method);
-    let tile_progress = progress::tiles(&spinner, what);
+    let tile_progress = progress::tiles(&spinner, what, 1);
     let tiling = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
     let (grads, stats) = renderer.backward_with(&loaded.stack, &loaded.camera.lens, &grad_output, &tiling)?;
     drop(renderer);

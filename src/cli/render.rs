@@ -160,7 +160,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     let layer_count = loaded.stack.layers.len();
     let what = format!("rendering {layer_count} layer(s) with {}", args.method);
-    let tile_progress = progress::tiles(&spinner, what);
+    let passes = args.character.resolve()?.render_count(&loaded.stack, &loaded.camera.lens);
+    let tile_progress = progress::tiles(&spinner, what, passes);
     let options = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
     let rendered = args
         .character
