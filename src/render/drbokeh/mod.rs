@@ -128,8 +128,8 @@ pub struct LensView {
     pub kernel: Vec<f64>,
     pub kernel_size: usize,
     /// Polygons and ellipses: the constants of their gauge's closed form
-    /// ([`closed_form_gauge`](crate::camera::closed_form_gauge)) followed by the row table of
-    /// their span path ([`aperture_row_table`](crate::camera::aperture_row_table)): the
+    /// ([`closed_form_gauge`]) followed by the row table of their span path
+    /// ([`aperture_row_table`]): the
     /// `aperture_rows` buffer of `drbokeh_layer_gauge.comp`. Empty otherwise (the disk's rows
     /// have a closed form).
     pub row_table: Vec<[f32; 4]>,
