@@ -9,7 +9,7 @@
 // - an ellipse's is |(p . a, p . b)| with a, b its axes scaled by 1 and the squeeze.
 // Constants: `closed_form_gauge` in src/camera/aperture_rows.rs (f64), or gauge_constants
 // below (in the shader's f32) where no table carries them; the shape itself is a
-// specialization constant (`gauge_specialization` in src/render/drbokeh/gpu.rs).
+// specialization constant (`LensView::gauge_specialization` in src/render/drbokeh/mod.rs).
 #ifndef LENSBLUR_GAUGE_GLSL
 #define LENSBLUR_GAUGE_GLSL
 

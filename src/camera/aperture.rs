@@ -202,20 +202,10 @@ impl Aperture {
         !matches!(self, Aperture::Kernel(_))
     }
 
-    /// Whether the shape equals its mirror image through the centre (so near and far sources
-    /// see the same gauge): all but odd-bladed polygons and kernel images.
-    pub fn is_centrally_symmetric(&self) -> bool {
-        match self {
-            Aperture::Disk | Aperture::Ellipse { .. } => true,
-            Aperture::Polygon { blades, .. } => blades % 2 == 0,
-            Aperture::Kernel(_) => false,
-        }
-    }
-
     /// Weight of the kernel image at the offset `(u, v)` (aperture coordinates, pixels) from a
     /// source whose CoC has radius `r` pixels: the image spans the soft disk of radius
     /// `r + 1/2` and fades in over [`KERNEL_FADE_PX`] of CoC, since a kernel smaller than a
-    /// pixel cannot be resolved and integrates to a point. 1 for disks and polygons (their
+    /// pixel cannot be resolved and integrates to a point. 1 for disks, polygons and ellipses (their
     /// shape is the gauge). Mirrors `aperture_kernel_weight` in `glsl/common/aperture.glsl`.
     #[inline]
     pub fn kernel_weight(&self, u: f32, v: f32, r: f32) -> f32 {
