@@ -28,7 +28,7 @@ pub const APERTURE_ROW_SEGMENTS: usize = 2048;
 const SLACK: f64 = 3e-4;
 
 /// An empty row: `lo > hi` for both intervals.
-const EMPTY: [f32; 4] = [1.0, -1.0, 1.0, -1.0];
+pub const EMPTY_APERTURE_ROW: [f32; 4] = [1.0, -1.0, 1.0, -1.0];
 
 /// Two entries per segment `i` of v in [-1, 1], each `[interior lo, interior hi, outer lo,
 /// outer hi]` at unit level in offsets `o` (source column minus centre column) of a row at
@@ -87,8 +87,8 @@ pub fn aperture_row_table(aperture: &Aperture) -> Option<Vec<[f32; 4]>> {
         let (outer_lo, outer_hi) = (outer.0 - SLACK, outer.1 + SLACK);
         match inner {
             Some((lo, hi)) if lo <= hi => [lo as f32, hi as f32, outer_lo as f32, outer_hi as f32],
-            _ if outer_lo <= outer_hi => [EMPTY[0], EMPTY[1], outer_lo as f32, outer_hi as f32],
-            _ => EMPTY,
+            _ if outer_lo <= outer_hi => [EMPTY_APERTURE_ROW[0], EMPTY_APERTURE_ROW[1], outer_lo as f32, outer_hi as f32],
+            _ => EMPTY_APERTURE_ROW,
         }
     };
     let table = (0..n)
@@ -211,7 +211,7 @@ mod tests {
             // The entry of segment `seg` (`own`: P alone), as the shader reads it.
             let lookup = |v: f32, own: bool| {
                 let seg = ((v + 1.0) * 0.5 * n as f32).floor() as i64;
-                if (0..n as i64).contains(&seg) { table[2 * seg as usize + own as usize] } else { EMPTY }
+                if (0..n as i64).contains(&seg) { table[2 * seg as usize + own as usize] } else { EMPTY_APERTURE_ROW }
             };
             // Orientation: near (P), far (-P: the entry of -v, negated), both.
             for orientation in [1, -1, 0] {

@@ -7,6 +7,7 @@
 use super::bounds::{search_windows, span_radii, NO_SPAN_RADII};
 use super::tiled::{frame_cores, run_batches, run_tiled, Footprint, TilePlan};
 use super::{AperturePath, Model, Params, TILE};
+use crate::camera::{aperture_row_table, closed_form_gauge, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
 use crate::render::Lens;
 use crate::shaders;
@@ -190,7 +191,7 @@ impl DrBokehGpu {
             }
         };
         let interior = self.kernel != LayerKernel::OptimisedNoInterior;
-        let frame = ForwardFrame::new(&self.ctx, stack, &params, &windows, interior)?;
+        let frame = ForwardFrame::new(&self.ctx, stack, &params, &lens.aperture, &windows, interior)?;
         run_tiled(&self.ctx, &params, options, footprint, |plan| self.render_tiles(&frame, plan, options))
     }
 
@@ -362,8 +363,7 @@ pub(crate) struct ForwardFrame<'a> {
     tile_window: Buffer,
     area_lut: Buffer,
     kernel: Buffer,
-    /// The gauge path's row table (one dummy entry for other apertures: Vulkan buffers cannot
-    /// be empty).
+    /// The gauge path's closed-form gauge constants and row table ([`aperture_rows`]).
     aperture_rows: Buffer,
     /// False: tiles upload radii [0, f32::MAX] ([`LayerKernel::OptimisedNoInterior`]).
     interior: bool,
@@ -374,9 +374,14 @@ impl<'a> ForwardFrame<'a> {
         ctx: &Context,
         stack: &'a LayerStack,
         params: &'a Params,
+        aperture: &Aperture,
         windows: &'a [i32],
         interior: bool,
     ) -> Result<Self> {
+        let rows = match params.lens.path(params.model) {
+            AperturePath::Gauge => aperture_rows(aperture),
+            _ => vec![EMPTY_APERTURE_ROW],
+        };
         Ok(Self {
             stack,
             params,
@@ -384,9 +389,21 @@ impl<'a> ForwardFrame<'a> {
             tile_window: Buffer::from_slice(ctx, "drbokeh tile_window", windows)?,
             area_lut: Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?,
             kernel: Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?,
-            aperture_rows: Buffer::from_slice(ctx, "drbokeh aperture_rows", &params.row_table_f32())?,
+            aperture_rows: Buffer::from_slice(ctx, "drbokeh aperture_rows", &rows)?,
             interior,
         })
+    }
+}
+
+/// The `aperture_rows` buffer of `drbokeh_layer_gauge.comp`: the constants of the gauge's
+/// closed form ([`closed_form_gauge`]) followed by the row table ([`aperture_row_table`]), for
+/// polygons and ellipses. Built per render, and only for the gauge path: ~50 ms for a polygon,
+/// which the CPU references and the other paths do not pay. One empty row otherwise (Vulkan
+/// buffers cannot be empty).
+fn aperture_rows(aperture: &Aperture) -> Vec<[f32; 4]> {
+    match (closed_form_gauge(aperture), aperture_row_table(aperture)) {
+        (Some(gauge), Some(rows)) => std::iter::once(gauge).chain(rows).collect(),
+        _ => vec![EMPTY_APERTURE_ROW],
     }
 }
 

@@ -148,7 +148,7 @@ impl DrBokehGpuGrad {
         let reach: Vec<i32> = windows.chunks(per_layer.max(1)).flat_map(|w| tile_reach_cpu(&params, w)).collect();
         let ctx = self.context();
         let frame = Frame {
-            forward: ForwardFrame::new(ctx, stack, &params, &windows, true)?,
+            forward: ForwardFrame::new(ctx, stack, &params, &lens.aperture, &windows, true)?,
             reach: &reach,
             tile_reach: Buffer::from_slice(ctx, "drbokeh tile_reach", &reach)?,
             grad_output,

@@ -24,7 +24,7 @@
 //! whatever the tile size. Several tiles share one submission; [`tiled`] plans tile side and
 //! batch size from the device's memory budget and retries smaller when memory runs out. The backward ([`DrBokehGpuGrad`]) tiles the frame the same way, by
 //! the same policy, with the same guarantee.
-use crate::camera::{aperture_row_table, closed_form_gauge, Aperture, CocModel};
+use crate::camera::{Aperture, CocModel};
 
 pub mod backward;
 pub mod backward_cpu;
@@ -127,12 +127,6 @@ pub struct LensView {
     pub aperture: [f64; 4],
     pub kernel: Vec<f64>,
     pub kernel_size: usize,
-    /// Polygons and ellipses: the constants of their gauge's closed form
-    /// ([`closed_form_gauge`]) followed by the row table of their span path
-    /// ([`aperture_row_table`]): the
-    /// `aperture_rows` buffer of `drbokeh_layer_gauge.comp`. Empty otherwise (the disk's rows
-    /// have a closed form).
-    pub row_table: Vec<[f32; 4]>,
 }
 
 /// Which layer-pass variant renders a lens under a model.
@@ -153,17 +147,12 @@ impl LensView {
             Aperture::Kernel(k) => (k.weights.iter().map(|&w| w as f64).collect(), k.size),
             _ => (Vec::new(), 0),
         };
-        let row_table = match (closed_form_gauge(aperture), aperture_row_table(aperture)) {
-            (Some(gauge), Some(rows)) => std::iter::once(gauge).chain(rows).collect(),
-            _ => Vec::new(),
-        };
         Self {
             k_px: coc.k_px as f64,
             focus_disparity: coc.focus_disparity as f64,
             aperture: aperture.gpu_params().map(|v| v as f64),
             kernel,
             kernel_size,
-            row_table,
         }
     }
 
@@ -173,12 +162,13 @@ impl LensView {
         [if self.aperture[0] >= 3.0 { self.aperture[0] as u32 } else { 0 }]
     }
 
-    /// The layer-pass variant for this lens under `model`.
+    /// The layer-pass variant for this lens under `model` (from the GPU form: shape 0 = disk,
+    /// 1 = ellipse, >= 3 = polygon; a kernel image is evaluated per tap).
     pub fn path(&self, model: Model) -> AperturePath {
         let kernel = self.aperture[3] >= 0.5 && self.kernel_size > 0;
         match model {
             Model::DrBokeh if !kernel && self.aperture[0] < 0.5 => AperturePath::Disk,
-            Model::DrBokeh if !kernel && !self.row_table.is_empty() => AperturePath::Gauge,
+            Model::DrBokeh if !kernel => AperturePath::Gauge,
             _ => AperturePath::PerTap,
         }
     }

@@ -103,17 +103,6 @@ impl Params {
         self.area_lut.iter().map(|&a| a as f32).collect()
     }
 
-    /// The aperture's gauge constants and row table as the `aperture_rows` buffer of
-    /// `drbokeh_layer_gauge.comp` (one dummy texel when there is none: Vulkan buffers cannot
-    /// be empty).
-    pub fn row_table_f32(&self) -> Vec<[f32; 4]> {
-        if self.lens.row_table.is_empty() {
-            vec![[1.0, -1.0, 1.0, -1.0]]
-        } else {
-            self.lens.row_table.clone()
-        }
-    }
-
     /// The kernel image as the `kernel` buffer (one dummy element when there is none, since
     /// Vulkan buffers cannot be empty).
     pub fn kernel_f32(&self) -> Vec<f32> {
