@@ -110,8 +110,10 @@ fn aperture_parse_accepts_anamorphic_and_ring_and_keeps_old_forms() {
     // outside (gauge 1.6), and the area is half the disk's.
     assert!(ellipse.gauge(0.0, 0.8) < 0.81 && ellipse.gauge(0.8, 0.0) > 1.59);
     assert!((ellipse.relative_area() - 0.5).abs() < 1e-6);
-    let Aperture::Kernel(ring) = Aperture::parse("ring:0.5").unwrap() else { panic!("not a kernel") };
-    assert!(ring.sample(0.0, 0.0) == 0.0 && ring.sample(0.75, 0.0) > 0.9);
+    // The ring has its own closed form (no kernel image): dark centre, open annulus.
+    let ring = Aperture::parse("ring:0.5").unwrap();
+    assert_eq!(ring, Aperture::Ring { inner: 0.5 });
+    assert!(ring.weight(0.0, 0.0) == 0.0 && ring.weight(0.75, 0.0) == 1.0);
     for bad in ["anamorphic", "anamorphic:0.5", "anamorphic:2:spin=3", "ring", "ring:1.5", "ring:0.5:2", "donut"] {
         assert!(Aperture::parse(bad).is_err(), "{bad}");
     }

@@ -266,11 +266,13 @@ fn backward_matches_finite_differences_for_layer_inputs_compat_model() {
 }
 
 #[test]
-fn backward_matches_finite_differences_for_polygon_and_kernel_apertures() {
+fn backward_matches_finite_differences_for_polygon_ring_and_kernel_apertures() {
     // Polygon gauges do not depend on r; kernel weights do (sampled at p / (r + 1/2), faded
     // in over 0.5-1.5 px): the kernel's bilinear cells add kinks, which the guard skips.
     check_layer_inputs(Model::DrBokeh, Aperture::polygon(5, 10.0, 0.3).unwrap());
     check_layer_inputs(Model::DrBokeh, kernel_aperture());
+    // The ring's obstruction edge moves with r (radius inner r): its own dK/dr term.
+    check_layer_inputs(Model::DrBokeh, Aperture::ring(0.5).unwrap());
 }
 
 #[test]

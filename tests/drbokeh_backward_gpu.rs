@@ -96,12 +96,14 @@ fn gpu_backward_matches_cpu_reference_for_both_models_and_apertures() {
     )
     .unwrap();
     // Disk, the gauge path (even and odd polygons, an ellipse: passes 2 and 4 with the
-    // closed-form gauge, mirrored per side of focus) and the per-tap path (a kernel image).
+    // closed-form gauge, mirrored per side of focus) and the per-tap path (a ring, a kernel
+    // image).
     let apertures = [
         Aperture::Disk,
         Aperture::polygon(6, 15.0, 0.2).unwrap(),
         Aperture::polygon(5, 20.0, 0.0).unwrap(),
         Aperture::anamorphic(1.7, 25.0).unwrap(),
+        Aperture::ring(0.5).unwrap(),
         Aperture::Kernel(kernel),
     ];
     for model in [Model::DrBokeh, Model::Compat] {

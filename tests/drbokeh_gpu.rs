@@ -68,7 +68,8 @@ fn gpu_matches_cpu_reference_for_both_models_and_every_aperture() {
         vec![0.2, 1.0, 1.0, 0.2, 1.0, 0.5, 0.5, 1.0, 1.0, 0.5, 0.5, 1.0, 0.2, 1.0, 1.0, 0.2],
     )
     .unwrap();
-    let apertures = [Aperture::Disk, Aperture::polygon(6, 15.0, 0.2).unwrap(), Aperture::Kernel(kernel)];
+    let apertures =
+        [Aperture::Disk, Aperture::polygon(6, 15.0, 0.2).unwrap(), Aperture::ring(0.5).unwrap(), Aperture::Kernel(kernel)];
     for model in [Model::DrBokeh, Model::Compat] {
         for aperture in &apertures {
             // K = 25: CoC up to ~12 px in front, ~10 px behind.
@@ -94,14 +95,16 @@ fn optimised_kernel_matches_the_baseline_kernel_for_both_models_and_every_apertu
     // 50 is not a multiple of the 8-pixel runs.
     let stack = scene(50, 40);
     let kernel = KernelImage::from_weights(2, vec![1.0, 0.5, 0.5, 1.0]).unwrap();
-    let apertures = [Aperture::Disk, Aperture::polygon(5, 10.0, 0.0).unwrap(), Aperture::Kernel(kernel)];
+    let apertures =
+        [Aperture::Disk, Aperture::polygon(5, 10.0, 0.0).unwrap(), Aperture::ring(0.4).unwrap(), Aperture::Kernel(kernel)];
     for model in [Model::DrBokeh, Model::Compat] {
         for aperture in &apertures {
             let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: aperture.clone() };
             let fast = optimised.render(&stack, &lens, model).unwrap();
             let first = baseline.render(&stack, &lens, model).unwrap();
-            if model == Model::DrBokeh && aperture.is_gauge_shape() {
-                // The span paths (disk, polygon) divide by the area once per source instead of
+            let span_path = !matches!(aperture, Aperture::Kernel(_));
+            if model == Model::DrBokeh && span_path {
+                // The span paths (disk, polygon, ring) divide by the area once per source instead of
                 // once per tap and sum interiors from block sums: f32 rounding only, each
                 // kernel is within 5e-5 of the f64 reference.
                 let worst = worst_relative(&fast, &first);
@@ -267,3 +270,25 @@ fn gauge_path_matches_per_tap_evaluation_and_is_bit_identical_tiled_or_not() {
     finish(ctx);
 }
 
+/// The ring path (the disk's row spans split around the obstruction, whose middle is skipped)
+/// against the per-tap first kernel, on the disk test's scene (CoC 20-25 px: obstructions of
+/// 4-20 px, in-focus occluding centres) and on one whose near layer crosses the focal plane
+/// (small CoCs, where the ring fades in and nothing may be skipped).
+#[test]
+fn ring_path_matches_per_tap_evaluation_and_is_bit_identical_tiled_or_not() {
+    let ctx = gpu();
+    let fast = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
+    let per_tap = DrBokehGpu::with_kernel(&ctx, LayerKernel::Baseline).unwrap();
+    let (w, h) = (70, 53);
+    let flat = scene(w, h);
+    let mut crossing = flat.clone();
+    crossing.layers[0].disparity = (0..w * h).map(|i| 0.3 + 0.006 * (i % w) as f32).collect();
+    for inner in [0.2, 0.5, 0.8] {
+        let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture: Aperture::ring(inner).unwrap() };
+        for stack in [&flat, &crossing] {
+            assert_span_path_matches(&fast, &per_tap, stack, &lens);
+        }
+    }
+    drop((fast, per_tap));
+    finish(ctx);
+}

@@ -4,7 +4,8 @@
 //
 // The aperture arrives as `Aperture::gpu_params`: vec4(shape, rotation (rad), parameter,
 // kernel (1 = sample the kernel buffer)); shape 0 = disk (or kernel image), 1 = ellipse
-// (parameter = squeeze), >= 3 = polygon of that many blades (parameter = roundness).
+// (parameter = squeeze), 2 = ring (parameter = inner radius), >= 3 = polygon of that many
+// blades (parameter = roundness).
 //
 // A shader that calls `aperture_kernel_sample` must define
 //     float aperture_kernel_texel(int index);
@@ -44,13 +45,17 @@ float aperture_ellipse_gauge(vec2 p, float rotation, float squeeze) {
     return length(vec2(p.x * c + p.y * s, (p.y * c - p.x * s) * squeeze));
 }
 
-// The aperture's gauge of an offset in aperture coordinates (Euclidean for disks and kernels).
+// The aperture's gauge of an offset in aperture coordinates (Euclidean for disks, rings and
+// kernels).
 float aperture_gauge(vec2 p, vec4 aperture) {
     if (aperture.x < 0.5) {
         return length(p);
     }
     if (aperture.x < 1.5) {
         return aperture_ellipse_gauge(p, aperture.y, aperture.z);
+    }
+    if (aperture.x < 2.5) {
+        return length(p);
     }
     return aperture_polygon_gauge(p, aperture.x, aperture.y, aperture.z);
 }
@@ -84,11 +89,26 @@ float aperture_kernel_sample(vec2 uv, int size) {
 const float APERTURE_KERNEL_FADE_START_PX = 0.5;
 const float APERTURE_KERNEL_FADE_END_PX = 1.5;
 
+bool aperture_is_ring(vec4 aperture) {
+    return aperture.x > 1.5 && aperture.x < 2.5;
+}
+
+// The ring's weight at distance g from the centre of a CoC of radius r: an obstruction of
+// radius inner * r with the rim's one-pixel Hermite edge, faded in like kernel images.
+// Mirrors `ring_weight` in src/camera/aperture.rs.
+float aperture_ring_weight(float g, float r, float inner) {
+    float blend = smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r);
+    return 1.0 - blend * (1.0 - smoothstep(0.0, 1.0, g - (inner * r - 0.5)));
+}
+
 // Kernel-image weight of the offset p (aperture coordinates, pixels) from a source whose CoC
 // has radius r: the image spans the soft disk of radius r + 1/2 and fades in over 0.5..1.5 px
-// of CoC (a sub-pixel kernel integrates to a point). 1 without a kernel (disks, polygons).
-// Mirrors `Aperture::kernel_weight`.
+// of CoC (a sub-pixel kernel integrates to a point). The ring's weight; 1 without a kernel
+// (disks, polygons, ellipses). Mirrors `Aperture::kernel_weight`.
 float aperture_kernel_weight(vec2 p, float r, vec4 aperture, int kernel_size) {
+    if (aperture_is_ring(aperture)) {
+        return aperture_ring_weight(length(p), r, aperture.z);
+    }
     if (aperture.w < 0.5 || kernel_size == 0) {
         return 1.0;
     }

@@ -31,6 +31,12 @@ pub enum Aperture {
         squeeze: f32,
         rotation: f32,
     },
+    /// The disk with a central obstruction of `inner` times its radius: a catadioptric
+    /// (mirror) lens, whose bokeh is a ring. Its weight is [`ring_weight`]: the hole has the
+    /// disk's own one-pixel soft edge, so a renderer needs no image of it.
+    Ring {
+        inner: f32,
+    },
     /// A custom kernel image, sampled over the CoC disk.
     Kernel(KernelImage),
 }
@@ -48,7 +54,8 @@ pub const KERNEL_FADE_PX: [f32; 2] = [0.5, 1.5];
 
 /// The aperture as a shader reads it (push constants): `[shape, rotation (rad), parameter,
 /// kernel (1 = sample the kernel buffer)]`, shape 0 = disk (or kernel image), 1 = ellipse
-/// (parameter = squeeze), >= 3 = polygon of that many blades (parameter = roundness).
+/// (parameter = squeeze), 2 = ring (parameter = inner radius), >= 3 = polygon of that many
+/// blades (parameter = roundness).
 pub type ApertureGpu = [f32; 4];
 
 impl Aperture {
@@ -85,6 +92,14 @@ impl Aperture {
         // An ellipse is unchanged by a half turn (reduced as the polygon's rotation is).
         let rotation = (rotation_deg as f64).rem_euclid(180.0).to_radians() as f32;
         Ok(Aperture::Ellipse { squeeze, rotation })
+    }
+
+    /// The catadioptric aperture: the disk less a central obstruction of `inner` x its radius.
+    pub fn ring(inner: f32) -> Result<Self> {
+        if !(inner.is_finite() && (0.0..=0.9).contains(&inner)) {
+            return Err(Error::param(format!("ring inner radius must be in [0, 0.9], got {inner}")));
+        }
+        Ok(Aperture::Ring { inner })
     }
 
     /// Parses the CLI form: `disk`, `polygon:BLADES[:rotation=DEG][:roundness=R]`,
@@ -125,7 +140,7 @@ impl Aperture {
                 if parts.next().is_some() {
                     return Err(Error::param(format!("aperture '{spec}': ring takes only the inner radius")));
                 }
-                Ok(Aperture::Kernel(crate::character::kernels::ring(inner)?))
+                Aperture::ring(inner)
             }
             "image" => {
                 let path: String = parts.collect::<Vec<_>>().join(":");
@@ -165,11 +180,13 @@ impl Aperture {
         }
     }
 
-    /// Weight of the lens at normalised aperture coordinates (|(u,v)| <= 1 is the CoC).
+    /// Weight of the lens at normalised aperture coordinates (|(u,v)| <= 1 is the CoC): the
+    /// shape at unit size, without the pixel-scale soft edges of [`Self::kernel_weight`].
     #[inline]
     pub fn weight(&self, u: f32, v: f32) -> f32 {
         match self {
             Aperture::Kernel(kernel) => kernel.sample(u, v),
+            Aperture::Ring { inner } if u * u + v * v < inner * inner => 0.0,
             _ => 1.0,
         }
     }
@@ -192,6 +209,7 @@ impl Aperture {
             }
             // The ellipse's area pi * 1 * (1 / squeeze).
             &Aperture::Ellipse { squeeze, .. } => 1.0 / squeeze,
+            &Aperture::Ring { inner } => 1.0 - inner * inner,
             Aperture::Kernel(kernel) => kernel.mean_over_disk(),
         }
     }
@@ -199,17 +217,19 @@ impl Aperture {
     /// Whether the shape is a gauge's unit ball (disk, polygon, ellipse): weight 1 inside,
     /// 0 outside, so a renderer needs only the gauge.
     pub fn is_gauge_shape(&self) -> bool {
-        !matches!(self, Aperture::Kernel(_))
+        !matches!(self, Aperture::Kernel(_) | Aperture::Ring { .. })
     }
 
     /// Weight of the kernel image at the offset `(u, v)` (aperture coordinates, pixels) from a
     /// source whose CoC has radius `r` pixels: the image spans the soft disk of radius
     /// `r + 1/2` and fades in over [`KERNEL_FADE_PX`] of CoC, since a kernel smaller than a
-    /// pixel cannot be resolved and integrates to a point. 1 for disks, polygons and ellipses (their
-    /// shape is the gauge). Mirrors `aperture_kernel_weight` in `glsl/common/aperture.glsl`.
+    /// pixel cannot be resolved and integrates to a point. The ring's [`ring_weight`]; 1 for
+    /// disks, polygons and ellipses (their shape is the gauge). Mirrors
+    /// `aperture_kernel_weight` in `glsl/common/aperture.glsl`.
     #[inline]
     pub fn kernel_weight(&self, u: f32, v: f32, r: f32) -> f32 {
         match self {
+            &Aperture::Ring { inner } => ring_weight((u * u + v * v).sqrt(), r, inner),
             Aperture::Kernel(kernel) => {
                 let scale = 1.0 / (r + 0.5);
                 let [start, end] = KERNEL_FADE_PX;
@@ -235,6 +255,7 @@ impl Aperture {
             Aperture::Disk => [0.0, 0.0, 1.0, 0.0],
             Aperture::Polygon { blades, rotation, roundness } => [blades as f32, rotation, roundness, 0.0],
             Aperture::Ellipse { squeeze, rotation } => [1.0, rotation, squeeze, 0.0],
+            Aperture::Ring { inner } => [2.0, 0.0, inner, 0.0],
             Aperture::Kernel(_) => [0.0, 0.0, 1.0, 1.0],
         }
     }
@@ -272,6 +293,22 @@ pub fn polygon_gauge(u: f32, v: f32, n: f32, rotation: f32, roundness: f32) -> f
     let folded = theta - sector * (theta / sector).round();
     let poly = length * folded.cos() / (PI / n).cos();
     poly + (length - poly) * roundness
+}
+
+/// Weight of the ring aperture at distance `g` (pixels) from the centre of a CoC of radius
+/// `r`: the obstruction is a disk of radius `inner * r` with the outer rim's one-pixel Hermite
+/// edge (0 up to `inner r - 1/2`, 1 from `inner r + 1/2`), faded in over [`KERNEL_FADE_PX`]
+/// as kernel images are (a sub-pixel ring integrates to a point). Mirrors
+/// `aperture_ring_weight` in `glsl/common/aperture.glsl` and `math::ring_weight` (f64).
+#[inline]
+pub fn ring_weight(g: f32, r: f32, inner: f32) -> f32 {
+    let hermite = |t: f32| {
+        let t = t.clamp(0.0, 1.0);
+        t * t * (3.0 - 2.0 * t)
+    };
+    let [start, end] = KERNEL_FADE_PX;
+    let blend = hermite((r - start) / (end - start));
+    1.0 - blend * (1.0 - hermite(g - (inner * r - 0.5)))
 }
 
 /// Gauge of the ellipse with semi-axes 1 (at `rotation` from +u toward +v) and `1 / squeeze`.
@@ -428,6 +465,23 @@ mod tests {
         assert_eq!(ring.kernel_weight(0.0, 0.0, 10.0), 0.0, "the obstruction at full size");
         assert!(ring.kernel_weight(8.0, 0.0, 10.0) > 0.99, "the annulus at full size");
         assert_eq!(Aperture::polygon(6, 0.0, 0.0).unwrap().kernel_weight(0.0, 0.0, 10.0), 1.0);
+    }
+
+    #[test]
+    fn the_ring_hole_has_the_rims_one_pixel_edge_and_passes_the_annulus_area() {
+        let ring = Aperture::ring(0.5).unwrap();
+        let r = 20.0;
+        // The obstruction's edge is centred on inner * r = 10 px, a pixel wide.
+        assert_eq!(ring.kernel_weight(9.5, 0.0, r), 0.0);
+        assert!((ring.kernel_weight(0.0, 10.0, r) - 0.5).abs() < 1e-6);
+        assert_eq!(ring.kernel_weight(6.0, 8.7, r), 1.0);
+        assert_eq!(ring.weight(0.3, 0.3), 0.0);
+        assert_eq!(ring.weight(0.5, 0.3), 1.0);
+        assert!((ring.relative_area() - 0.75).abs() < 1e-6);
+        assert!(!ring.is_gauge_shape(), "the hole is not a gauge's unit ball");
+        for bad in ["ring", "ring:-0.1", "ring:0.95", "ring:0.5:0.2"] {
+            assert!(Aperture::parse(bad).is_err(), "{bad}");
+        }
     }
 
     #[test]

@@ -8,6 +8,7 @@
 //!   so a source of radius r >= c + 1/2 covers the offset fully whichever side of focus it is;
 //! - the hull of `c * (P ∪ -P)`: outside it both gauges are >= c, so a source whose support is
 //!   below c adds an exact zero there.
+//!
 //! P is convex, so each row of either set is one interval. The table samples the rows of the
 //! unit sets at heights v in [-1, 1] (every gauge is at least the Euclidean length, so P lies
 //! in the unit disk), and each entry is *conservative over its neighbours*: the interior entry
@@ -37,7 +38,8 @@ pub const EMPTY_APERTURE_ROW: [f32; 4] = [1.0, -1.0, 1.0, -1.0];
 ///   sources on both sides of focus);
 /// - `2i + 1`: `P` alone (every source nearer than focus; a window of farther ones reads the
 ///   entry of `-v`, negated and swapped).
-/// `None` for shapes that are not a gauge's unit ball (kernel images).
+///
+/// `None` for shapes that are not a gauge's unit ball (kernel images, the ring).
 pub fn aperture_row_table(aperture: &Aperture) -> Option<Vec<[f32; 4]>> {
     if !aperture.is_gauge_shape() {
         return None;

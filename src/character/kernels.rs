@@ -1,5 +1,6 @@
-//! Procedural aperture kernels: catadioptric (ring) and the cat's-eye (vignetted) aperture (the
-//! anamorphic ellipse is a gauge shape, [`Aperture::Ellipse`]). Each is a [`KernelImage`], which every renderer already samples over
+//! Procedural aperture kernels: the cat's-eye (vignetted) aperture (the anamorphic ellipse is a
+//! gauge shape, [`Aperture::Ellipse`], and the catadioptric ring has its own closed form,
+//! [`Aperture::Ring`]). Each is a [`KernelImage`], which every renderer already samples over
 //! the CoC disk and normalises exactly, so no shader needs to know these shapes.
 //!
 //! Aperture coordinates are image-oriented: `u` right, `v` down, unit radius = the CoC.
@@ -35,20 +36,12 @@ pub fn procedural(size: usize, mask: impl Fn(f32, f32) -> f32) -> Result<KernelI
     KernelImage::from_weights(size, weights)
 }
 
-/// A catadioptric (mirror) lens: the disk with a central obstruction of radius `inner`
-/// (fraction of the aperture radius).
-pub fn ring(inner: f32) -> Result<KernelImage> {
-    if !(inner.is_finite() && (0.0..=0.9).contains(&inner)) {
-        return Err(Error::param(format!("ring inner radius must be in [0, 0.9], got {inner}")));
-    }
-    procedural(KERNEL_SIZE, |u, v| if u * u + v * v >= inner * inner { 1.0 } else { 0.0 })
-}
-
-/// Weight of `aperture` at `(u, v)` (1 inside a disk or polygon, the image for kernels).
+/// Weight of `aperture` at `(u, v)` (1 inside a disk or polygon, the ring's annulus, the
+/// image for kernels).
 fn base_weight(aperture: &Aperture, u: f32, v: f32) -> f32 {
     match aperture {
         Aperture::Kernel(kernel) => kernel.sample(u, v),
-        other if other.gauge(u, v) <= 1.0 => 1.0,
+        other if other.gauge(u, v) <= 1.0 => other.weight(u, v),
         _ => 0.0,
     }
 }

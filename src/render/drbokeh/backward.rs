@@ -188,10 +188,15 @@ pub(crate) fn vis_weight(params: &Params, leak: f64, dx: f64, dy: f64, dst: &Px)
 
 impl LensView {
     /// [`LensView::lens`] plus d(kernel weight)/dr: the kernel is sampled at `p / (r + 1/2)`
-    /// and faded in with `kernel_blend(r)`; the gauge does not depend on r.
+    /// and faded in with `kernel_blend(r)`, the ring's obstruction has radius `inner r`; the
+    /// gauge does not depend on r.
     pub fn lens_d(&self, dx: f64, dy: f64, r: f64, rel: f64) -> (f64, f64, f64) {
         let (u, v) = math::to_aperture_coords(dx, dy, rel);
         let g = math::gauge(&self.aperture, u, v);
+        if self.is_ring() {
+            let inner = self.aperture[2];
+            return (g, math::ring_weight(g, r, inner), math::d_ring_weight(g, r, inner));
+        }
         if self.aperture[3] < 0.5 || self.kernel_size == 0 {
             return (g, 1.0, 0.0);
         }

@@ -36,6 +36,8 @@ pub struct DrBokehGpu {
     layer_disk: Option<ComputePipeline>,
     /// Specialized per shape (blades, or the ellipse), made on first use.
     layer_gauge: Option<PipelineVariants>,
+    /// The disk path's spans split around the ring's obstruction.
+    layer_ring: Option<ComputePipeline>,
     composite: ComputePipeline,
 }
 
@@ -142,13 +144,14 @@ impl DrBokehGpu {
 
     pub fn with_kernel(ctx: &Context, kernel: LayerKernel) -> Result<Self> {
         let push = std::mem::size_of::<super::DrBokehPush>();
-        let (layer, layer_disk, layer_gauge) = match kernel {
+        let (layer, layer_disk, layer_gauge, layer_ring) = match kernel {
             LayerKernel::Optimised | LayerKernel::OptimisedNoInterior => (
                 ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER, &LAYER_SLOTS, push)?,
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_DISK, &LAYER_SLOTS, push)?),
                 Some(PipelineVariants::new(ctx, &shaders::DRBOKEH_LAYER_GAUGE, &LAYER_GAUGE_SLOTS, push)?),
+                Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_RING, &LAYER_SLOTS, push)?),
             ),
-            LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None),
+            LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None, None),
         };
         Ok(Self {
             ctx: ctx.clone(),
@@ -158,6 +161,7 @@ impl DrBokehGpu {
             layer,
             layer_disk,
             layer_gauge,
+            layer_ring,
             composite: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_COMPOSITE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage], push)?,
         })
     }
@@ -237,9 +241,11 @@ impl DrBokehGpu {
         // The layer pipeline, whether it sums row spans (from the block sums), and how many of
         // the bindings below it declares.
         let gauge;
-        let (layer_pipeline, spans, binding_count) = match (params.lens.path(params.model), &self.layer_disk, &self.layer_gauge) {
-            (AperturePath::Disk, Some(disk), _) => (disk, true, LAYER_SLOTS.len()),
-            (AperturePath::Gauge, _, Some(variants)) => {
+        let path = params.lens.path(params.model);
+        let (layer_pipeline, spans, binding_count) = match (path, &self.layer_disk, &self.layer_gauge, &self.layer_ring) {
+            (AperturePath::Disk, Some(disk), _, _) => (disk, true, LAYER_SLOTS.len()),
+            (AperturePath::Ring, _, _, Some(ring)) => (ring, true, LAYER_SLOTS.len()),
+            (AperturePath::Gauge, _, Some(variants), _) => {
                 gauge = variants.get(&params.lens.gauge_specialization())?;
                 (&gauge, true, LAYER_GAUGE_SLOTS.len())
             }

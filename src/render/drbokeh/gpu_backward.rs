@@ -241,7 +241,8 @@ impl DrBokehGpuGrad {
                 gauge = (self.own_gauge.get(&constants)?, self.source_gauge.get(&constants)?);
                 (&gauge.0, &gauge.1)
             }
-            AperturePath::PerTap => (&self.own, &self.source),
+            // The ring's backward has no span path yet: every tap, as for kernel images.
+            AperturePath::PerTap | AperturePath::Ring => (&self.own, &self.source),
         };
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
         let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];

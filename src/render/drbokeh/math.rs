@@ -54,6 +54,14 @@ pub fn kernel_blend(r: f64) -> f64 {
     smoothstep(KERNEL_FADE_START_PX, KERNEL_FADE_END_PX, r)
 }
 
+/// The ring aperture's weight at gauge `g` through a CoC of radius `r` (mirrors
+/// `crate::camera::ring_weight`): the obstruction of radius `inner r` with a one-pixel
+/// Hermite edge, faded in like kernel images.
+#[inline]
+pub fn ring_weight(g: f64, r: f64, inner: f64) -> f64 {
+    1.0 - kernel_blend(r) * (1.0 - smoothstep(0.0, 1.0, g - (inner * r - 0.5)))
+}
+
 /// Area normalisation A(r) from the table of exact lattice sums (`Params::area_lut`), linear
 /// between entries; beyond the table it grows like the continuous integral `pi (r^2 + 1/20)`
 /// of the Hermite-rimmed disk, anchored at the last entry.
@@ -141,8 +149,8 @@ pub fn to_aperture_coords(dx: f64, dy: f64, rel: f64) -> (f64, f64) {
     }
 }
 
-/// Mirrors `Aperture::gauge` from the GPU form `[shape (0 = disk, 1 = ellipse, >= 3 = blades),
-/// rotation, roundness or squeeze, kernel]`.
+/// Mirrors `Aperture::gauge` from the GPU form `[shape (0 = disk, 1 = ellipse, 2 = ring,
+/// >= 3 = blades), rotation, roundness or squeeze or inner radius, kernel]`.
 pub fn gauge(aperture: &[f64; 4], u: f64, v: f64) -> f64 {
     let length = (u * u + v * v).sqrt();
     if aperture[0] < 0.5 || length == 0.0 {
@@ -152,6 +160,9 @@ pub fn gauge(aperture: &[f64; 4], u: f64, v: f64) -> f64 {
         let (s, c) = aperture[1].sin_cos();
         let (along, across) = (u * c + v * s, (v * c - u * s) * aperture[2]);
         return (along * along + across * across).sqrt();
+    }
+    if aperture[0] < 2.5 {
+        return length;
     }
     let n = aperture[0];
     let sector = 2.0 * std::f64::consts::PI / n;
@@ -302,6 +313,12 @@ pub fn d_occlusion_compat(rel_y: f64, rel_x: f64, r_x: f64, is_self: bool) -> Oc
 #[inline]
 pub fn d_kernel_blend(r: f64) -> f64 {
     d_smoothstep(KERNEL_FADE_START_PX, KERNEL_FADE_END_PX, r)
+}
+
+/// d/dr of [`ring_weight`] (the gauge does not depend on r).
+pub fn d_ring_weight(g: f64, r: f64, inner: f64) -> f64 {
+    let step = smoothstep(0.0, 1.0, g - (inner * r - 0.5));
+    -d_kernel_blend(r) * (1.0 - step) + kernel_blend(r) * d_smoothstep(0.0, 1.0, g - (inner * r - 0.5)) * -inner
 }
 
 /// [`kernel_sample`] and its gradient `(value, d/du, d/dv)` (bilinear: piecewise linear

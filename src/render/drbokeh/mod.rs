@@ -137,6 +137,9 @@ pub enum AperturePath {
     /// Default model, polygon or ellipse: row spans bounded by the row table, the shape's
     /// gauge in the rim taps.
     Gauge,
+    /// Default model, ring: the disk's row spans less the obstruction, whose middle (an exact
+    /// zero) is skipped; the ring weight in the rim taps of both edges.
+    Ring,
     /// Every tap evaluated (compat model, kernel images).
     PerTap,
 }
@@ -163,14 +166,20 @@ impl LensView {
     }
 
     /// The layer-pass variant for this lens under `model` (from the GPU form: shape 0 = disk,
-    /// 1 = ellipse, >= 3 = polygon; a kernel image is evaluated per tap).
+    /// 1 = ellipse, 2 = ring, >= 3 = polygon; a kernel image is evaluated per tap).
     pub fn path(&self, model: Model) -> AperturePath {
         let kernel = self.aperture[3] >= 0.5 && self.kernel_size > 0;
         match model {
             Model::DrBokeh if !kernel && self.aperture[0] < 0.5 => AperturePath::Disk,
+            Model::DrBokeh if self.is_ring() => AperturePath::Ring,
             Model::DrBokeh if !kernel => AperturePath::Gauge,
             _ => AperturePath::PerTap,
         }
+    }
+
+    /// Whether the aperture is [`Aperture::Ring`] (shape 2 of the GPU form).
+    pub fn is_ring(&self) -> bool {
+        (1.5..2.5).contains(&self.aperture[0])
     }
 
     /// Signed relative disparity `d - d_f`.
@@ -190,6 +199,9 @@ impl LensView {
     pub fn lens(&self, dx: f64, dy: f64, r: f64, rel: f64) -> (f64, f64) {
         let (u, v) = math::to_aperture_coords(dx, dy, rel);
         let g = math::gauge(&self.aperture, u, v);
+        if self.is_ring() {
+            return (g, math::ring_weight(g, r, self.aperture[2]));
+        }
         if self.aperture[3] < 0.5 || self.kernel_size == 0 {
             return (g, 1.0);
         }
