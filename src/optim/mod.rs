@@ -5,7 +5,7 @@
 //! - [`adam`]: the optimiser;
 //! - [`fit`]: [`fit_depth`], the optimisation loop over a
 //!   [`Differentiable`](crate::render::grad::Differentiable) renderer;
-//! - [`depth_error`]: disparity and CoC errors against a known truth;
+//! - [`depth_error`](mod@depth_error): disparity and CoC errors against a known truth;
 //! - [`experiment`]: the benchmark of the paper's Tables 2-3 on our ray-traced scenes.
 pub mod adam;
 pub mod depth_error;

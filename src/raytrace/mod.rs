@@ -3,8 +3,8 @@
 //!
 //! - [`scene`]: textured planes (billboards, tilted planes) and the camera frame;
 //! - [`texture`], [`shape`], [`strokes`], [`noise`]: procedural content, nothing downloaded;
-//! - [`trace`]: the thin-lens ray model and per-ray compositing; [`render`]: the passes;
-//! - [`scenes`]: the built-in scene set; [`output`]: files written by `lensblur raytrace`.
+//! - `trace`: the thin-lens ray model and per-ray compositing; `render`: the passes;
+//! - `scenes`: the built-in scene set; [`output`]: files written by `lensblur raytrace`.
 mod grid;
 pub mod noise;
 pub mod output;

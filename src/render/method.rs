@@ -40,6 +40,13 @@ pub enum Method {
     Scatter,
 }
 
+/// The method `lensblur render` uses unless told otherwise: Dr.Bokeh.
+impl Default for Method {
+    fn default() -> Self {
+        Method::DrBokeh
+    }
+}
+
 impl Method {
     pub const ALL: [Method; 7] = [
         Method::DrBokeh,

@@ -4,7 +4,7 @@
 //! Gradients are gathers: every input-gradient element is owned by one loop iteration (one
 //! future shader invocation), which sums over the outputs its input influences. No scattered
 //! adds, so the GPU version is deterministic. Passes, after the forward's four (CPU:
-//! [`super::backward_cpu`], GPU: `glsl/drbokeh_backward_<pass>.comp`):
+//! [`backward_cpu`](mod@super::backward_cpu), GPU: `glsl/drbokeh_backward_<pass>.comp`):
 //! 1. `composite` (per pixel): dL/dC_l, dL/dW_l, dL/dV_l of every layer from dL/d(output).
 //! 2. `own` (per layer, per pixel x, over x's forward window): the terms of x's own outputs
 //!    that depend on x's inputs as the *receiver* — alpha_x and s_x in the occlusion O(y, x),

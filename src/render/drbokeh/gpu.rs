@@ -60,7 +60,7 @@ pub enum LayerKernel {
 pub struct RenderOptions<'a> {
     /// Frame tile side in pixels (rounded up to a multiple of 16); `None`: the whole frame if
     /// it fits the device's buffer range and memory budget, else the largest tile of which two
-    /// fit together ([`tiled`](super::tiled)).
+    /// fit together (`tiled.rs`).
     pub tile: Option<usize>,
     /// Tiles recorded into one submission; `None`: as many as fit the memory budget together
     /// (at most 8).

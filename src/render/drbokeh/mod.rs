@@ -19,9 +19,9 @@
 //!    The first straightforward kernel stays as [`LayerKernel::Baseline`] for benchmarks.
 //! 3. `composite` (GPU `glsl/drbokeh_composite.comp`): front-to-back blend of all layers.
 //!
-//! Large frames are rendered in frame tiles ([`gpu`]): each uploads its core plus halo, and
+//! Large frames are rendered in frame tiles (`gpu.rs`): each uploads its core plus halo, and
 //! since every pixel reads the same sources in the same order, the output is bit-identical
-//! whatever the tile size. Several tiles share one submission; [`tiled`] plans tile side and
+//! whatever the tile size. Several tiles share one submission; `tiled.rs` plans tile side and
 //! batch size from the device's memory budget and retries smaller when memory runs out. The backward ([`DrBokehGpuGrad`]) tiles the frame the same way, by
 //! the same policy, with the same guarantee.
 use crate::camera::{Aperture, CocModel};
