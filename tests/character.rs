@@ -260,14 +260,20 @@ fn cats_eye_grid_blends_to_the_whole_frame_render_when_the_shape_does_not_vary()
         Layer { name: "back".into(), rgba: back, disparity: (0..w * h).map(|i| 0.1 + 0.002 * (i % w) as f32).collect() },
     ]).unwrap();
     let base = Lens { coc: CocModel::new(12.0, 0.5).unwrap(), aperture: Aperture::Disk };
-    // Strength 0: every node has the same kernel, so crops + halos + tents must reproduce
-    // the single whole-frame render with that kernel.
-    let kernel = Lens { aperture: Aperture::Kernel(kernels::cats_eye(&Aperture::Disk, [0.0, 0.0]).unwrap()), ..base.clone() };
-    let whole = render(&renderer, &stack, &kernel).unwrap();
-    let tiled = render_cats_eye(&|s: &LayerStack, l: &Lens| render(&renderer, s, l), &stack, &base, &CatsEye { strength: 0.0, grid: 4 }).unwrap();
-    // Same taps in the same order per pixel; only tent-weight rounding differs (measured 1.2e-7).
-    let worst = common::max_abs_diff(&whole, &tiled);
-    assert!(worst < 1e-6, "tiled cat's-eye differs from the whole frame by {worst}");
+    // Strength 0: every node has the same shape, so crops + halos + tents must reproduce the
+    // single whole-frame render with that shape: a disk's cat's-eye (a gauge shape), and a
+    // polygon's (kernel images).
+    let polygon = Lens { aperture: Aperture::polygon(5, 0.0, 0.0).unwrap(), ..base.clone() };
+    for (lens, shape) in [
+        (&base, Aperture::cats_eye([0.0, 0.0]).unwrap()),
+        (&polygon, Aperture::Kernel(kernels::cats_eye(&polygon.aperture, [0.0, 0.0]).unwrap())),
+    ] {
+        let whole = render(&renderer, &stack, &Lens { aperture: shape, ..base.clone() }).unwrap();
+        let tiled = render_cats_eye(&|s: &LayerStack, l: &Lens| render(&renderer, s, l), &stack, lens, &CatsEye { strength: 0.0, grid: 4 }).unwrap();
+        // Same taps in the same order per pixel; only tent-weight rounding differs (measured 1.2e-7).
+        let worst = common::max_abs_diff(&whole, &tiled);
+        assert!(worst < 1e-6, "{:?}: tiled cat's-eye differs from the whole frame by {worst}", lens.aperture);
+    }
     drop(renderer);
     finish(ctx);
 }

@@ -68,8 +68,13 @@ fn gpu_matches_cpu_reference_for_both_models_and_every_aperture() {
         vec![0.2, 1.0, 1.0, 0.2, 1.0, 0.5, 0.5, 1.0, 1.0, 0.5, 0.5, 1.0, 0.2, 1.0, 1.0, 0.2],
     )
     .unwrap();
-    let apertures =
-        [Aperture::Disk, Aperture::polygon(6, 15.0, 0.2).unwrap(), Aperture::ring(0.5).unwrap(), Aperture::Kernel(kernel)];
+    let apertures = [
+        Aperture::Disk,
+        Aperture::polygon(6, 15.0, 0.2).unwrap(),
+        Aperture::ring(0.5).unwrap(),
+        Aperture::cats_eye([-0.7, 0.4]).unwrap(),
+        Aperture::Kernel(kernel),
+    ];
     for model in [Model::DrBokeh, Model::Compat] {
         for aperture in &apertures {
             // K = 25: CoC up to ~12 px in front, ~10 px behind.
@@ -242,7 +247,7 @@ fn disk_path_interior_matches_full_taps_and_is_bit_identical_tiled_or_not() {
     finish(ctx);
 }
 
-/// The gauge path (polygons, ellipses: row spans bounded by the aperture's row table) against
+/// The gauge path (polygons, ellipses, cat's-eyes: row spans bounded by the aperture's row table) against
 /// the per-tap first kernel, which evaluates the aperture at every tap of the window disk, on
 /// a scene whose near layer crosses the focal plane (windows with sources on both sides, where
 /// an odd polygon and its mirror both bound the rows) and at sizes no tile divides.
@@ -261,6 +266,7 @@ fn gauge_path_matches_per_tap_evaluation_and_is_bit_identical_tiled_or_not() {
         Aperture::polygon(9, 0.0, 0.5).unwrap(),
         Aperture::polygon(3, 33.0, 0.0).unwrap(),
         Aperture::anamorphic(1.8, 30.0).unwrap(),
+        Aperture::cats_eye([0.9, 0.5]).unwrap(),
     ];
     for aperture in apertures {
         let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture: aperture.clone() };

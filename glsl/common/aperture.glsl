@@ -5,7 +5,7 @@
 // The aperture arrives as `Aperture::gpu_params`: vec4(shape, rotation (rad), parameter,
 // kernel (1 = sample the kernel buffer)); shape 0 = disk (or kernel image), 1 = ellipse
 // (parameter = squeeze), 2 = ring (parameter = inner radius), >= 3 = polygon of that many
-// blades (parameter = roundness).
+// blades (parameter = roundness), -1 = cat's-eye (vec4(-1, a, 0): the unit disks at +-a).
 //
 // A shader that calls `aperture_kernel_sample` must define
 //     float aperture_kernel_texel(int index);
@@ -45,9 +45,20 @@ float aperture_ellipse_gauge(vec2 p, float rotation, float squeeze) {
     return length(vec2(p.x * c + p.y * s, (p.y * c - p.x * s) * squeeze));
 }
 
+// Gauge of the cat's-eye, the intersection of the unit disks at a and -a (`cats_eye_gauge` in
+// src/camera/aperture.rs).
+float aperture_cats_eye_gauge(vec2 p, vec2 a) {
+    float k = 1.0 - dot(a, a);
+    float q = abs(dot(p, a));
+    return (q + sqrt(q * q + k * dot(p, p))) / k;
+}
+
 // The aperture's gauge of an offset in aperture coordinates (Euclidean for disks, rings and
 // kernels).
 float aperture_gauge(vec2 p, vec4 aperture) {
+    if (aperture.x < -0.5) {
+        return aperture_cats_eye_gauge(p, aperture.yz);
+    }
     if (aperture.x < 0.5) {
         return length(p);
     }

@@ -6,7 +6,9 @@
 //   (the nearest normal gives len * cos(folded)), blended toward len by roundness; the
 //   mirrored aperture's (a near source's) is max_i -p . n_i = -min_i p . n_i, from the same
 //   products. An even polygon is symmetric: half its normals, |p . n_i|.
-// - an ellipse's is |(p . a, p . b)| with a, b its axes scaled by 1 and the squeeze.
+// - an ellipse's is |(p . a, p . b)| with a, b its axes scaled by 1 and the squeeze;
+// - a cat's-eye's (the unit disks at +-a) is (|p . a| + sqrt((p . a)^2 + k |p|^2)) / k with
+//   k = 1 - |a|^2, the same for p and -p.
 // Constants: `closed_form_gauge` in src/camera/aperture_rows.rs (f64), or gauge_constants
 // below (in the shader's f32) where no table carries them; the shape itself is a
 // specialization constant (`LensView::gauge_specialization` in src/render/drbokeh/mod.rs).
@@ -15,20 +17,27 @@
 
 #include "aperture.glsl"
 
-// The shape, a specialization constant (ComputePipeline::specialized): 0 = ellipse, else the
-// polygon's blades. As a literal the loops over the normals unroll and the normals stay in
+// The shape, a specialization constant (ComputePipeline::specialized): 0 = ellipse, 1 =
+// cat's-eye, else the polygon's blades. As a literal the loops over the normals unroll and the normals stay in
 // registers (a loop with a run-time bound is ~1.5x slower on lavapipe).
 layout(constant_id = 0) const int GAUGE_BLADES = 6;
 const bool GAUGE_EVEN = GAUGE_BLADES % 2 == 0;
+const bool GAUGE_CATS_EYE = GAUGE_BLADES == 1;
 // Normals visited: n, or n / 2 for an even polygon (|p . n_i|); 0 for the ellipse.
 const int GAUGE_STEPS = GAUGE_BLADES < 3 ? 0 : (GAUGE_EVEN ? GAUGE_BLADES / 2 : GAUGE_BLADES);
 const int GAUGE_MAX_STEPS = 16; // Aperture::polygon's limit
 
-vec2 gauge_normals[GAUGE_MAX_STEPS]; // polygon: edge normals / cos(pi / n); ellipse: [0], [1] its axes
+// Polygon: edge normals / cos(pi / n); ellipse: [0], [1] its axes; cat's-eye: [0] = a,
+// [1] = (1 / k, k).
+vec2 gauge_normals[GAUGE_MAX_STEPS];
 float gauge_roundness;
 
 // `closed_form_gauge` of Aperture::gpu_params (shape, rotation, roundness or squeeze, kernel).
 vec4 gauge_constants(vec4 aperture) {
+    if (aperture.x < -0.5) {
+        float k = 1.0 - dot(aperture.yz, aperture.yz);
+        return vec4(aperture.yz, 1.0 / k, k);
+    }
     if (aperture.x < 1.5) {
         float c = cos(aperture.y);
         float s = sin(aperture.y);
@@ -65,6 +74,10 @@ vec2 gauge_round(vec2 poly, vec2 p) {
 // (G(p), G(-p)): the aperture's gauge of p and its mirror's (aperture_coords mirrors the
 // aperture for sources nearer than focus).
 vec2 gauge_pair(vec2 p) {
+    if (GAUGE_CATS_EYE) {
+        float q = abs(dot(p, gauge_normals[0]));
+        return vec2((q + sqrt(q * q + gauge_normals[1].y * dot(p, p))) * gauge_normals[1].x);
+    }
     if (GAUGE_STEPS == 0) {
         return vec2(length(vec2(dot(p, gauge_normals[0]), dot(p, gauge_normals[1]))));
     }

@@ -37,6 +37,13 @@ pub enum Aperture {
     Ring {
         inner: f32,
     },
+    /// The cat's-eye pupil an off-axis point sees through a vignetting lens: the unit disk
+    /// clipped by a second unit disk shifted by `shift` (aperture radii), centred on their
+    /// lens-shaped intersection, so the two disks sit at `-shift / 2` and `+shift / 2`. Convex
+    /// and centrally symmetric, a gauge's unit ball ([`cats_eye_gauge`]).
+    CatsEye {
+        shift: [f32; 2],
+    },
     /// A custom kernel image, sampled over the CoC disk.
     Kernel(KernelImage),
 }
@@ -55,8 +62,11 @@ pub const KERNEL_FADE_PX: [f32; 2] = [0.5, 1.5];
 /// The aperture as a shader reads it (push constants): `[shape, rotation (rad), parameter,
 /// kernel (1 = sample the kernel buffer)]`, shape 0 = disk (or kernel image), 1 = ellipse
 /// (parameter = squeeze), 2 = ring (parameter = inner radius), >= 3 = polygon of that many
-/// blades (parameter = roundness).
+/// blades (parameter = roundness), -1 = cat's-eye (`[-1, shift.x / 2, shift.y / 2, 0]`).
 pub type ApertureGpu = [f32; 4];
+
+/// The GPU form's shape code of [`Aperture::CatsEye`].
+pub const CATS_EYE_SHAPE: f32 = -1.0;
 
 impl Aperture {
     pub fn polygon(blades: u32, rotation_deg: f32, roundness: f32) -> Result<Self> {
@@ -100,6 +110,16 @@ impl Aperture {
             return Err(Error::param(format!("ring inner radius must be in [0, 0.9], got {inner}")));
         }
         Ok(Aperture::Ring { inner })
+    }
+
+    /// The cat's-eye pupil of a disk aperture vignetted by a disk shifted by `shift` (aperture
+    /// radii; shorter than 2, or no light passes).
+    pub fn cats_eye(shift: [f32; 2]) -> Result<Self> {
+        let length = shift[0].hypot(shift[1]);
+        if !(length.is_finite() && length < 1.9) {
+            return Err(Error::param(format!("cat's-eye shift must be shorter than 1.9 aperture radii, got {length}")));
+        }
+        Ok(Aperture::CatsEye { shift })
     }
 
     /// Parses the CLI form: `disk`, `polygon:BLADES[:rotation=DEG][:roundness=R]`,
@@ -176,6 +196,7 @@ impl Aperture {
                 polygon_gauge(u, v, blades as f32, rotation, roundness)
             }
             Aperture::Ellipse { squeeze, rotation } => ellipse_gauge(u, v, squeeze, rotation),
+            Aperture::CatsEye { shift } => cats_eye_gauge(u, v, [0.5 * shift[0], 0.5 * shift[1]]),
             _ => (u * u + v * v).sqrt(),
         }
     }
@@ -210,6 +231,11 @@ impl Aperture {
             // The ellipse's area pi * 1 * (1 / squeeze).
             &Aperture::Ellipse { squeeze, .. } => 1.0 / squeeze,
             &Aperture::Ring { inner } => 1.0 - inner * inner,
+            // Two unit disks whose centres are d apart overlap in 2 acos(d/2) - (d/2) sqrt(4 - d^2).
+            &Aperture::CatsEye { shift } => {
+                let half = 0.5 * shift[0].hypot(shift[1]) as f64;
+                ((2.0 * half.acos() - half * (4.0 - 4.0 * half * half).sqrt()) / std::f64::consts::PI) as f32
+            }
             Aperture::Kernel(kernel) => kernel.mean_over_disk(),
         }
     }
@@ -256,6 +282,7 @@ impl Aperture {
             Aperture::Polygon { blades, rotation, roundness } => [blades as f32, rotation, roundness, 0.0],
             Aperture::Ellipse { squeeze, rotation } => [1.0, rotation, squeeze, 0.0],
             Aperture::Ring { inner } => [2.0, 0.0, inner, 0.0],
+            Aperture::CatsEye { shift } => [CATS_EYE_SHAPE, 0.5 * shift[0], 0.5 * shift[1], 0.0],
             Aperture::Kernel(_) => [0.0, 0.0, 1.0, 1.0],
         }
     }
@@ -309,6 +336,18 @@ pub fn ring_weight(g: f32, r: f32, inner: f32) -> f32 {
     let [start, end] = KERNEL_FADE_PX;
     let blend = hermite((r - start) / (end - start));
     1.0 - blend * (1.0 - hermite(g - (inner * r - 0.5)))
+}
+
+/// Gauge of the cat's-eye: the intersection of the unit disks centred at `a` and `-a`
+/// (`|a| < 1`). A disk centred at `a` has gauge t solving `|p / t - a| = 1`, i.e.
+/// `t = (-p.a + sqrt((p.a)^2 + k |p|^2)) / k` with `k = 1 - |a|^2`; an intersection's gauge
+/// is the larger one, `(|p.a| + sqrt((p.a)^2 + k |p|^2)) / k`. Mirrors `aperture_cats_eye_gauge`
+/// in `glsl/common/aperture.glsl`.
+#[inline]
+pub fn cats_eye_gauge(u: f32, v: f32, a: [f32; 2]) -> f32 {
+    let k = 1.0 - (a[0] * a[0] + a[1] * a[1]);
+    let q = (u * a[0] + v * a[1]).abs();
+    (q + (q * q + k * (u * u + v * v)).sqrt()) / k
 }
 
 /// Gauge of the ellipse with semi-axes 1 (at `rotation` from +u toward +v) and `1 / squeeze`.
@@ -482,6 +521,36 @@ mod tests {
         for bad in ["ring", "ring:-0.1", "ring:0.95", "ring:0.5:0.2"] {
             assert!(Aperture::parse(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn the_cats_eye_is_the_intersection_of_two_disks_centred_on_it() {
+        let shift = [0.8f32, -0.6]; // |shift| = 1
+        let eye = Aperture::cats_eye(shift).unwrap();
+        let a = [0.4f32, -0.3];
+        // On the rim of the disk at +a where it lies inside the disk at -a, and vice versa.
+        for angle in [2.0f32, 2.5, 3.0] {
+            let (s, c) = angle.sin_cos();
+            let (u, v) = (a[0] + c, a[1] + s);
+            let other = (u + a[0]).hypot(v + a[1]);
+            if other <= 1.0 {
+                assert!((eye.gauge(u, v) - 1.0).abs() < 1e-5, "angle {angle}: {}", eye.gauge(u, v));
+                assert!((eye.gauge(-u, -v) - 1.0).abs() < 1e-5, "centrally symmetric");
+            }
+        }
+        // Gauges scale: twice as far, twice the gauge; the origin is inside.
+        assert!((eye.gauge(0.2, 0.1) * 2.0 - eye.gauge(0.4, 0.2)).abs() < 1e-6);
+        // Area: the closed form against counting a fine grid.
+        let n = 800;
+        let inside = (0..n * n)
+            .filter(|i| {
+                let (u, v) = ((i % n) as f32 / n as f32 * 2.0 - 1.0, (i / n) as f32 / n as f32 * 2.0 - 1.0);
+                eye.gauge(u + 1.0 / n as f32, v + 1.0 / n as f32) <= 1.0
+            })
+            .count();
+        let counted = inside as f32 * 4.0 / (n * n) as f32 / PI;
+        assert!((eye.relative_area() - counted).abs() < 2e-3, "{} vs {counted}", eye.relative_area());
+        assert!(Aperture::cats_eye([1.5, 1.5]).is_err(), "no light passes");
     }
 
     #[test]

@@ -103,8 +103,9 @@ pub fn aperture_row_table(aperture: &Aperture) -> Option<Vec<[f32; 4]>> {
 /// trigonometry of its own (Vulkan lets cos and sin err by 2^-11): a polygon's first edge normal
 /// over cos(pi / n) and the (cos, sin) of its sector angle (the gauge is max_i p . n_i over the
 /// normals stepped by that rotation, blended toward |p| by roundness); an ellipse's long axis
-/// and its short axis times the squeeze (the gauge is |(p . a, p . b)|). `None` for the disk
-/// and kernel images.
+/// and its short axis times the squeeze (the gauge is |(p . a, p . b)|); a cat's-eye's disk
+/// centre a, 1 / k and k = 1 - |a|^2 ([`super::cats_eye_gauge`]). `None` for the disk, the
+/// ring and kernel images.
 pub fn closed_form_gauge(aperture: &Aperture) -> Option<[f32; 4]> {
     match *aperture {
         Aperture::Polygon { blades, rotation, .. } => {
@@ -118,6 +119,11 @@ pub fn closed_form_gauge(aperture: &Aperture) -> Option<[f32; 4]> {
             let (s, c) = (rotation as f64).sin_cos();
             let q = squeeze as f64;
             Some([c as f32, s as f32, (-s * q) as f32, (c * q) as f32])
+        }
+        Aperture::CatsEye { shift } => {
+            let (ax, ay) = (0.5 * shift[0] as f64, 0.5 * shift[1] as f64);
+            let k = 1.0 - (ax * ax + ay * ay);
+            Some([ax as f32, ay as f32, (1.0 / k) as f32, k as f32])
         }
         _ => None,
     }
@@ -172,6 +178,8 @@ mod tests {
             Aperture::polygon(3, 40.0, 0.1).unwrap(),
             Aperture::anamorphic(1.8, 0.0).unwrap(),
             Aperture::anamorphic(2.5, 30.0).unwrap(),
+            Aperture::cats_eye([0.9, -0.4]).unwrap(),
+            Aperture::cats_eye([0.0, 1.4]).unwrap(),
         ]
     }
 
@@ -186,6 +194,10 @@ mod tests {
                 let expected = aperture.gauge(u as f32, v as f32) as f64;
                 let got = match aperture {
                     Aperture::Ellipse { .. } => (u * first.0 + v * first.1).hypot(u * second.0 + v * second.1),
+                    Aperture::CatsEye { .. } => {
+                        let q = (u * first.0 + v * first.1).abs();
+                        (q + (q * q + second.1 * (u * u + v * v)).sqrt()) * second.0
+                    }
                     Aperture::Polygon { blades, roundness, .. } => {
                         let (mut normal, mut most) = (first, f64::MIN);
                         for _ in 0..blades {

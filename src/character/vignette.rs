@@ -108,7 +108,13 @@ pub fn render_cats_eye(
     let mut out = Image::new(w, h);
     for (j, &ny) in ys.iter().enumerate() {
         for (i, &nx) in xs.iter().enumerate() {
-            let aperture = Aperture::Kernel(cats_eye(&lens.aperture, eye.shift(nx, ny, w, h))?);
+            let shift = eye.shift(nx, ny, w, h);
+            // A vignetted disk is a gauge shape of its own (the renderers' fast paths); other
+            // apertures clipped by the disk become kernel images.
+            let aperture = match lens.aperture {
+                Aperture::Disk => Aperture::cats_eye(shift)?,
+                _ => Aperture::Kernel(cats_eye(&lens.aperture, shift)?),
+            };
             let node_lens = Lens { coc: lens.coc, aperture };
             let ((x0, x1), (y0, y1)) = (span(&xs, i, w), span(&ys, j, h));
             let read = Rect { x0: x0.saturating_sub(halo), y0: y0.saturating_sub(halo), x1: (x1 + halo).min(w), y1: (y1 + halo).min(h) };

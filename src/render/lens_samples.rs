@@ -66,7 +66,7 @@ impl LensSamples {
 
 fn sample_weight(aperture: &Aperture, u: f32, v: f32) -> f32 {
     match aperture {
-        Aperture::Polygon { .. } | Aperture::Ellipse { .. } if aperture.gauge(u, v) > 1.0 => 0.0,
+        Aperture::Polygon { .. } | Aperture::Ellipse { .. } | Aperture::CatsEye { .. } if aperture.gauge(u, v) > 1.0 => 0.0,
         _ => aperture.weight(u, v),
     }
 }

@@ -150,8 +150,15 @@ pub fn to_aperture_coords(dx: f64, dy: f64, rel: f64) -> (f64, f64) {
 }
 
 /// Mirrors `Aperture::gauge` from the GPU form `[shape (0 = disk, 1 = ellipse, 2 = ring,
-/// >= 3 = blades), rotation, roundness or squeeze or inner radius, kernel]`.
+/// >= 3 = blades, -1 = cat's-eye), rotation, roundness or squeeze or inner radius, kernel]`
+/// (the cat's-eye: `[-1, a.x, a.y, 0]`, its disks centred at +-a).
 pub fn gauge(aperture: &[f64; 4], u: f64, v: f64) -> f64 {
+    if aperture[0] < -0.5 {
+        let (ax, ay) = (aperture[1], aperture[2]);
+        let k = 1.0 - (ax * ax + ay * ay);
+        let q = (u * ax + v * ay).abs();
+        return (q + (q * q + k * (u * u + v * v)).sqrt()) / k;
+    }
     let length = (u * u + v * v).sqrt();
     if aperture[0] < 0.5 || length == 0.0 {
         return length;

@@ -160,17 +160,22 @@ impl LensView {
     }
 
     /// The specialization constants of the gauge paths' shaders (`GAUGE_BLADES` in
-    /// `glsl/common/gauge.glsl`): the polygon's blades, 0 for the ellipse.
+    /// `glsl/common/gauge.glsl`): the polygon's blades, 0 for the ellipse, 1 for the cat's-eye.
     pub fn gauge_specialization(&self) -> [u32; 1] {
-        [if self.aperture[0] >= 3.0 { self.aperture[0] as u32 } else { 0 }]
+        match self.aperture[0] {
+            shape if shape >= 3.0 => [shape as u32],
+            shape if shape < -0.5 => [1],
+            _ => [0],
+        }
     }
 
     /// The layer-pass variant for this lens under `model` (from the GPU form: shape 0 = disk,
-    /// 1 = ellipse, 2 = ring, >= 3 = polygon; a kernel image is evaluated per tap).
+    /// 1 = ellipse, 2 = ring, >= 3 = polygon, -1 = cat's-eye; a kernel image is evaluated per
+    /// tap).
     pub fn path(&self, model: Model) -> AperturePath {
         let kernel = self.aperture[3] >= 0.5 && self.kernel_size > 0;
         match model {
-            Model::DrBokeh if !kernel && self.aperture[0] < 0.5 => AperturePath::Disk,
+            Model::DrBokeh if !kernel && (-0.5..0.5).contains(&self.aperture[0]) => AperturePath::Disk,
             Model::DrBokeh if self.is_ring() => AperturePath::Ring,
             Model::DrBokeh if !kernel => AperturePath::Gauge,
             _ => AperturePath::PerTap,
