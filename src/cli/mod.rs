@@ -19,6 +19,7 @@ mod method_args;
 mod progress;
 mod raytrace;
 mod render;
+mod render_sequence;
 
 const EXAMPLES: &str = "\
 Examples:
