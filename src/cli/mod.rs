@@ -6,6 +6,7 @@ mod bench;
 mod bench_depth;
 mod bench_large;
 mod bench_perf;
+mod bench_sequence;
 mod camera_args;
 mod character_args;
 mod devices;
@@ -66,6 +67,8 @@ enum Command {
     BenchDepth(bench_depth::Args),
     /// Time the Dr.Bokeh forward kernels on fixed cases against the first straightforward one.
     BenchPerf(bench_perf::Args),
+    /// Frames/s of a shot rendered by one process against one process per frame.
+    BenchSequence(bench_sequence::Args),
 }
 
 pub fn main() -> std::process::ExitCode {
@@ -95,6 +98,7 @@ pub fn main() -> std::process::ExitCode {
         Command::BenchLarge(args) => bench_large::run(args),
         Command::BenchDepth(args) => bench_depth::run(args),
         Command::BenchPerf(args) => bench_perf::run(args),
+        Command::BenchSequence(args) => bench_sequence::run(args),
     };
     // Validation messages raised while contexts were torn down fail the command too.
     let result = result.and_then(|()| Ok(lensblur::vk::validation::check_unreported()?));
