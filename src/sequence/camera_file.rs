@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use crate::camera::CameraHints;
+use crate::camera::{CameraHints, PhysicalCamera};
 use crate::{Error, Result};
 
 /// A camera file: the camera hints of every frame it lists.
@@ -30,6 +30,30 @@ struct FrameJson {
 }
 
 impl CameraFile {
+    /// Writes (atomically) the camera file of a shot whose frame `f` has camera `c`, for each
+    /// `(f, c)` of `cameras`.
+    pub fn write(path: &Path, cameras: &[(i64, PhysicalCamera)]) -> Result<()> {
+        let frames: serde_json::Map<String, serde_json::Value> = cameras
+            .iter()
+            .map(|(frame, camera)| {
+                // The shortest decimal that reads back as the same f32 (1.4, not 1.399999976).
+                let number = |v: f32| v.to_string().parse::<f64>().unwrap_or(f64::from(v));
+                let entry = serde_json::json!({
+                    "focal_length_mm": number(camera.focal_length_mm),
+                    "sensor_width_mm": number(camera.sensor_width_mm),
+                    "fstop": number(camera.fstop),
+                    "focus_distance": number(camera.focus_distance),
+                });
+                (frame.to_string(), entry)
+            })
+            .collect();
+        let text = serde_json::to_string_pretty(&serde_json::json!({ "frames": frames }))
+            .map_err(|e| Error::input(path, format!("encoding the camera file: {e}")))?;
+        crate::atomic_file::write_atomically(path, |w| {
+            std::io::Write::write_all(w, text.as_bytes()).map_err(|source| Error::Io { path: path.to_path_buf(), source })
+        })
+    }
+
     pub fn read(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
         Self::parse(path, &text)
@@ -114,6 +138,17 @@ mod tests {
         assert_eq!((first.focal_length_mm, first.sensor_width_mm, first.fstop, first.focus_distance), (Some(85.0), Some(36.0), Some(1.8), Some(1.2)));
         let second = file.hints(1002).unwrap();
         assert_eq!((second.focal_length_mm, second.focus_distance), (None, Some(1.4)), "fields may be left to the header or flags");
+    }
+
+    #[test]
+    fn a_written_file_reads_back_frame_for_frame() {
+        let path = std::env::temp_dir().join(format!("lensblur-camera-file-{}.json", std::process::id()));
+        let camera = |focus| PhysicalCamera { focal_length_mm: 85.0, sensor_width_mm: 36.0, fstop: 1.8, focus_distance: focus };
+        CameraFile::write(&path, &[(1001, camera(1.2)), (1002, camera(1.5))]).unwrap();
+        let file = CameraFile::read(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(file.hints(1001).unwrap(), CameraHints::from_camera(&camera(1.2)));
+        assert_eq!(file.hints(1002).unwrap(), CameraHints::from_camera(&camera(1.5)));
     }
 
     #[test]

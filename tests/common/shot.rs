@@ -51,10 +51,6 @@ pub fn write_focus_pull(dir: &Path, frames: &[i64], header_camera: bool) -> Path
 
 /// A camera file (`--camera-file`) giving frame `frames[i]` the camera of index i.
 pub fn write_camera_file(path: &Path, frames: &[i64]) {
-    let entries: serde_json::Map<String, serde_json::Value> = frames
-        .iter()
-        .enumerate()
-        .map(|(index, frame)| (frame.to_string(), serde_json::to_value(camera(index)).unwrap()))
-        .collect();
-    std::fs::write(path, serde_json::json!({ "frames": entries }).to_string()).unwrap();
+    let cameras: Vec<(i64, PhysicalCamera)> = frames.iter().enumerate().map(|(index, &frame)| (frame, camera(index))).collect();
+    lensblur::sequence::CameraFile::write(path, &cameras).unwrap();
 }
