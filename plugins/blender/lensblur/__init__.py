@@ -27,12 +27,12 @@ if "bpy" in locals():
     # Script reload (F8 / Reload Scripts): pick up edited submodules.
     import importlib
 
-    for _module in (errors, camera, stack, runner, result, preferences, settings, operator, panel):
+    for _module in (errors, job, camera, checks, stack, runner, result, preferences, settings, operator, panel):
         importlib.reload(_module)
 
 import bpy
 
-from . import errors, camera, stack, runner, result, preferences, settings, operator, panel
+from . import errors, job, camera, checks, stack, runner, result, preferences, settings, operator, panel
 
 _classes = (
     preferences.LensblurPreferences,
@@ -46,9 +46,11 @@ def register():
     for cls in _classes:
         bpy.utils.register_class(cls)
     bpy.types.Scene.lensblur = bpy.props.PointerProperty(type=settings.LensblurSettings)
+    checks.register()
 
 
 def unregister():
+    checks.unregister()
     del bpy.types.Scene.lensblur
     for cls in reversed(_classes):
         bpy.utils.unregister_class(cls)
