@@ -11,6 +11,7 @@ mod camera_args;
 mod character_args;
 mod devices;
 mod example;
+mod farm_template;
 mod file_channels;
 mod fit_depth;
 mod grad;
@@ -53,6 +54,8 @@ enum Command {
     FitDepth(fit_depth::Args),
     /// Ray-trace a built-in scene, render its layers, compare with the ground truth.
     Example(example::Args),
+    /// Print the Open Job Description job template that renders a shot on a render farm.
+    FarmTemplate(farm_template::Args),
     /// List the Vulkan devices and the one lensblur would use.
     Devices(devices::Args),
     /// Describe a file: layers, channels, data windows, depth ranges, camera attributes.
@@ -91,6 +94,7 @@ pub fn main() -> std::process::ExitCode {
         Command::Example(args) => example::run(args),
         Command::Grad(args) => grad::run(args),
         Command::FitDepth(args) => fit_depth::run(args),
+        Command::FarmTemplate(args) => farm_template::run(args),
         Command::Devices(args) => devices::run(args),
         Command::Info(args) => info::run(args),
         Command::Raytrace(args) => raytrace::run(args),

@@ -1,6 +1,7 @@
 //! Helpers shared by the plugin tests (they run real programs on real files).
 #![allow(dead_code)]
 use std::path::{Path, PathBuf};
+use std::process::Command;
 
 use lensblur::image::Image;
 
@@ -41,4 +42,39 @@ pub fn channel_names(path: &Path) -> Vec<String> {
     let meta =
         exr::meta::MetaData::read_from_file(path, false).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
     meta.headers[0].channels.list.iter().map(|c| c.name.to_string()).collect()
+}
+
+/// Runs `tests/interop/<script>` with the add-on symlinked into a private
+/// BLENDER_USER_SCRIPTS and a private TMPDIR (to see what the add-on leaves behind); returns
+/// stdout after checking that the script reached `done`.
+pub fn blender_with_addon(dir: &Path, script: &str, done: &str) -> String {
+    let addons = dir.join("scripts/addons");
+    std::fs::create_dir_all(&addons).unwrap();
+    std::os::unix::fs::symlink(plugins_dir().join("blender/lensblur"), addons.join("lensblur")).unwrap();
+    let (out, tmp) = (dir.join("out"), dir.join("tmp"));
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::create_dir_all(&tmp).unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/interop").join(script);
+    let output = Command::new("blender")
+        .args(["-b", "--factory-startup", "--python-exit-code", "1", "--python"])
+        .arg(&script)
+        .arg("--")
+        .arg(&out)
+        .arg(env!("CARGO_BIN_EXE_lensblur"))
+        .env("BLENDER_USER_SCRIPTS", dir.join("scripts"))
+        .env("TMPDIR", &tmp)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run blender ({e}); install it with .ci/setup"));
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    assert!(
+        output.status.success() && stdout.contains(done),
+        "blender failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    stdout
+}
+
+/// The image without a `border` pixels wide frame.
+pub fn inset(img: &Image, border: usize) -> Image {
+    Image::from_fn(img.width - 2 * border, img.height - 2 * border, |x, y| img.get(x + border, y + border))
 }
