@@ -179,6 +179,7 @@ class ShotOperator:
         except (LensblurError, RuntimeError, OSError) as e:
             if self._job is not None:
                 self._job.cancel()
+            self._shot.scene.frame_set(self._shot.original_frame)
             self.end_modal(context)
             return report_failure(self, e)
 

@@ -88,6 +88,7 @@ class LENSBLUR_OT_defocus(bpy.types.Operator):
     def modal(self, context, event):
         if event.type == "ESC":
             self._job.cancel()
+            self._prepared.cleanup()
             self.end_modal(context)
             self.report({"WARNING"}, "lensblur: cancelled; nothing was written")
             return {"CANCELLED"}
