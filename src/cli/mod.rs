@@ -47,7 +47,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a layer stack (EXR, or PNG/JPEG + depth) with lens blur; write EXR or PNG/JPEG.
-    Render(render::Args),
+    Render(Box<render::Args>),
     /// Gradients of a loss w.r.t. every channel of a stack and the camera (backward pass).
     Grad(grad::Args),
     /// Depth from defocus: fit a stack's depth so its render matches a defocused image.
@@ -90,7 +90,7 @@ pub fn main() -> std::process::ExitCode {
         std::process::exit(130);
     });
     let result = match cli.command {
-        Command::Render(args) => render::run(args),
+        Command::Render(args) => render::run(*args),
         Command::Example(args) => example::run(args),
         Command::Grad(args) => grad::run(args),
         Command::FitDepth(args) => fit_depth::run(args),
