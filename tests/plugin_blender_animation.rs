@@ -12,7 +12,7 @@ use std::path::Path;
 use std::process::Command;
 
 use lensblur::metrics::compare;
-use plugin_common::{blender_with_addon, fresh_dir, inset, read_rgba};
+use plugin_common::{blender_with_addon, fresh_dir, inset, json_after, read_rgba};
 use serde_json::{json, Value};
 
 /// Display-encoded PSNR per frame. Measured (Blender 3.4.1, seeded Cycles, 1024 samples):
@@ -24,9 +24,7 @@ use serde_json::{json, Value};
 #[test]
 fn a_focus_pull_from_blender_matches_cycles_depth_of_field_frame_by_frame() {
     let dir = fresh_dir("plugin-blender-animation");
-    let stdout = blender_with_addon(&dir, "blender_animation.py", "LENSBLUR_ANIMATION_DONE");
-    let line = stdout.lines().find_map(|l| l.strip_prefix("LENSBLUR_ANIMATION_CHECKS ")).expect("checks");
-    let checks: Value = serde_json::from_str(line).unwrap();
+    let checks = json_after(&blender_with_addon(&dir, "blender_animation.py", "LENSBLUR_ANIMATION_DONE"), "LENSBLUR_ANIMATION_CHECKS");
     let out = dir.join("out");
     for frame in 1..=5 {
         let result = read_rgba(&out.join(format!("shot/defocus.{frame:04}.exr")));
