@@ -55,7 +55,7 @@ def setup():
 
 
 def start_defocus():
-    use_binary(slow_binary(1, "slow test binary"))
+    use_binary(slow_binary(2, "slow test binary"))
     with window_override():
         checks["invoke"] = list(bpy.ops.lensblur.defocus("INVOKE_DEFAULT", save_path=os.path.join(out, "ui.exr")))
     checks["started"] = time.time()
