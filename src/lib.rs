@@ -48,6 +48,7 @@
 //! - [`stack`]: layer stacks and their file formats (EXR, PNG/JPEG) — I/O lives at the edges.
 //! - [`cache_dir`]: the user cache folder every rebuildable file goes to.
 //! - [`atomic_file`]: outputs appear whole (temporary file, rename) and interrupts remove parts.
+//! - [`sequence`]: shots: frame ranges, frame file patterns, per-frame camera files.
 //! - [`render`]: one module per rendering method, each with GPU host code and a CPU reference.
 //! - [`character`]: lens character and artist controls layered on any method.
 //! - [`raytrace`]: the thin-lens ground-truth ray tracer and the built-in scenes.
@@ -64,6 +65,7 @@ pub mod metrics;
 pub mod optim;
 pub mod raytrace;
 pub mod render;
+pub mod sequence;
 pub mod shaders;
 pub mod stack;
 pub mod tiling;

@@ -9,46 +9,15 @@ mod plugin_common;
 use std::path::Path;
 use std::process::Command;
 
-use lensblur::image::Image;
 use lensblur::metrics::compare;
 use lensblur::render::Method;
-use plugin_common::{fresh_dir, plugins_dir, read_rgba};
+use plugin_common::{blender_with_addon, fresh_dir, inset, plugins_dir, read_rgba};
 use serde_json::Value;
 
 struct Run {
     stdout: String,
     report: Value,
     checks: Value,
-}
-
-/// Runs `tests/interop/<script>` with the add-on symlinked into a private
-/// BLENDER_USER_SCRIPTS and a private TMPDIR (to see what the add-on leaves behind); returns
-/// stdout after checking that the script reached `done`.
-fn blender_with_addon(dir: &Path, script: &str, done: &str) -> String {
-    let addons = dir.join("scripts/addons");
-    std::fs::create_dir_all(&addons).unwrap();
-    std::os::unix::fs::symlink(plugins_dir().join("blender/lensblur"), addons.join("lensblur")).unwrap();
-    let (out, tmp) = (dir.join("out"), dir.join("tmp"));
-    std::fs::create_dir_all(&out).unwrap();
-    std::fs::create_dir_all(&tmp).unwrap();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/interop").join(script);
-    let output = Command::new("blender")
-        .args(["-b", "--factory-startup", "--python-exit-code", "1", "--python"])
-        .arg(&script)
-        .arg("--")
-        .arg(&out)
-        .arg(env!("CARGO_BIN_EXE_lensblur"))
-        .env("BLENDER_USER_SCRIPTS", dir.join("scripts"))
-        .env("TMPDIR", &tmp)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run blender ({e}); install it with .ci/setup"));
-    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
-    assert!(
-        output.status.success() && stdout.contains(done),
-        "blender failed:\n{stdout}\n{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    stdout
 }
 
 fn run_blender(dir: &Path) -> Run {
@@ -147,11 +116,6 @@ fn result_matches_cycles_dof(out: &Path) {
         psnr >= pinhole_psnr + 10.0,
         "the blur must explain the reference: {psnr:.2} vs pinhole {pinhole_psnr:.2} dB"
     );
-}
-
-/// The image without a `border` pixels wide frame.
-fn inset(img: &Image, border: usize) -> Image {
-    Image::from_fn(img.width - 2 * border, img.height - 2 * border, |x, y| img.get(x + border, y + border))
 }
 
 /// A 5-blade aperture turned 20 degrees in Blender must give Cycles' bokeh, not its mirror

@@ -58,7 +58,8 @@ fn readme_commands() -> Vec<ReadmeCommand> {
 /// the reader (an upper-case placeholder such as `SCENE` or `DIR`).
 fn check_flags_only(command: &str) -> bool {
     let words: Vec<&str> = command.split_whitespace().collect();
-    let slow = matches!(words.get(1), Some(&"bench") | Some(&"bench-large") | Some(&"bench-depth"));
+    let slow =
+        matches!(words.get(1), Some(&"bench") | Some(&"bench-large") | Some(&"bench-depth") | Some(&"bench-sequence"));
     let placeholder = words.iter().any(|w| w.len() > 1 && w.chars().all(|c| c.is_ascii_uppercase()));
     slow || placeholder
 }
@@ -113,7 +114,8 @@ fn every_readme_command_runs_as_written() {
     let on_example = ran.iter().filter(|c| c.contains("example-out/")).count();
     assert!(on_example >= 5, "only {on_example} README commands ran on example-out: {ran:#?}");
     assert!(checked.len() >= 5, "flag checks: {checked:#?}");
-    for output in ["out.exr", "grads.exr", "fitted.exr", "character.exr", "dbg/coc.png"] {
+    let shot = ["shot/defocus.1001.exr", "shot/defocus.1006.exr", "shot/vdslr.1005.exr"];
+    for output in ["out.exr", "grads.exr", "fitted.exr", "character.exr", "dbg/coc.png"].iter().chain(&shot) {
         assert!(dir.join("example-out").join(output).is_file(), "example-out/{output} was not written");
     }
 }
@@ -144,7 +146,7 @@ fn the_readme_points_only_at_files_in_the_repository_and_the_build_needs_no_carg
 /// What the README's commands write inside a checkout stays out of `git status`.
 #[test]
 fn files_the_readme_makes_in_a_checkout_are_ignored() {
-    for path in ["example-out/render.exr", "plugins/blender/lensblur.zip"] {
+    for path in ["example-out/render.exr", "plugins/blender/lensblur.zip", "lensblur-bundle/template.yaml"] {
         let status = Command::new("git").args(["check-ignore", "-q", path]).current_dir(REPO).status().unwrap();
         assert!(status.success(), "{path} is not in .gitignore");
     }

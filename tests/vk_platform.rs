@@ -107,6 +107,24 @@ fn a_batch_reused_with_more_sets_than_one_pool_holds_stays_valid_and_determinist
     finish(ctx);
 }
 
+/// A shot's frames each make their renderer anew; the context hands them the pipelines it
+/// made for the first frame instead of creating them again (issue 24: start-up paid once).
+#[test]
+fn a_context_makes_each_pipeline_once_and_keeps_it_for_later_renders() {
+    use lensblur::vk::ComputePipeline;
+    let ctx = gpu();
+    let first = ComputePipeline::with_slots(&ctx, &lensblur::shaders::DISK_BLUR, &DISK_BLUR_SLOTS, 16).unwrap();
+    drop(first.clone());
+    let again = ComputePipeline::with_slots(&ctx.clone(), &lensblur::shaders::DISK_BLUR, &DISK_BLUR_SLOTS, 16).unwrap();
+    assert!(again.is_same(&first), "the same shader, slots and push size give the kept pipeline");
+    let other_push = ComputePipeline::with_slots(&ctx, &lensblur::shaders::DISK_BLUR, &DISK_BLUR_SLOTS, 32).unwrap();
+    assert!(!other_push.is_same(&first), "a different push-constant size is another pipeline");
+    let specialized = ComputePipeline::specialized(&ctx, &lensblur::shaders::DISK_BLUR, &DISK_BLUR_SLOTS, 16, &[]).unwrap();
+    assert!(specialized.is_same(&first), "no constants is the plain pipeline");
+    drop((first, again, other_push, specialized));
+    finish(ctx);
+}
+
 #[test]
 fn validation_messages_fail_the_command() {
     // A storage-buffer offset of 4 bytes (the result, binding 2) violates

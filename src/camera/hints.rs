@@ -56,6 +56,17 @@ impl CameraHints {
         }
     }
 
+    /// These hints, with the parameters they lack taken from `fallback` (a frame's header
+    /// first, then the shot's camera file).
+    pub fn or(self, fallback: Self) -> Self {
+        Self {
+            focal_length_mm: self.focal_length_mm.or(fallback.focal_length_mm),
+            sensor_width_mm: self.sensor_width_mm.or(fallback.sensor_width_mm),
+            fstop: self.fstop.or(fallback.fstop),
+            focus_distance: self.focus_distance.or(fallback.focus_distance),
+        }
+    }
+
     pub fn is_empty(&self) -> bool {
         *self == Self::default()
     }

@@ -56,6 +56,8 @@ pub struct ResolvedCamera {
     /// Which physical parameters came from the file's header rather than flags
     /// (`focal-length`, `fstop`, `focus-distance`, `sensor-width`), for reports.
     pub from_header: Vec<&'static str>,
+    /// Which came from the shot's camera file (neither a flag nor the header gave them).
+    pub from_camera_file: Vec<&'static str>,
 }
 
 /// Sensor width when neither the flags nor the file say (Blender's default camera).
@@ -71,6 +73,12 @@ impl CameraArgs {
     /// The lens for an image `width_px` wide. `header` fills physical parameters the flags
     /// leave out (camera attributes found in the input file); flags win.
     pub fn resolve(&self, width_px: usize, header: &CameraHints) -> anyhow::Result<ResolvedCamera> {
+        self.resolve_with_file(width_px, header, &CameraHints::default())
+    }
+
+    /// [`resolve`](Self::resolve) for a frame of a shot: what neither the flags nor the
+    /// frame's header give comes from the shot's camera file (`camera_file`).
+    pub fn resolve_with_file(&self, width_px: usize, header: &CameraHints, camera_file: &CameraHints) -> anyhow::Result<ResolvedCamera> {
         let aperture = Aperture::parse(&self.aperture).context("--aperture")?;
         if let Some(k) = self.blur {
             let Some(df) = self.focus_disparity else {
@@ -83,24 +91,24 @@ impl CameraArgs {
                 },
                 physical: None,
                 from_header: Vec::new(),
+                from_camera_file: Vec::new(),
             });
         }
-        let physical = self.physical(header)?;
+        let physical = self.physical(&header.or(*camera_file))?;
         let coc = CocModel::from_physical(&physical, width_px)?;
-        let from_header = [
-            ("focal-length", self.focal_length, header.focal_length_mm),
-            ("fstop", self.fstop, header.fstop),
-            ("focus-distance", self.focus_distance, header.focus_distance),
-            ("sensor-width", self.sensor_width, header.sensor_width_mm),
-        ]
-        .into_iter()
-        .filter(|(_, flag, header)| flag.is_none() && header.is_some())
-        .map(|(name, _, _)| name)
-        .collect();
+        let sources = [
+            ("focal-length", self.focal_length, header.focal_length_mm, camera_file.focal_length_mm),
+            ("fstop", self.fstop, header.fstop, camera_file.fstop),
+            ("focus-distance", self.focus_distance, header.focus_distance, camera_file.focus_distance),
+            ("sensor-width", self.sensor_width, header.sensor_width_mm, camera_file.sensor_width_mm),
+        ];
+        let unflagged = sources.into_iter().filter(|(_, flag, _, _)| flag.is_none());
+        let (from_header, from_file): (Vec<_>, Vec<_>) = unflagged.partition(|(_, _, header, _)| header.is_some());
         Ok(ResolvedCamera {
             lens: Lens { coc, aperture },
             physical: Some(physical),
-            from_header,
+            from_header: from_header.into_iter().map(|(name, ..)| name).collect(),
+            from_camera_file: from_file.into_iter().filter(|(.., file)| file.is_some()).map(|(name, ..)| name).collect(),
         })
     }
 

@@ -2,17 +2,19 @@
 //! Ray-traces the scene's true layers and its physically defocused ground truth, renders the
 //! layers with Dr.Bokeh through the same file path `lensblur render` uses, renders the
 //! single-image gather baseline for comparison, and reports PSNR against the ground truth.
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
-use lensblur::camera::CameraHints;
+use lensblur::camera::{CameraHints, PhysicalCamera};
 use lensblur::metrics::compare;
 use lensblur::raytrace::{builtin_scene, output, render_ground_truth, TraceOptions};
 use lensblur::render::{Lens, Method};
+use lensblur::sequence::CameraFile;
 use lensblur::stack::{
-    read_stack, write_image, write_png_preview, ReadOptions, SampleType, WriteOptions,
+    read_stack, write_image, write_png_preview, write_stack, Layer, LayerStack, ReadOptions, SampleType,
+    StackWriteOptions, WriteOptions,
 };
 use lensblur::vk::Context;
 
@@ -22,7 +24,8 @@ use super::camera_args::CameraArgs;
 #[command(
     after_help = "Examples:\n  lensblur example -o example-out\n  lensblur example -o out --scene fairy-lights --scale 1\n\n\
 Writes the ray tracer's files (layers.exr with the camera in its header, pinhole.exr, defocused.exr,\n\
-camera.json, previews) and render.exr / render.png (Dr.Bokeh) and gather.png (single-image baseline)."
+camera.json, previews) and render.exr / render.png (Dr.Bokeh) and gather.png (single-image baseline),\n\
+and a focus-pull shot: shot/layers.1001-1006.exr with shot/camera.json (lensblur render --frames)."
 )]
 pub struct Args {
     /// Output folder.
@@ -110,6 +113,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     report_lens(&camera.lens);
+    if let Some(physical) = &camera.physical {
+        write_focus_pull(&args.output.join("shot"), &file.stack, physical).context("writing the focus-pull shot")?;
+    }
     // Named as this process was started (`target/release/lensblur` under `cargo run`, `lensblur`
     // once installed), so the line runs as printed wherever lensblur is not on PATH yet.
     let program = std::env::args().next().unwrap_or_else(|| "lensblur".into());
@@ -118,6 +124,37 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         layers_path.display(),
         render_path.display()
     );
+    Ok(())
+}
+
+/// Frames of the focus pull the README renders as a shot.
+const PULL_FRAMES: std::ops::RangeInclusive<i64> = 1001..=1006;
+
+/// A focus pull on the example, for the README's shot section: the layers as frames
+/// 1001-1006 of `dir/layers.####.exr` with no camera in their headers (a locked-off shot), and
+/// `dir/camera.json`, the camera file pulling focus from the front layer to the back one.
+fn write_focus_pull(dir: &Path, stack: &LayerStack, camera: &PhysicalCamera) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    // Mean covered disparity (1/z) of a layer, as a distance.
+    let distance = |layer: &Layer| {
+        let covered = layer.rgba.pixels.iter().zip(&layer.disparity).filter(|(p, &d)| p[3] > 0.5 && d > 0.0);
+        let (sum, count) = covered.fold((0.0f64, 0usize), |(s, n), (_, &d)| (s + f64::from(d), n + 1));
+        if count == 0 { camera.focus_distance } else { (count as f64 / sum) as f32 }
+    };
+    let (near, far) = match (stack.layers.first(), stack.layers.last()) {
+        (Some(front), Some(back)) => (distance(front), distance(back)),
+        _ => (camera.focus_distance, camera.focus_distance),
+    };
+    let last = (PULL_FRAMES.end() - PULL_FRAMES.start()) as f32;
+    let mut cameras = Vec::new();
+    for frame in PULL_FRAMES {
+        let t = (frame - PULL_FRAMES.start()) as f32 / last;
+        // Even steps in 1/z, as a focus puller's marks look in defocus.
+        let focus_distance = 1.0 / ((1.0 - t) / near + t / far);
+        cameras.push((frame, PhysicalCamera { focus_distance, ..*camera }));
+        write_stack(&dir.join(format!("layers.{frame}.exr")), stack, &StackWriteOptions::default())?;
+    }
+    CameraFile::write(&dir.join("camera.json"), &cameras)?;
     Ok(())
 }
 

@@ -69,6 +69,18 @@ impl InputArgs {
         camera: &CameraArgs,
         input: InputKind,
     ) -> anyhow::Result<LoadedInput> {
+        self.load_frame(path, camera, &CameraHints::default(), input)
+    }
+
+    /// [`load`](Self::load) for a frame of a shot: `camera_file` holds the frame's camera
+    /// from the shot's camera file, for what neither the flags nor the header give.
+    pub fn load_frame(
+        &self,
+        path: &Path,
+        camera: &CameraArgs,
+        camera_file: &CameraHints,
+        input: InputKind,
+    ) -> anyhow::Result<LoadedInput> {
         let start = Instant::now();
         let (stack, info, depth_kind) = self.read(path)?;
         let read_time = start.elapsed();
@@ -76,7 +88,7 @@ impl InputArgs {
             .as_ref()
             .map(|i| CameraHints::from_attributes(&i.camera))
             .unwrap_or_default();
-        let camera = camera.resolve(stack.width, &hints)?;
+        let camera = camera.resolve_with_file(stack.width, &hints, camera_file)?;
         if camera.physical.is_some() {
             if let Some(warning) = depth_kind.physical_camera_warning() {
                 eprintln!("lensblur: warning: {warning}");

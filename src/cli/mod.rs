@@ -6,10 +6,12 @@ mod bench;
 mod bench_depth;
 mod bench_large;
 mod bench_perf;
+mod bench_sequence;
 mod camera_args;
 mod character_args;
 mod devices;
 mod example;
+mod farm_template;
 mod file_channels;
 mod fit_depth;
 mod grad;
@@ -19,6 +21,7 @@ mod method_args;
 mod progress;
 mod raytrace;
 mod render;
+mod render_sequence;
 
 const EXAMPLES: &str = "\
 Examples:
@@ -44,13 +47,15 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a layer stack (EXR, or PNG/JPEG + depth) with lens blur; write EXR or PNG/JPEG.
-    Render(render::Args),
+    Render(Box<render::Args>),
     /// Gradients of a loss w.r.t. every channel of a stack and the camera (backward pass).
     Grad(grad::Args),
     /// Depth from defocus: fit a stack's depth so its render matches a defocused image.
     FitDepth(fit_depth::Args),
     /// Ray-trace a built-in scene, render its layers, compare with the ground truth.
     Example(example::Args),
+    /// Print the Open Job Description job template that renders a shot on a render farm.
+    FarmTemplate(farm_template::Args),
     /// List the Vulkan devices and the one lensblur would use.
     Devices(devices::Args),
     /// Describe a file: layers, channels, data windows, depth ranges, camera attributes.
@@ -65,6 +70,8 @@ enum Command {
     BenchDepth(bench_depth::Args),
     /// Time the Dr.Bokeh forward kernels on fixed cases against the first straightforward one.
     BenchPerf(bench_perf::Args),
+    /// Frames/s of a shot rendered by one process against one process per frame.
+    BenchSequence(bench_sequence::Args),
 }
 
 pub fn main() -> std::process::ExitCode {
@@ -83,10 +90,11 @@ pub fn main() -> std::process::ExitCode {
         std::process::exit(130);
     });
     let result = match cli.command {
-        Command::Render(args) => render::run(args),
+        Command::Render(args) => render::run(*args),
         Command::Example(args) => example::run(args),
         Command::Grad(args) => grad::run(args),
         Command::FitDepth(args) => fit_depth::run(args),
+        Command::FarmTemplate(args) => farm_template::run(args),
         Command::Devices(args) => devices::run(args),
         Command::Info(args) => info::run(args),
         Command::Raytrace(args) => raytrace::run(args),
@@ -94,6 +102,7 @@ pub fn main() -> std::process::ExitCode {
         Command::BenchLarge(args) => bench_large::run(args),
         Command::BenchDepth(args) => bench_depth::run(args),
         Command::BenchPerf(args) => bench_perf::run(args),
+        Command::BenchSequence(args) => bench_sequence::run(args),
     };
     // Validation messages raised while contexts were torn down fail the command too.
     let result = result.and_then(|()| Ok(lensblur::vk::validation::check_unreported()?));

@@ -3,9 +3,11 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
+use indicatif::ProgressBar;
 use lensblur::image::Image;
 use lensblur::render::drbokeh::RenderOptions;
-use lensblur::render::{Lens, Method};
+use lensblur::render::{Lens, Method, MethodSettings};
+use lensblur::sequence::FramePattern;
 use lensblur::stack::{
     is_ldr_path, write_image, write_ldr, LayerStack, OutputFormat, SampleType, StackNaming, WriteOptions,
 };
@@ -27,6 +29,8 @@ Examples:
   lensblur render shot.exr -o tilt.exr --method vdslr --tilt-shift 0,-8 --samples 512
   lensblur render shot.exr -o two.exr --method vdslr --focal-length 50 --fstop 2 --focal-planes 1.5,6
   lensblur render example-out/layers.exr -o out.exr --json      (camera read from the header)
+  lensblur render shot.####.exr -o out/defocus.####.exr --frames 1001-1100 --camera-file shot.json
+  lensblur render shot.%04d.exr -o out/defocus.%04d.exr --frames 1-99:2,100 --skip-existing
 
 Input: Blender multilayer EXR (<ViewLayer>.Combined.RGBA + <ViewLayer>.Depth.Z), OpenEXR/OIIO/Nuke
 layer.R,G,B,A,Z, multi-part (one layer per part), plain R,G,B,A,Z; or PNG/JPEG + --depth. A file
@@ -34,17 +38,35 @@ holding one image is split into layers automatically for layered methods (one la
 stack with --layers is not). Output: EXR (plain R,G,B,A, linear, premultiplied, on the input's display
 window; --output-layer names it in the input's convention) or, for .png/.jpg/.jpeg, 8-bit sRGB; the
 extension picks the format and any other is refused. Files appear atomically; the input is never
-overwritten.";
+overwritten.
+
+Sequences: with --frames (an Open Job Description range expression: 1001-1100, 1-99:2, 1,5,9 or a
+comma-separated mix, as a farm hands a chunk to a task), the input and -o are frame patterns (#### or
+%04d: the frame number, zero-padded to the width) and one process renders every frame on one device.
+Each frame's camera comes from the flags, else its EXR header, else --camera-file. A frame that fails
+does not stop the others; the exit status is 1 if any failed, and the failed frames are named.";
 
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
 pub struct Args {
-    /// Layered EXR, or PNG/JPEG with --depth.
+    /// Layered EXR, or PNG/JPEG with --depth; with --frames, a frame pattern (shot.####.exr).
     pub input: PathBuf,
     /// Output file: .exr (linear float) or .png/.jpg/.jpeg (8-bit sRGB), by its extension;
-    /// any other extension is refused.
+    /// any other extension is refused. With --frames, a frame pattern (out.####.exr).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Render a sequence: these frames of the input pattern (1001-1100, 1-99:2, 1,5,9, ...).
+    #[arg(long, value_name = "RANGE", help_heading = "Sequence")]
+    pub frames: Option<String>,
+    /// Per-frame camera of the shot, for frames whose header has none:
+    /// {"frames": {"1001": {"focal_length_mm": 85, "sensor_width_mm": 36, "fstop": 1.8,
+    /// "focus_distance": 1.2}, ...}}. Flags still win; a frame it lacks is an error.
+    #[arg(long, value_name = "FILE.json", requires = "frames", help_heading = "Sequence")]
+    pub camera_file: Option<PathBuf>,
+    /// Leave frames whose output exists alone (resumes an interrupted chunk: every output
+    /// appears whole, so an existing one is complete).
+    #[arg(long, requires = "frames", help_heading = "Sequence")]
+    pub skip_existing: bool,
     #[command(flatten)]
     pub input_args: InputArgs,
     #[command(flatten)]
@@ -125,49 +147,27 @@ struct Timings {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(frames) = &args.frames {
+        return super::render_sequence::run(&args, frames);
+    }
+    refuse_frame_pattern_without_frames(&args.input)?;
     let total = Instant::now();
     let inputs = input_files(&args.input, &args.input_args, &args.camera);
     let mut outputs = vec![("-o", args.output.as_path())];
     outputs.extend(args.preview.as_deref().map(|p| ("--preview", p)));
     // An output on an input is the graver mistake: said before the format.
     check_output_paths(&outputs, &inputs)?;
-    let format = OutputFormat::for_output(&args.output, "-o", OutputFormat::ALL)?;
-    if let Some(preview) = &args.preview {
-        OutputFormat::for_output(preview, "--preview", OutputFormat::LDR)?;
-    }
-    if args.keep_channels && is_ldr_path(&args.input) {
-        anyhow::bail!(
-            "--keep-channels copies the other channels of an EXR input; {} is a PNG/JPEG and has none \
-             (drop the flag)",
-            args.input.display()
-        );
-    }
-    args.method_args.check(args.method)?;
-    let mut camera = args.camera.clone();
-    args.method_args.apply_to_camera(&mut camera)?;
+    let (format, camera) = check_flags(&args)?;
     let spinner = progress::spinner(args.json);
     spinner.set_message(format!("reading {}", args.input.display()));
     let mut loaded = args.input_args.load(&args.input, &camera, args.method.input())?;
-    let (lens, stack) = (&loaded.camera.lens, &loaded.stack);
     // The debug views are named after the layers, so they are checked once the stack is read.
-    let debug_views = args.character.debug_view_paths(stack);
+    let debug_views = args.character.debug_view_paths(&loaded.stack);
     let debug_outputs: Vec<(&str, &Path)> = debug_views.iter().map(|p| ("--debug-out", p.as_path())).collect();
     check_output_collisions(&[outputs.as_slice(), debug_outputs.as_slice()].concat(), &inputs)?;
-    let physical = loaded.camera.physical.is_some();
-    let settings = args.method_args.resolve(args.method, lens, physical, stack.width, stack.height)?;
-    args.character.resolve()?.check_focus_field(settings.focus(args.method))?;
+    let settings = resolve_settings(&args, &loaded)?;
     let ctx = open_device(args.device, args.method)?;
-    let start = Instant::now();
-    let layer_count = loaded.stack.layers.len();
-    let what = format!("rendering {layer_count} layer(s) with {}", args.method);
-    let passes = args.character.resolve()?.render_count(&loaded.stack, &loaded.camera.lens);
-    let tile_progress = progress::tiles(&spinner, what, passes);
-    let options = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
-    let rendered = args
-        .character
-        .render(args.method, ctx.as_ref(), &loaded.stack, &loaded.camera.lens, &options, &settings)
-        .with_context(|| format!("rendering {} with {}", args.input.display(), args.method))?;
-    let render_time = start.elapsed();
+    let (rendered, render_time) = render_loaded(&args, ctx.as_ref(), &args.input, &loaded, &settings, &spinner, "")?;
     let device = ctx.as_ref().map(|c| c.info().name.clone());
     // The device is closed and its teardown validated before any file appears: a validation
     // error fails the command with nothing written.
@@ -184,7 +184,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     drop(prepared);
     drop(std::mem::take(&mut loaded.stack.layers));
     spinner.set_message(format!("writing {}", args.output.display()));
-    write_output(&args, format, &loaded, &image)?;
+    write_output(&args, &args.output, args.preview.as_deref(), format, &loaded, &image)?;
     let write_time = start.elapsed();
     spinner.finish_and_clear();
     let timings = Timings {
@@ -203,6 +203,71 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A frame pattern given as a single file is a forgotten --frames (unless such a file exists).
+fn refuse_frame_pattern_without_frames(input: &Path) -> anyhow::Result<()> {
+    if FramePattern::parse(input).is_some() && !input.exists() {
+        anyhow::bail!(
+            "{} is a frame pattern: say which frames to render with --frames (e.g. --frames 1001-1100)",
+            input.display()
+        );
+    }
+    Ok(())
+}
+
+/// What needs no input file, checked before any work: the output formats, --keep-channels on
+/// an EXR, the method's flags. Returns the output format and the camera flags with the
+/// method's additions.
+pub(super) fn check_flags(args: &Args) -> anyhow::Result<(OutputFormat, CameraArgs)> {
+    let format = OutputFormat::for_output(&args.output, "-o", OutputFormat::ALL)?;
+    if let Some(preview) = &args.preview {
+        OutputFormat::for_output(preview, "--preview", OutputFormat::LDR)?;
+    }
+    if args.keep_channels && is_ldr_path(&args.input) {
+        anyhow::bail!(
+            "--keep-channels copies the other channels of an EXR input; {} is a PNG/JPEG and has none \
+             (drop the flag)",
+            args.input.display()
+        );
+    }
+    args.method_args.check(args.method)?;
+    let mut camera = args.camera.clone();
+    args.method_args.apply_to_camera(&mut camera)?;
+    Ok((format, camera))
+}
+
+/// The method's settings for a loaded input (they depend on its lens and size).
+pub(super) fn resolve_settings(args: &Args, loaded: &LoadedInput) -> anyhow::Result<MethodSettings> {
+    let (lens, stack) = (&loaded.camera.lens, &loaded.stack);
+    let physical = loaded.camera.physical.is_some();
+    let settings = args.method_args.resolve(args.method, lens, physical, stack.width, stack.height)?;
+    args.character.resolve()?.check_focus_field(settings.focus(args.method))?;
+    Ok(settings)
+}
+
+/// Renders `loaded` (read from `input`) with the lens character applied, showing the tiles
+/// on `spinner` after `what_prefix`; returns the render and its time.
+pub(super) fn render_loaded<'a>(
+    args: &Args,
+    ctx: Option<&Context>,
+    input: &Path,
+    loaded: &'a LoadedInput,
+    settings: &MethodSettings,
+    spinner: &ProgressBar,
+    what_prefix: &str,
+) -> anyhow::Result<(Rendered<'a>, Duration)> {
+    let start = Instant::now();
+    let layer_count = loaded.stack.layers.len();
+    let what = format!("{what_prefix}rendering {layer_count} layer(s) with {}", args.method);
+    let passes = args.character.resolve()?.render_count(&loaded.stack, &loaded.camera.lens);
+    let tile_progress = progress::tiles(spinner, what, passes);
+    let options = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
+    let rendered = args
+        .character
+        .render(args.method, ctx, &loaded.stack, &loaded.camera.lens, &options, settings)
+        .with_context(|| format!("rendering {} with {}", input.display(), args.method))?;
+    Ok((rendered, start.elapsed()))
+}
+
 /// `--device`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum DeviceChoice {
@@ -213,7 +278,7 @@ pub enum DeviceChoice {
 
 /// The Vulkan context `method` runs on, or None for the CPU path. Falls back to the CPU only
 /// in `auto` mode and only when no device was named: a named device that fails is an error.
-fn open_device(choice: DeviceChoice, method: Method) -> anyhow::Result<Option<Context>> {
+pub(super) fn open_device(choice: DeviceChoice, method: Method) -> anyhow::Result<Option<Context>> {
     if !method.uses_gpu() {
         return Ok(None);
     }
@@ -241,15 +306,24 @@ fn open_device(choice: DeviceChoice, method: Method) -> anyhow::Result<Option<Co
     }
 }
 
-fn write_output(args: &Args, format: OutputFormat, loaded: &LoadedInput, image: &Image) -> anyhow::Result<()> {
+/// Writes `image` to `output` (and `preview`) as the flags say; `loaded` is the input it came
+/// from, whose naming and display window the output takes.
+pub(super) fn write_output(
+    args: &Args,
+    output: &Path,
+    preview: Option<&Path>,
+    format: OutputFormat,
+    loaded: &LoadedInput,
+    image: &Image,
+) -> anyhow::Result<()> {
     if format != OutputFormat::Exr {
         if args.output_layer.is_some() || args.keep_channels || args.half {
             anyhow::bail!(
                 "--output-layer, --keep-channels and --half apply to EXR output; {} is 8-bit",
-                args.output.display()
+                output.display()
             );
         }
-        write_ldr(&args.output, image)?;
+        write_ldr(output, image)?;
     } else {
         let extra_channels = match (&loaded.info, args.keep_channels) {
             (Some(info), true) => info.extra_channels.clone(),
@@ -268,9 +342,9 @@ fn write_output(args: &Args, format: OutputFormat, loaded: &LoadedInput, image: 
             extra_channels,
             camera: loaded.camera.physical,
         };
-        write_image(&args.output, image, &options).context("writing -o")?;
+        write_image(output, image, &options).context("writing -o")?;
     }
-    if let Some(preview) = &args.preview {
+    if let Some(preview) = preview {
         write_ldr(preview, image).context("writing --preview")?;
     }
     Ok(())
@@ -371,6 +445,6 @@ fn describe_camera(report: &Report) -> String {
 
 /// Milliseconds to the microsecond: `as_secs_f64() * 1e3` prints binary noise such as
 /// `0.00009999999999999999`.
-fn ms(d: Duration) -> f64 {
+pub(super) fn ms(d: Duration) -> f64 {
     d.as_micros() as f64 / 1e3
 }

@@ -277,6 +277,10 @@ impl Drop for Device {
 #[derive(Clone)]
 pub struct Context {
     pub(crate) device: Arc<Device>,
+    /// Every compute pipeline made on this device, shared by all clones and kept while the
+    /// context lives: a renderer made again (each frame of a shot makes its own) gets them
+    /// without creating them anew. Pipelines are immutable, so sharing one is safe.
+    pub(crate) pipelines: Arc<Mutex<Vec<super::pipeline::MadePipeline>>>,
 }
 
 impl Context {
@@ -340,7 +344,7 @@ impl Context {
         };
         device.check_validation()?;
         log::info!("Vulkan device: {} ({})", device.info.name, device.info.driver);
-        Ok(Self { device: Arc::new(device) })
+        Ok(Self { device: Arc::new(device), pipelines: Arc::default() })
     }
 
     /// Opens the device chosen by `LENSBLUR_DEVICE` / `LENSBLUR_VALIDATION`.

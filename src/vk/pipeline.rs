@@ -90,7 +90,27 @@ impl ComputePipeline {
     /// [`Self::with_slots`] with the shader's specialization constants `constant_id = i` set to
     /// `constants[i]` (32-bit ints or bools): the driver compiles the shader with them as
     /// literals, so loops over them unroll.
+    ///
+    /// The context keeps every pipeline it made: asking again for the same shader, slots,
+    /// push size and constants returns the same pipeline (no driver work).
     pub fn specialized(ctx: &Context, shader: &ShaderSource, slots: &[Slot], push_size: usize, constants: &[u32]) -> Result<Self> {
+        let key = PipelineKey {
+            shader: shader.name,
+            spirv: (shader.spirv.as_ptr() as usize, shader.spirv.len()),
+            slots: slots.to_vec(),
+            push_size,
+            constants: constants.to_vec(),
+        };
+        let mut made = ctx.pipelines.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if let Some(found) = made.iter().find(|m| m.key == key) {
+            return Ok(found.pipeline.clone());
+        }
+        let pipeline = Self::create(ctx, shader, slots, push_size, constants)?;
+        made.push(MadePipeline { key, pipeline: pipeline.clone() });
+        Ok(pipeline)
+    }
+
+    fn create(ctx: &Context, shader: &ShaderSource, slots: &[Slot], push_size: usize, constants: &[u32]) -> Result<Self> {
         let device = &ctx.device;
         check_slots(shader, slots)?;
         let limit = device.info.max_push_constants_size.min(128) as usize;
@@ -160,11 +180,33 @@ impl ComputePipeline {
         &self.0.shader
     }
 
+    /// Whether both are one Vulkan pipeline (the context's kept one, asked for twice).
+    pub fn is_same(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+
     /// Workgroup counts covering `extent` invocations (div_ceil by the shader's local size).
     pub fn groups_for(&self, extent: [u32; 3]) -> [u32; 3] {
         let local = self.0.shader.local_size;
         [0, 1, 2].map(|i| extent[i].div_ceil(local[i]).max(1))
     }
+}
+
+/// What makes two pipelines the same: [`ComputePipeline::specialized`]'s arguments.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct PipelineKey {
+    shader: &'static str,
+    /// Where the SPIR-V is (static words): a shader is its code, whatever its name.
+    spirv: (usize, usize),
+    slots: Vec<Slot>,
+    push_size: usize,
+    constants: Vec<u32>,
+}
+
+/// A pipeline a [`Context`] made, with what it was made from.
+pub(crate) struct MadePipeline {
+    key: PipelineKey,
+    pipeline: ComputePipeline,
 }
 
 /// One shader's pipelines, specialized per set of constants ([`ComputePipeline::specialized`])

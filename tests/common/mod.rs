@@ -1,6 +1,7 @@
 //! Shared test setup. GPU tests never skip: without a Vulkan device they fail loudly.
 #![allow(dead_code)]
 mod scratch;
+pub mod shot;
 pub use scratch::ScratchDir;
 
 use std::path::Path;

@@ -6,6 +6,8 @@ temporary EXR, runs the `lensblur` command-line tool, and loads the result as th
 `lensblur_result`. Works in the UI and in `blender -b`:
 
     bpy.ops.lensblur.defocus(layers="L_*", exclude="L_fx", save_path="//defocus.exr")
+    bpy.ops.lensblur.defocus_animation(directory="//shot/")     # the frame range, animated camera
+    bpy.ops.lensblur.farm_bundle(directory="//shot/", chunk_size=10)  # for `deadline bundle submit`
 
 Debian's and Ubuntu's Blender are built without OpenImageDenoise: rendering the layers with
 denoising on fails ("Build without OpenImageDenoiser"); turn Render > Sampling > Denoise off
@@ -27,17 +29,19 @@ if "bpy" in locals():
     # Script reload (F8 / Reload Scripts): pick up edited submodules.
     import importlib
 
-    for _module in (errors, camera, stack, runner, result, preferences, settings, operator, panel):
+    for _module in (errors, job, camera, checks, stack, runner, result, preferences, settings, operator, animation, panel):
         importlib.reload(_module)
 
 import bpy
 
-from . import errors, camera, stack, runner, result, preferences, settings, operator, panel
+from . import errors, job, camera, checks, stack, runner, result, preferences, settings, operator, animation, panel
 
 _classes = (
     preferences.LensblurPreferences,
     settings.LensblurSettings,
     operator.LENSBLUR_OT_defocus,
+    animation.LENSBLUR_OT_defocus_animation,
+    animation.LENSBLUR_OT_farm_bundle,
     panel.LENSBLUR_PT_render,
 )
 
@@ -46,9 +50,11 @@ def register():
     for cls in _classes:
         bpy.utils.register_class(cls)
     bpy.types.Scene.lensblur = bpy.props.PointerProperty(type=settings.LensblurSettings)
+    checks.register()
 
 
 def unregister():
+    checks.unregister()
     del bpy.types.Scene.lensblur
     for cls in reversed(_classes):
         bpy.utils.unregister_class(cls)

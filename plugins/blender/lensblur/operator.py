@@ -1,13 +1,44 @@
-"""`bpy.ops.lensblur.defocus()`: view layers -> temporary EXR -> lensblur -> `lensblur_result`."""
+"""`bpy.ops.lensblur.defocus()`: view layers -> temporary EXR -> lensblur -> `lensblur_result`.
+
+From a script (and in `blender -b`) the operator runs to the end; from the UI (the panel's
+button) it runs in the background: a timer polls lensblur, the status bar shows progress, Esc
+cancels (lensblur removes the file it was writing) and the interface stays responsive."""
 import json
 import os
+import shutil
 import tempfile
 import traceback
 
 import bpy
 
-from . import camera, preferences, result, runner, settings, stack
+from . import camera, checks, preferences, result, runner, settings, stack
 from .errors import LensblurError
+from .job import RenderJob
+
+# How often a running job is polled from the UI.
+POLL_SECONDS = 0.1
+
+
+class Prepared:
+    """A stack on disk and the command that renders it; owns the temporary folder."""
+
+    def __init__(self, command, out_path, tmp, warnings):
+        self.command, self.out_path, self.tmp, self.warnings = command, out_path, tmp, warnings
+
+    def cleanup(self):
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+
+def report_failure(op, error):
+    """LensblurError: the message says what to do. Blender's own calls (image loading, file
+    output) fail with RuntimeError/OSError: a report says what failed, the console keeps the
+    traceback for a bug report."""
+    if isinstance(error, LensblurError):
+        op.report({"ERROR"}, str(error))
+    else:
+        traceback.print_exc()
+        op.report({"ERROR"}, f"lensblur: {type(error).__name__}: {error}")
+    return {"CANCELLED"}
 
 
 class LENSBLUR_OT_defocus(bpy.types.Operator):
@@ -32,31 +63,59 @@ class LENSBLUR_OT_defocus(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            image, report, warnings = self.defocus(context)
-        except LensblurError as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
-        except (RuntimeError, OSError) as e:
-            # Blender's own calls (image loading, file output) fail with these: a report
-            # says what failed, the console keeps the traceback for a bug report.
-            traceback.print_exc()
-            self.report({"ERROR"}, f"lensblur: {type(e).__name__}: {e}")
-            return {"CANCELLED"}
-        for warning in warnings:
-            self.report({"WARNING"}, warning)
-        self.report({"INFO"}, runner.summary(report))
-        if context.area is not None:
-            context.area.tag_redraw()
+            prepared = self.prepare(context)
+            try:
+                report, tool_warnings = runner.run_render(prepared.command)
+                self.finish(context, prepared, report, tool_warnings)
+            finally:
+                prepared.cleanup()
+        except (LensblurError, RuntimeError, OSError) as e:
+            return report_failure(self, e)
         return {"FINISHED"}
 
-    def defocus(self, context):
+    def invoke(self, context, event):
+        try:
+            self._prepared = self.prepare(context)
+            self._job = RenderJob(self._prepared.command)
+        except (LensblurError, RuntimeError, OSError) as e:
+            return report_failure(self, e)
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(POLL_SECONDS, window=context.window)
+        wm.modal_handler_add(self)
+        context.workspace.status_text_set("lensblur: rendering (Esc cancels)")
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._job.cancel()
+            self._prepared.cleanup()
+            self.end_modal(context)
+            self.report({"WARNING"}, "lensblur: cancelled; nothing was written")
+            return {"CANCELLED"}
+        if event.type != "TIMER" or self._job.poll() is None:
+            return {"PASS_THROUGH"}
+        self.end_modal(context)
+        try:
+            self.finish(context, self._prepared, self._job.result(), self._job.warnings)
+        except (LensblurError, RuntimeError, OSError) as e:
+            return report_failure(self, e)
+        finally:
+            self._prepared.cleanup()
+        return {"FINISHED"}
+
+    def end_modal(self, context):
+        context.window_manager.event_timer_remove(self._timer)
+        context.workspace.status_text_set(None)
+
+    def prepare(self, context):
+        """Writes the stack to a temporary folder; returns what renders it."""
         scene = context.scene
         binary = preferences.find_binary(context)
         flags, _summary, warnings = camera.camera_flags(scene)
         source = bpy.path.abspath(self.filepath) if self.filepath else ""
         self.check_save_path(source)
-        # Everything temporary lives in this directory, removed on success and on error.
-        with tempfile.TemporaryDirectory(prefix="lensblur-") as tmp:
+        tmp = tempfile.mkdtemp(prefix="lensblur-")
+        try:
             if source:
                 if not os.path.isfile(source):
                     raise LensblurError(f"no such file: {source}")
@@ -68,16 +127,29 @@ class LENSBLUR_OT_defocus(bpy.types.Operator):
             chosen = stack.select_layers(available, self.layers, self.exclude)
             if not source:
                 stack.check_depth_passes(scene, chosen)
+                warnings += checks.setup_warnings(scene, chosen)
+                stale = checks.stale_render_warning(scene)
+                warnings += [stale] if stale else []
                 stack.export_render_result(scene, stack_path)
             out_path = os.path.join(tmp, "lensblur_result.exr")
-            command = runner.render_command(
-                binary, stack_path, out_path, chosen, flags, self.method
-            )
-            report = runner.run_render(command)
-            image = result.load_result(out_path, self.save_path, json.dumps(report))
+            command = runner.render_command(binary, stack_path, out_path, chosen, flags, self.method)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        return Prepared(command, out_path, tmp, warnings)
+
+    def finish(self, context, prepared, report, tool_warnings):
+        """Loads the result, reports the warnings (the add-on's, then the tool's stderr ones)."""
+        warnings = prepared.warnings + tool_warnings
+        image = result.load_result(prepared.out_path, self.save_path, json.dumps(report))
+        image["lensblur_warnings"] = json.dumps(warnings)
         if self.use_node:
-            result.wire_image_node(scene, image)
-        return image, report, warnings
+            result.wire_image_node(context.scene, image)
+        for warning in warnings:
+            self.report({"WARNING"}, warning)
+        self.report({"INFO"}, runner.summary(report))
+        if context.area is not None:
+            context.area.tag_redraw()
 
     def check_save_path(self, source):
         if not self.save_path or not source:

@@ -22,6 +22,12 @@ class LENSBLUR_PT_render(bpy.types.Panel):
         op = layout.operator("lensblur.defocus", icon="RENDER_RESULT")
         for name in ("filepath", "layers", "exclude", "method", "save_path", "use_node"):
             setattr(op, name, getattr(s, name))
+        # The frame range into //lensblur/ (animated camera), locally or as a farm job bundle.
+        row = layout.row()
+        for idname, icon in (("lensblur.defocus_animation", "RENDER_ANIMATION"), ("lensblur.farm_bundle", "NETWORK_DRIVE")):
+            op = row.operator(idname, icon=icon)
+            for name in ("layers", "exclude", "method"):
+                setattr(op, name, getattr(s, name))
 
     @staticmethod
     def draw_camera(layout, scene):

@@ -55,14 +55,14 @@ def replace_datablock(image):
     return image
 
 
-def wire_image_node(scene, image):
-    """An Image node named `lensblur_result` in the compositor showing the result."""
+def wire_image_node(scene, image, name=NODE_NAME):
+    """An Image node named `name` in the compositor showing `image`."""
     scene.use_nodes = True
     tree = scene.node_tree
-    node = tree.nodes.get(NODE_NAME)
+    node = tree.nodes.get(name)
     if node is None or node.bl_idname != "CompositorNodeImage":
         node = tree.nodes.new("CompositorNodeImage")
-        node.name = NODE_NAME
+        node.name = name
         node.label = "lensblur"
     node.image = image
     return node

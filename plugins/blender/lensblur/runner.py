@@ -1,10 +1,5 @@
 """Runs `lensblur render` on a stack file and returns its JSON report."""
-import json
-import shlex
-import subprocess
-
-from .errors import LensblurError
-from .stack import tool_message
+from .job import RenderJob
 
 
 def render_command(binary, stack_path, out_path, layers, camera_flags, method):
@@ -18,18 +13,10 @@ def render_command(binary, stack_path, out_path, layers, camera_flags, method):
 
 
 def run_render(command):
-    """Runs the command (printed first, so the console shows what ran); returns the report."""
-    print("lensblur: " + shlex.join(command), flush=True)
-    try:
-        proc = subprocess.run(command, capture_output=True, text=True, check=False)
-    except OSError as e:
-        raise LensblurError(f"cannot run {command[0]}: {e}") from e
-    if proc.returncode != 0:
-        raise LensblurError(f"lensblur failed: {tool_message(proc.stderr)}")
-    try:
-        return json.loads(proc.stdout)
-    except json.JSONDecodeError as e:
-        raise LensblurError(f"lensblur printed no JSON report ({e}): {proc.stdout[-300:]}") from e
+    """Runs the command to the end (scripts, `blender -b`); returns (report, the tool's
+    warnings)."""
+    job = RenderJob(command)
+    return job.wait(), job.warnings
 
 
 def summary(report):

@@ -4,6 +4,7 @@ import json
 import subprocess
 
 from .errors import LensblurError
+from .job import tool_message
 
 
 def split_patterns(text):
@@ -93,8 +94,3 @@ def file_layers(binary, path):
         raise LensblurError(f"{path}: {info['stack_error']}")
     return [layer["name"] for layer in info.get("layers", [])]
 
-
-def tool_message(stderr):
-    """The tool's error text without the progress noise: its last non-empty lines."""
-    lines = [l.strip() for l in stderr.splitlines() if l.strip()]
-    return " ".join(lines[-6:]) if lines else "failed without a message"
