@@ -2,9 +2,9 @@
 // glsl/drbokeh_layer_disk.comp defines DRBOKEH_LAYER_DISK (default model, disk aperture),
 // glsl/drbokeh_layer_gauge.comp DRBOKEH_LAYER_GAUGE (default model, polygon or ellipse: the
 // same span path with row bounds from the aperture's row table and the shape's gauge in the
-// rim taps), glsl/drbokeh_layer_ring.comp DRBOKEH_LAYER_RING (default model, ring: the disk's
-// spans less the obstruction, whose middle is skipped), and glsl/drbokeh_layer.comp none of
-// them (every model and aperture, per tap). Separate
+// rim taps), glsl/drbokeh_layer_ring.comp DRBOKEH_LAYER_RING (default model, ring: the disk
+// path's gather, then the obstruction's, subtracted), and glsl/drbokeh_layer.comp none of them
+// (every model and aperture, per tap). Separate
 // pipelines rather than a runtime branch so that none carries another's code: lavapipe runs
 // branches under lane masks. Bindings, push constants and dispatch: see glsl/drbokeh_layer.comp.
 #ifndef LENSBLUR_DRBOKEH_LAYER_GLSL
@@ -75,8 +75,8 @@ struct Centre {
     float vis_sum;
     float vis_weight;
 #ifdef DRBOKEH_LAYER_RING
-    float ring_blend; // the ring weight's fade-in at this centre's radius
-    float ring_edge;  // inner r - 1/2: the weight's edge starts there
+    float ring_blend;   // the ring weight's fade-in at this centre's radius
+    float hole_support; // inner r + 1/2: the obstruction's reach
 #endif
 };
 
@@ -86,7 +86,7 @@ Centre centre_at(int index) {
     float r = abs(s);
 #ifdef DRBOKEH_LAYER_RING
     float blend = smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r);
-    return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0, blend, pc.aperture.z * r - 0.5);
+    return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0, blend, pc.aperture.z * r + 0.5);
 #else
     return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0);
 #endif
@@ -94,15 +94,17 @@ Centre centre_at(int index) {
 
 // One tap of the span path: source (pa = P / A, sa = (s, alpha)) at gauge g_source as the
 // source sees the aperture and g_centre as the centre does (one Euclidean gauge on the disk
-// path), with the aperture's weights k_source and k_centre (the ring's; 1 for gauge shapes);
-// `inside` = the offset lies in the centre's row span (taps outside add exact zeros).
-// `occlusion` is a constant at each call: the occlusion-free loop does not evaluate it.
-void span_tap(inout Centre c, vec4 pa, vec2 sa, float g_source, float g_centre, float k_source, float k_centre, bool inside, bool is_self, bool occlusion) {
-    float s = smoothstep(0.0, 1.0, abs(sa.x) + 0.5 - g_source) * k_source;
+// path). The source's coverage is that of a CoC `source_scale` times its own, the centre's
+// reaches `centre_support`, times the weights k_source and k_centre (1 for gauge shapes; see
+// the ring's obstruction pass). `inside` = the offset lies in the centre's row span (taps
+// outside add exact zeros). `occlusion` is a constant at each call: the occlusion-free loop
+// does not evaluate it.
+void span_tap(inout Centre c, vec4 pa, vec2 sa, float g_source, float g_centre, float source_scale, float centre_support, float k_source, float k_centre, bool inside, bool is_self, bool occlusion) {
+    float s = smoothstep(0.0, 1.0, abs(sa.x) * source_scale + 0.5 - g_source) * k_source;
     if (occlusion && c.occluder > 0.0 && !is_self) {
         s *= 1.0 - c.occluder * (1.0 - smoothstep(-0.5, 0.0, sa.x - c.s));
     }
-    float d = smoothstep(0.0, 1.0, c.support - g_centre) * k_centre;
+    float d = smoothstep(0.0, 1.0, centre_support - g_centre) * k_centre;
     s = inside ? s : 0.0;
     d = inside ? d : 0.0;
     c.cw += pa * s;
@@ -152,49 +154,6 @@ ivec2 interior_span(float t, int oy, ivec2 outer, int orientation) {
 }
 #endif
 
-#ifdef DRBOKEH_LAYER_RING
-// Relative room for the f32 rounding of the ring weight's argument g - inner r + 1/2 (a
-// product and two adds, ~1e-6 relative): the skip level shrinks by it, the clear level grows.
-const float RING_MARGIN = 1.0 / 4096.0;
-
-// The obstruction on row oy of a window whose radii (sources with alpha > 0 and centres) lie
-// in [low, high]: .x = the largest m such that every column |o| <= m is inside every tap's
-// obstruction (ring weight exactly 0 for source and centre: the tap adds exact zeros and is
-// skipped), -1 if none; .y = an m such that every column |o| > m clears every tap's
-// obstruction edge (ring weight exactly 1, so a tap of the rim's interior adds exactly
-// (P / A, alpha, 1)), -1 when the whole row does. Functions of low, high and oy alone, so of
-// global positions (bit-identical tiling), like the disk's spans.
-ivec2 ring_obstruction(float low, float high, int h, int oy) {
-    float inner = pc.aperture.z;
-    float oy2 = float(oy * oy);
-    int skipped = -1;
-    // Weight 0 needs the fade-in complete (r >= 3/2: smoothstep is exactly 1) and
-    // g <= inner r - 1/2 (the edge's smoothstep exactly 0).
-    float skip_level = (inner * low - 0.5) * (1.0 - RING_MARGIN) - RING_MARGIN;
-    if (low >= APERTURE_KERNEL_FADE_END_PX && float(abs(oy)) <= skip_level) {
-        int m = int(sqrt(max(skip_level * skip_level - oy2, 0.0)));
-        while (m >= 0 && sqrt(float(m * m) + oy2) > skip_level) {
-            m -= 1;
-        }
-        skipped = m;
-    }
-    // Weight 1 needs g >= inner r + 1/2 (a large `high` disables the shortcut: every column
-    // of the window may be on the edge).
-    float clear_level = (inner * high + 0.5) * (1.0 + RING_MARGIN) + RING_MARGIN;
-    if (!(clear_level < float(h + 1))) {
-        return ivec2(skipped, h + 1);
-    }
-    if (float(abs(oy)) >= clear_level) {
-        return ivec2(skipped, -1); // g >= |oy| on the whole row
-    }
-    int m = int(sqrt(clear_level * clear_level - oy2));
-    // g grows with |o|: column m + 1 clearing the level clears every one past it.
-    while (sqrt(float((m + 1) * (m + 1)) + oy2) < clear_level) {
-        m += 1;
-    }
-    return ivec2(skipped, m);
-}
-#endif
 
 #ifdef DRBOKEH_LAYER_GAUGE
 // The row table's entry for v (clamped far outside [-1, 1]: an empty row there): (interior lo,
@@ -253,10 +212,9 @@ vec2 offset_gauges(int o, int oy) {
 #ifdef DRBOKEH_LAYER_SPANS
 // Full taps of columns [from, to] (offsets from x0) of one window row for all RUN centres, in
 // x order: centre k's gauges are the ones centre k - 1 had a column earlier. `span`: the row's
-// offsets that may add anything (centre k's tap at column ox has offset ox - k). `ring_edge`
-// (a constant at each call): the columns may meet the ring's obstruction edge, so its weights
-// are evaluated; elsewhere (and off the ring path) they are exactly 1.
-void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int oy, bool occlusion, bool ring_edge) {
+// offsets that may add anything (centre k's tap at column ox has offset ox - k). `hole` (a
+// constant at each call; the ring only): the obstruction's taps, subtracted (see main).
+void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int oy, bool occlusion, bool hole) {
     if (from > to) {
         return;
     }
@@ -287,18 +245,20 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
             // Sources nearer than focus (s > 0) see the mirrored aperture.
             float g_source = sa.x > 0.0 ? g[k].x : g[k].y;
             float g_centre = c[k].s > 0.0 ? g[k].x : g[k].y;
-            span_tap(c[k], pa, sa, g_source, g_centre, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
+            span_tap(c[k], pa, sa, g_source, g_centre, 1.0, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
 #elif defined(DRBOKEH_LAYER_RING)
-            float k_source = 1.0;
-            float k_centre = 1.0;
-            if (ring_edge) {
-                k_source = aperture_ring_weight(g[k], abs(sa.x), pc.aperture.z);
-                // aperture_ring_weight with the centre's terms precomputed (the same operations).
-                k_centre = 1.0 - c[k].ring_blend * (1.0 - smoothstep(0.0, 1.0, g[k] - c[k].ring_edge));
+            if (hole) {
+                // -blend(r) S(r, g) S(inner r, g), for the source and the centre.
+                float r = abs(sa.x);
+                float k_source = -smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r)
+                    * smoothstep(0.0, 1.0, r + 0.5 - g[k]);
+                float k_centre = -c[k].ring_blend * smoothstep(0.0, 1.0, c[k].support - g[k]);
+                span_tap(c[k], pa, sa, g[k], g[k], pc.aperture.z, c[k].hole_support, k_source, k_centre, inside, o == 0 && oy == 0, occlusion);
+            } else {
+                span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
             }
-            span_tap(c[k], pa, sa, g[k], g[k], k_source, k_centre, inside, o == 0 && oy == 0, occlusion);
 #else
-            span_tap(c[k], pa, sa, g[k], g[k], 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
+            span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
 #endif
         }
         for (int k = RUN - 1; k > 0; --k) {
@@ -343,12 +303,17 @@ void span_sum(int base, int a, int b, out vec4 pa, out float alpha) {
 }
 
 // Adds the span sum of offsets-from-x0 columns [from, to] of one read row to every centre: each
-// tap there adds exactly (P / A, alpha, 1) (see gather_span_run).
-void interior_sum(inout Centre c[RUN], int row, ivec2 x0, int from, int to) {
+// tap there adds exactly (P / A, alpha, 1) (see gather_span_run); `hole`: subtracts it.
+void interior_sum(inout Centre c[RUN], int row, ivec2 x0, int from, int to, bool hole) {
     vec4 pa;
     float alpha;
     span_sum(row - x0.x, x0.x + from, x0.x + to, pa, alpha);
     float count = float(to - from + 1);
+    if (hole) {
+        pa = -pa;
+        alpha = -alpha;
+        count = -count;
+    }
     for (int k = 0; k < RUN; ++k) {
         c[k].cw += pa;
         c[k].vis_sum += alpha;
@@ -356,36 +321,6 @@ void interior_sum(inout Centre c[RUN], int row, ivec2 x0, int from, int to) {
     }
 }
 
-#ifdef DRBOKEH_LAYER_RING
-// Columns [ox0, ox1] (offsets from x0) of one row through the ring, in x order, without
-// occlusion: the rim's interior [mid0, mid1] less the obstruction's reach [-.y, .y] of
-// `obstruction` (ring_obstruction) is summed, one span on each side; the obstruction's middle
-// [-.x, .x] adds exact zeros and is skipped; every other column is a full tap. A column
-// serves centre k at offset ox - k, so a part holds the columns where every centre's offset
-// qualifies.
-void ring_row(inout Centre c[RUN], int row, ivec2 x0, int ox0, int ox1, int mid0, int mid1, ivec2 span, ivec2 obstruction, int oy) {
-    int cursor = ox0;
-    int left_end = obstruction.y < 0 ? mid1 : min(mid1, -obstruction.y - 1);
-    if (mid0 <= left_end) {
-        full_taps(c, row, cursor, mid0 - 1, span, oy, false, true);
-        interior_sum(c, row, x0, mid0, left_end);
-        cursor = left_end + 1;
-    }
-    int skip0 = max(cursor, -obstruction.x + RUN - 1);
-    int skip1 = min(ox1, obstruction.x);
-    if (skip0 <= skip1) {
-        full_taps(c, row, cursor, skip0 - 1, span, oy, false, true);
-        cursor = skip1 + 1;
-    }
-    int right_start = max(cursor, max(mid0, obstruction.y + RUN));
-    if (right_start <= mid1) {
-        full_taps(c, row, cursor, right_start - 1, span, oy, false, true);
-        interior_sum(c, row, x0, right_start, mid1);
-        cursor = mid1 + 1;
-    }
-    full_taps(c, row, cursor, ox1, span, oy, false, true);
-}
-#endif
 
 // Default model, gauge aperture (disk, polygon, ellipse): the terms of drbokeh_lens /
 // drbokeh_scatter / drbokeh_occlusion with K = 1 and the shape's gauge, for RUN horizontally
@@ -400,7 +335,7 @@ void ring_row(inout Centre c[RUN], int row, ivec2 x0, int ox0, int ox1, int mid0
 // middle columns of each row, interior for all RUN centres, add one span sum (span_sum) and
 // their count without any gauge. Another order than the full taps' (f32 rounding apart),
 // but the span is a function of global positions, so still the same bits for every tiling.
-void gather_span_run(ivec2 x0, int h, float t, float outer, int orientation, inout Centre c[RUN], bool occlusion) {
+void gather_span_run(ivec2 x0, int h, float t, float outer, int orientation, inout Centre c[RUN], bool occlusion, bool hole) {
     int oy0 = max(-h, -x0.y);
     int oy1 = min(h, pc.height - 1 - x0.y);
     for (int oy = oy0; oy <= oy1; ++oy) {
@@ -424,21 +359,11 @@ void gather_span_run(ivec2 x0, int h, float t, float outer, int orientation, ino
                 mid1 = b;
             }
         }
-#ifdef DRBOKEH_LAYER_RING
-        // An occluding centre is in focus (r < 3/2): it gathers every tap of the row, as
-        // the disk path does; the sums and the skip would only copy the tap loop again.
-        if (occlusion) {
-            full_taps(c, row, ox0, ox1, span, oy, true, true);
-        } else {
-            ring_row(c, row, x0, ox0, ox1, mid0, mid1, span, ring_obstruction(t - 0.5, outer - 0.5, h, oy), oy);
-        }
-#else
-        full_taps(c, row, ox0, mid0 - 1, span, oy, occlusion, false);
+        full_taps(c, row, ox0, mid0 - 1, span, oy, occlusion, hole);
         if (mid0 <= mid1) {
-            interior_sum(c, row, x0, mid0, mid1);
+            interior_sum(c, row, x0, mid0, mid1, hole);
         }
-        full_taps(c, row, mid1 + 1, ox1, span, oy, occlusion, false);
-#endif
+        full_taps(c, row, mid1 + 1, ox1, span, oy, occlusion, hole);
     }
 }
 #endif
@@ -534,10 +459,29 @@ void main() {
         // Branches are masks on lavapipe: only a lane group with an occluding centre pays for
         // the occlusion terms.
         if (occluding) {
-            gather_span_run(x0, h, t, radii.y, int(radii.z), c, true);
+            gather_span_run(x0, h, t, radii.y, int(radii.z), c, true, false);
         } else {
-            gather_span_run(x0, h, t, radii.y, int(radii.z), c, false);
+            gather_span_run(x0, h, t, radii.y, int(radii.z), c, false, false);
         }
+#ifdef DRBOKEH_LAYER_RING
+        // The ring's weight is S(r, g) (1 - blend(r) S(inner r, g)) (aperture_ring_weight: the
+        // Hermite step's complement is the step of the reflected argument), so its gather is
+        // the disk's less a second gather whose taps weigh blend(r) S(r, g) S(inner r, g): a
+        // disk of radius inner r where it lies inside the rim, which has the disk path's
+        // interior sums wherever every radius is at least 3/2 (blend exactly 1). Bounds for
+        // radius inner r: a lower bound of the radii is t - 1/2, an upper one outer - 1/2.
+        float inner = pc.aperture.z;
+        float low = t - 0.5;
+        float t_hole = low >= APERTURE_KERNEL_FADE_END_PX ? inner * low + 0.5 : 0.0;
+        t_hole -= t_hole * (1.0 / 65536.0);
+        float outer_hole = (inner * (radii.y - 0.5) + 0.5) * (1.0 + 1.0 / 4096.0) + 1.0 / 4096.0;
+        int h_hole = outer_hole >= float(h + 1) ? h : int(ceil(outer_hole));
+        if (occluding) {
+            gather_span_run(x0, h_hole, t_hole, outer_hole, int(radii.z), c, true, true);
+        } else {
+            gather_span_run(x0, h_hole, t_hole, outer_hole, int(radii.z), c, false, true);
+        }
+#endif
         for (int k = 0; k < RUN; ++k) {
             cw[k] = c[k].cw;
             vis[k] = visibility(c[k].vis_sum, c[k].vis_weight);

@@ -1,8 +1,10 @@
 //! Lens character and artist controls (issue 12), on top of any rendering method and without
 //! touching its shaders: every control is either a remap of the input (blur multipliers and
-//! clamp, focus pick, highlight bloom), a procedural aperture kernel (ring, cat's-eye; the
-//! anamorphic ellipse is a gauge shape of [`crate::camera::Aperture`]), or a combination of several renders (chromatic aberration: one per channel;
-//! cat's-eye: one per grid node). Each piece is a CPU function testable on its own.
+//! clamp, focus pick, highlight bloom), a procedural aperture (the anamorphic ellipse, the
+//! ring and a vignetted disk's cat's-eye are shapes of [`crate::camera::Aperture`] with closed
+//! forms; the cat's-eye of any other aperture is a kernel image), or a combination of several
+//! renders (chromatic aberration: one per channel; cat's-eye: one per grid node). Each piece
+//! is a CPU function testable on its own.
 pub mod bloom;
 pub mod chromatic;
 pub mod debug;

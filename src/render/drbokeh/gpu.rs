@@ -36,7 +36,7 @@ pub struct DrBokehGpu {
     layer_disk: Option<ComputePipeline>,
     /// Specialized per shape (blades, or the ellipse), made on first use.
     layer_gauge: Option<PipelineVariants>,
-    /// The disk path's spans split around the ring's obstruction.
+    /// The disk path's gather less the ring's obstruction's.
     layer_ring: Option<ComputePipeline>,
     composite: ComputePipeline,
 }

@@ -137,8 +137,8 @@ pub enum AperturePath {
     /// Default model, polygon or ellipse: row spans bounded by the row table, the shape's
     /// gauge in the rim taps.
     Gauge,
-    /// Default model, ring: the disk's row spans less the obstruction, whose middle (an exact
-    /// zero) is skipped; the ring weight in the rim taps of both edges.
+    /// Default model, ring: the disk path's gather less a second one over the obstruction
+    /// (the ring's weight is `S(r) (1 - blend S(inner r))`), both with row spans.
     Ring,
     /// Every tap evaluated (compat model, kernel images).
     PerTap,
