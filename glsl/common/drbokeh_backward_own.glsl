@@ -2,8 +2,9 @@
 // glsl/drbokeh_backward_own_disk.comp defines DRBOKEH_BACKWARD_DISK (default model, disk
 // aperture, no kernel image: V's weights with K = 1 and the Euclidean gauge),
 // glsl/drbokeh_backward_own_gauge.comp also DRBOKEH_BACKWARD_GAUGE (the same with a polygon or
-// ellipse and its closed-form gauge, glsl/common/gauge.glsl) and glsl/drbokeh_backward_own.comp
-// neither (every model and aperture). Separate pipelines rather than a runtime branch: lavapipe runs every branch under lane masks. Bindings, push constants
+// ellipse and its closed-form gauge, glsl/common/gauge.glsl), glsl/drbokeh_backward_own_ring.comp
+// DRBOKEH_BACKWARD_RING with the disk's (the ring's weight and dK/dr in closed form) and
+// glsl/drbokeh_backward_own.comp none (every model and aperture). Separate pipelines rather than a runtime branch: lavapipe runs every branch under lane masks. Bindings, push constants
 // and dispatch: see glsl/drbokeh_backward_own.comp.
 #ifndef LENSBLUR_DRBOKEH_BACKWARD_OWN_GLSL
 #define LENSBLUR_DRBOKEH_BACKWARD_OWN_GLSL
@@ -80,6 +81,12 @@ vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2) {
             float alpha = texelFetch(rgba, drbokeh_read_index(pc.layer, ivec2(sx, sy))).w;
             float d = drbokeh_scatter(dst.r, g);
             float d_d = drbokeh_leaky(drbokeh_d_scatter(dst.r, g));
+#ifdef DRBOKEH_BACKWARD_RING
+            // drbokeh_vis_weight's S K and d(S K)/dr_x.
+            vec2 ring = drbokeh_ring_weight_d(g, dst.r);
+            d_d = d_d * ring.x + d * ring.y;
+            d *= ring.x;
+#endif
             vis += vec4(d, alpha * d, d_d, alpha * d_d);
 #else
             if (pc.model == DRBOKEH_MODEL_COMPAT) {

@@ -3,7 +3,9 @@
 // aperture, no kernel image: K = 1 and one Euclidean gauge per tap),
 // glsl/drbokeh_backward_source_gauge.comp also DRBOKEH_BACKWARD_GAUGE (the same with a polygon
 // or ellipse: K = 1, the shape's closed-form gauge, glsl/common/gauge.glsl, one per
-// orientation) and glsl/drbokeh_backward_source.comp neither (every model and aperture).
+// orientation), glsl/drbokeh_backward_source_ring.comp DRBOKEH_BACKWARD_RING with the disk's
+// (the ring: its weight K(g, r) and dK/dr in closed form, drbokeh_ring_weight_d), and
+// glsl/drbokeh_backward_source.comp none (every model and aperture).
 // Separate pipelines rather than a runtime branch: lavapipe runs every branch under lane masks, so a tap pays for all
 // the code in the loop body, taken or not. Bindings, push constants and dispatch: see
 // glsl/drbokeh_backward_source.comp.
@@ -215,6 +217,12 @@ void main() {
 #endif
                 float s = drbokeh_scatter(src[k].r, g);
                 float ds = drbokeh_leaky(drbokeh_d_scatter(src[k].r, g));
+#ifdef DRBOKEH_BACKWARD_RING
+                // drbokeh_pair_grad's S K and d(S K)/dr_y.
+                vec2 ring = drbokeh_ring_weight_d(g, src[k].r);
+                ds = ds * ring.x + s * ring.y;
+                s *= ring.x;
+#endif
                 bool is_self = ox == 0 && oy == 0;
                 float occ = 1.0;
                 float d_occ = 0.0;
@@ -229,7 +237,11 @@ void main() {
                     d_s[k] += dot(adj, p[k]) * (d_r_y * sign_y[k] + base * d_occ);
                 }
                 if (own_share != 0.0 && o2 < vis_limit2) {
+#ifdef DRBOKEH_BACKWARD_RING
+                    d_p[k].w += own_share * (drbokeh_scatter(dst.r, g_receiver) * drbokeh_ring_weight_d(g_receiver, dst.r).x);
+#else
                     d_p[k].w += own_share * drbokeh_scatter(dst.r, g_receiver);
+#endif
                 }
             }
         }

@@ -92,18 +92,24 @@ vec3 aperture_kernel_sample_grad(vec2 uv, int size) {
     return vec3(top * (1.0 - ty) + bottom * ty, d_fx * 0.5 * n, (bottom - top) * 0.5 * n);
 }
 
+// The ring's weight through a CoC of radius r at gauge g and its d/dr: vec2(K, dK/dr)
+// (aperture_ring_weight; LensView::lens_d in src/render/drbokeh/backward.rs).
+vec2 drbokeh_ring_weight_d(float g, float r) {
+    float inner = pc.aperture.z;
+    float arg = g - (inner * r - 0.5);
+    float blend = smoothstep(DRBOKEH_KERNEL_FADE_START_PX, DRBOKEH_KERNEL_FADE_END_PX, r);
+    float d_blend = drbokeh_d_smoothstep(DRBOKEH_KERNEL_FADE_START_PX, DRBOKEH_KERNEL_FADE_END_PX, r);
+    float step = smoothstep(0.0, 1.0, arg);
+    return vec2(1.0 - blend * (1.0 - step), -d_blend * (1.0 - step) - blend * drbokeh_d_smoothstep(0.0, 1.0, arg) * inner);
+}
+
 // drbokeh_lens plus d(kernel weight)/dr: vec3(gauge, weight, d weight / dr) (the ring's:
 // LensView::lens_d in src/render/drbokeh/backward.rs).
 vec3 drbokeh_lens_d(vec2 offset, float r, float rel) {
     vec2 p = aperture_coords(offset, rel);
     float g = aperture_gauge(p, pc.aperture);
     if (aperture_is_ring(pc.aperture)) {
-        float inner = pc.aperture.z;
-        float arg = g - (inner * r - 0.5);
-        float blend = smoothstep(DRBOKEH_KERNEL_FADE_START_PX, DRBOKEH_KERNEL_FADE_END_PX, r);
-        float d_blend = drbokeh_d_smoothstep(DRBOKEH_KERNEL_FADE_START_PX, DRBOKEH_KERNEL_FADE_END_PX, r);
-        float step = smoothstep(0.0, 1.0, arg);
-        return vec3(g, 1.0 - blend * (1.0 - step), -d_blend * (1.0 - step) - blend * drbokeh_d_smoothstep(0.0, 1.0, arg) * inner);
+        return vec3(g, drbokeh_ring_weight_d(g, r));
     }
     if (pc.aperture.w < 0.5 || pc.kernel_size == 0) {
         return vec3(g, 1.0, 0.0);

@@ -41,6 +41,10 @@ pub struct DrBokehGpuGrad {
     /// the shape's closed-form gauge.
     own_gauge: PipelineVariants,
     source_gauge: PipelineVariants,
+    /// The same for the ring ([`AperturePath::Ring`]): the disk path's code with the ring's
+    /// weight and its d/dr in closed form.
+    own_ring: ComputePipeline,
+    source_ring: ComputePipeline,
     pub model: Model,
     pub options: BackwardOptions,
 }
@@ -105,6 +109,8 @@ impl DrBokehGpuGrad {
             source_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_DISK, &SOURCE_SLOTS, push)?,
             own_gauge: PipelineVariants::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN_GAUGE, &OWN_SLOTS, push)?,
             source_gauge: PipelineVariants::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_GAUGE, &SOURCE_SLOTS, push)?,
+            own_ring: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_RING, &OWN_SLOTS, push)?,
+            source_ring: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_RING, &SOURCE_SLOTS, push)?,
             model,
             options,
         })
@@ -241,8 +247,8 @@ impl DrBokehGpuGrad {
                 gauge = (self.own_gauge.get(&constants)?, self.source_gauge.get(&constants)?);
                 (&gauge.0, &gauge.1)
             }
-            // The ring's backward has no span path yet: every tap, as for kernel images.
-            AperturePath::PerTap | AperturePath::Ring => (&self.own, &self.source),
+            AperturePath::Ring => (&self.own_ring, &self.source_ring),
+            AperturePath::PerTap => (&self.own, &self.source),
         };
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
         let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];
