@@ -287,3 +287,26 @@ fn a_mostly_front_pixel_labelled_back_leaves_no_front_colour_in_the_back() {
     let err = max_diff(&composite(&stack), &image);
     assert!(err < 1e-4, "over differs from the input by {err}");
 }
+
+#[test]
+fn a_light_cut_by_an_in_focus_edge_continues_under_it_only_a_few_pixels() {
+    // A 6 px wide HDR light on a dark far background (disparity 0.25), its right part hidden
+    // by an in-focus dark square (disparity 1, CoC 0) from column 16 on.
+    const DARK: [f32; 4] = [0.05, 0.04, 0.03, 1.0];
+    const SKY: [f32; 4] = [0.02, 0.02, 0.04, 1.0];
+    const LIGHT: [f32; 4] = [20.0, 16.0, 10.0, 1.0];
+    let front = |x: usize, y: usize| x >= 16 && (4..28).contains(&y);
+    let image = Image::from_fn(32, 32, |x, y| match () {
+        _ if front(x, y) => DARK,
+        _ if (10..16).contains(&x) && (12..20).contains(&y) => LIGHT,
+        _ => SKY,
+    });
+    let disparity: Vec<f32> = (0..32 * 32).map(|i| if front(i % 32, i / 32) { 1.0 } else { 0.25 }).collect();
+    let stack = split_into_layers(&image, &disparity, &CocModel::new(20.0, 1.0).unwrap(), &AutoLayerOptions::default());
+    let back = &stack.layers[1].rgba;
+    // Mirrored across the edge at full strength just under the square, as the disc goes on...
+    assert!(back.get(17, 15)[0] > 10.0, "under the edge: {:?}", back.get(17, 15));
+    // ...but not far under it, where the smooth fill (range-compressed: no HDR smear) rules.
+    assert!(back.get(26, 15)[0] < 1.0, "far under the square: {:?}", back.get(26, 15));
+    assert!(back.pixels.iter().all(|p| (0.0..=1.0).contains(&p[3])));
+}
