@@ -175,6 +175,9 @@ pub fn nearest_known(width: usize, height: usize, known: &[bool]) -> Vec<Option<
 /// where the mirror point is not known. Only `known` pixels are ever named.
 pub fn mirror_sources(width: usize, height: usize, known: &[bool], hole: &[bool], reach: f32) -> Vec<Option<usize>> {
     assert_eq!(hole.len(), width * height);
+    if !known.iter().any(|&k| k) {
+        return vec![None; known.len()];
+    }
     let nearest = nearest_known(width, height, known);
     (0..known.len())
         .map(|p| {
