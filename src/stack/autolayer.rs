@@ -154,17 +154,17 @@ fn dot(a: [f32; 4], b: [f32; 4]) -> f32 {
 /// For each pixel: the nearest and farthest other layer across a discontinuity within
 /// `band_px` (the two candidates its colour may be mixed with).
 fn band_pairs(
-    image: &Image,
+    w: usize,
+    h: usize,
     label: &[usize],
     coc: &[f32],
     options: &AutoLayerOptions,
 ) -> Vec<Option<(usize, usize)>> {
-    let (w, h) = (image.width, image.height);
+    let r = options.band_px as i64;
     let mut out = vec![None; w * h];
     for y in 0..h as i64 {
         for x in 0..w as i64 {
             let p = (y as usize) * w + x as usize;
-            let r = options.band_px as i64;
             let (mut near, mut far) = (usize::MAX, 0usize);
             for qy in (y - r).max(0)..=(y + r).min(h as i64 - 1) {
                 for qx in (x - r).max(0)..=(x + r).min(w as i64 - 1) {
@@ -614,7 +614,7 @@ pub fn split_into_layers(image: &Image, disparity: &[f32], coc: &CocModel, optio
     assert_eq!(disparity.len(), image.pixels.len(), "one disparity per pixel");
     let signed: Vec<f32> = disparity.iter().map(|&d| coc.signed_radius(d)).collect();
     let (label, count) = labels(&signed, options);
-    let pairs = band_pairs(image, &label, &signed, options);
+    let pairs = band_pairs(image.width, image.height, &label, &signed, options);
     let bands = bands(image, &label, &signed, &pairs, options);
     let layers = (0..count).map(|k| build_layer(k, image, disparity, &label, &bands)).collect();
     LayerStack { width: image.width, height: image.height, layers }
