@@ -13,7 +13,7 @@ fn tele(focus_distance: f32) -> PhysicalCamera {
 
 fn one_plane(camera: PhysicalCamera, z: f32, size: usize, texture: Arc<dyn Texture>) -> Scene {
     let surfaces = vec![Surface::billboard("plane", z, &camera, texture)];
-    Scene { name: "test".into(), description: String::new(), camera, width: size, height: size, surfaces }
+    Scene { name: "test".into(), description: String::new(), camera, width: size, height: size, surfaces, z_pass: Default::default() }
 }
 
 fn options(samples_per_axis: usize) -> TraceOptions {
@@ -248,5 +248,61 @@ fn single_image_scenes_are_square_and_match_their_coc_table() {
             assert!((g - r).abs() < 0.05, "{name}: CoC {got:?} px, table {radii:?}");
         }
         assert!(lensblur::raytrace::builtin_scene(name).is_ok(), "{name} found by name");
+    }
+}
+
+/// Opaque left of `u = edge`, transparent right of it.
+#[derive(Debug)]
+struct HalfPlane {
+    edge: f32,
+}
+impl Texture for HalfPlane {
+    fn sample(&self, u: f32, _: f32) -> Rgba {
+        if u < self.edge {
+            [1.0, 0.0, 0.0, 1.0]
+        } else {
+            [0.0; 4]
+        }
+    }
+}
+
+#[test]
+fn a_one_sample_z_pass_jitters_depth_edges_only() {
+    // A half plane at 2 m over a wall at 10 m whose edge covers 80% of pixel column 16. The
+    // pixel-centre Z pass gives that column the front; Cycles' one jittered sample per pixel
+    // gives a fifth of its rows the wall, and agrees everywhere else.
+    let camera = tele(4.0);
+    let mut scene = one_plane(camera, 10.0, 32, Arc::new(Waves));
+    scene.surfaces.insert(0, Surface::billboard("front", 2.0, &camera, Arc::new(HalfPlane { edge: 0.05 })));
+    let centre = render_ground_truth(&scene, &options(4)).unwrap();
+    scene.z_pass = lensblur::raytrace::ZPass::OneSample;
+    let jittered = render_ground_truth(&scene, &options(4)).unwrap();
+    let front = |z: f32| z < 5.0;
+    let (mut differ, w) = (0, 32);
+    for i in 0..w * w {
+        let (a, b) = (front(centre.pinhole_depth[i]), front(jittered.pinhole_depth[i]));
+        if a != b {
+            differ += 1;
+            let x = i % w;
+            let row: Vec<bool> = (0..w).map(|x| front(centre.pinhole_depth[i / w * w + x])).collect();
+            let edge = row.iter().position(|&f| !f).unwrap_or(w);
+            assert!(x + 1 >= edge && x <= edge, "pixel {i} is a pixel from the edge at {edge}");
+        }
+    }
+    assert!(differ > 0, "some edge pixels take the other side's depth");
+    assert_eq!(centre.pinhole.pixels, jittered.pinhole.pixels, "colour does not change");
+}
+
+#[test]
+fn only_single_image_scenes_use_the_jittered_z_pass_and_other_cache_keys_stay() {
+    use lensblur::raytrace::ZPass;
+    for scene in builtin_scenes() {
+        assert_eq!(scene.z_pass, ZPass::PixelCentre, "{}", scene.name);
+        // The ground-truth cache keys hash the Debug text: the default leaves it as it was.
+        assert!(!format!("{scene:?}").contains("z_pass"), "{}", scene.name);
+    }
+    for scene in lensblur::raytrace::single_image_scenes() {
+        assert_eq!(scene.z_pass, ZPass::OneSample, "{}", scene.name);
+        assert!(format!("{scene:?}").contains("OneSample"), "{}", scene.name);
     }
 }

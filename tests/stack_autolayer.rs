@@ -209,3 +209,104 @@ fn a_sharp_hair_strand_keeps_its_darkness_out_of_the_background() {
     assert!((front[3] - 0.5).abs() < 0.1, "the strand covers half the pixel: {front:?}");
     assert!(max_diff(&composite(&stack), &image) < 1e-5);
 }
+
+/// In-focus dark hair (disparity 1, CoC 0): 1 px strands at the even columns 10..=20 over an
+/// HDR light (30) on a dark far background (disparity 0.25). The odd columns between strands
+/// are 30% strand, 70% light; their depth sample (a jittered Z pass, as Cycles writes it) hit
+/// a strand on even rows and the light on odd rows. No pixel of the strands' layer is unmixed.
+fn light_behind_hair() -> (Image, Vec<f32>) {
+    const DARK: [f32; 4] = [0.05, 0.04, 0.03, 1.0];
+    const SKY: [f32; 4] = [0.02, 0.02, 0.04, 1.0];
+    const LIGHT: [f32; 4] = [30.0, 24.0, 15.0, 1.0];
+    let hair = |x: usize, y: usize| (10..=20).contains(&x) && (8..22).contains(&y);
+    let image = Image::from_fn(32, 32, |x, y| match () {
+        _ if hair(x, y) && x % 2 == 0 => DARK,
+        _ if hair(x, y) => mix(DARK, LIGHT, 0.3),
+        _ if (8..=23).contains(&x) && (6..24).contains(&y) => LIGHT,
+        _ => SKY,
+    });
+    let disparity = (0..32 * 32)
+        .map(|i| {
+            let (x, y) = (i % 32, i / 32);
+            if hair(x, y) && (x % 2 == 0 || y % 2 == 0) {
+                1.0
+            } else {
+                0.25
+            }
+        })
+        .collect();
+    (image, disparity)
+}
+
+#[test]
+fn hdr_light_between_in_focus_hair_strands_stays_out_of_the_front_layer() {
+    let (image, disparity) = light_behind_hair();
+    let stack = split_into_layers(&image, &disparity, &CocModel::new(20.0, 1.0).unwrap(), &AutoLayerOptions::default());
+    assert_eq!(stack.layers.len(), 2);
+    let front = &stack.layers[0].rgba;
+    for (i, p) in front.pixels.iter().enumerate() {
+        // The strands' colour is at most 0.05: a front pixel brighter than its alpha times
+        // that (plus margin) holds light that would ring the in-focus hair.
+        assert!((0..3).all(|k| p[k] <= p[3] * 0.1 + 1e-4), "front ({}, {}) = {p:?}", i % 32, i / 32);
+    }
+    let mixed = front.get(13, 14);
+    assert!(mixed[3] < 0.9, "the light shows through between strands: {mixed:?}");
+    let back = stack.layers[1].rgba.get(13, 14);
+    assert!(back[0] > 10.0, "the light is in the back layer: {back:?}");
+    for layer in &stack.layers {
+        assert!(layer.rgba.pixels.iter().all(|p| (0.0..=1.0).contains(&p[3])), "alpha stays in [0, 1]");
+    }
+    // Front + (1 - alpha) back is the input (f32 rounding of values up to 30: 1e-4 relative).
+    let err = max_diff(&composite(&stack), &image);
+    assert!(err < 3e-3, "composite differs from the input by {err}");
+}
+
+#[test]
+fn a_mostly_front_pixel_labelled_back_leaves_no_front_colour_in_the_back() {
+    // A textured in-focus front (bright and dark red columns) over a green background; the
+    // right edge column is 80% front, but its depth sample hit the background.
+    const BRIGHT: [f32; 4] = [0.95, 0.3, 0.25, 1.0];
+    let front_colour = |x: usize| if x % 2 == 0 { BRIGHT } else { [0.45, 0.1, 0.05, 1.0] };
+    let image = Image::from_fn(32, 32, |x, y| match x {
+        10..=20 if (8..24).contains(&y) => front_colour(x),
+        21 if (8..24).contains(&y) => mix(BRIGHT, BG, 0.8),
+        _ => BG,
+    });
+    let disparity: Vec<f32> = (0..32 * 32).map(|i| if (10..=20).contains(&(i % 32)) && (8..24).contains(&(i / 32)) { 1.0 } else { 0.25 }).collect();
+    let stack = split_into_layers(&image, &disparity, &CocModel::new(20.0, 1.0).unwrap(), &AutoLayerOptions::default());
+    let back = &stack.layers[1].rgba;
+    for y in 0..32 {
+        for x in 0..32 {
+            let p = back.get(x, y);
+            // Background colour only (its own pixels are all BG): 0.1 leaves room for the
+            // clamp's slack, front red would be 0.6+ off in red.
+            assert!((0..3).all(|k| (p[k] - BG[k] * p[3]).abs() < 0.1), "back ({x}, {y}) = {p:?}");
+            assert!((0.0..=1.0).contains(&p[3]));
+        }
+    }
+    let err = max_diff(&composite(&stack), &image);
+    assert!(err < 1e-4, "over differs from the input by {err}");
+}
+
+#[test]
+fn a_light_cut_by_an_in_focus_edge_continues_under_it_only_a_few_pixels() {
+    // A 6 px wide HDR light on a dark far background (disparity 0.25), its right part hidden
+    // by an in-focus dark square (disparity 1, CoC 0) from column 16 on.
+    const DARK: [f32; 4] = [0.05, 0.04, 0.03, 1.0];
+    const SKY: [f32; 4] = [0.02, 0.02, 0.04, 1.0];
+    const LIGHT: [f32; 4] = [20.0, 16.0, 10.0, 1.0];
+    let front = |x: usize, y: usize| x >= 16 && (4..28).contains(&y);
+    let image = Image::from_fn(32, 32, |x, y| match () {
+        _ if front(x, y) => DARK,
+        _ if (10..16).contains(&x) && (12..20).contains(&y) => LIGHT,
+        _ => SKY,
+    });
+    let disparity: Vec<f32> = (0..32 * 32).map(|i| if front(i % 32, i / 32) { 1.0 } else { 0.25 }).collect();
+    let stack = split_into_layers(&image, &disparity, &CocModel::new(20.0, 1.0).unwrap(), &AutoLayerOptions::default());
+    let back = &stack.layers[1].rgba;
+    // Mirrored across the edge at full strength just under the square, as the disc goes on...
+    assert!(back.get(17, 15)[0] > 10.0, "under the edge: {:?}", back.get(17, 15));
+    // ...but not far under it, where the smooth fill (range-compressed: no HDR smear) rules.
+    assert!(back.get(26, 15)[0] < 1.0, "far under the square: {:?}", back.get(26, 15));
+    assert!(back.pixels.iter().all(|p| (0.0..=1.0).contains(&p[3])));
+}

@@ -18,7 +18,7 @@ pub mod texture;
 mod trace;
 
 pub use render::{render_ground_truth, EMPTY_DEPTH};
-pub use scene::{Scene, Surface};
+pub use scene::{Scene, Surface, ZPass};
 pub use scenes::{builtin_scene, builtin_scenes, single_image_scenes};
 pub use trace::TraceOptions;
 

@@ -2,7 +2,8 @@
 //! image, the pinhole image, every surface alone (the true layers) and the depth maps.
 use rayon::prelude::*;
 
-use super::scene::Scene;
+use super::noise::scatter;
+use super::scene::{Scene, ZPass};
 use super::texture::Rgba;
 use super::sampling::PixelSamples;
 use super::trace::{over, pixel_samples, trace, Hits, TraceOptions, View};
@@ -75,7 +76,16 @@ fn render_row(scene: &Scene, options: &TraceOptions, view: &View, y: usize) -> R
             row.layers[l].push(sum.map(|c| c * weight));
         }
         let centre = view.slope(x as f32 + 0.5, y as f32 + 0.5);
-        row.depth.push(centre_depth(scene, centre));
+        let z_at = match scene.z_pass {
+            ZPass::PixelCentre => centre,
+            ZPass::OneSample => {
+                // One of the pixel's samples, picked per pixel: the strata come in a fixed
+                // order, so always the first would sit in the pixel's top-left corner.
+                let pick = (scatter(y as u32, x as u32) * offsets.len() as f32) as usize % offsets.len();
+                view.slope(x as f32 + offsets[pick][0], y as f32 + offsets[pick][1])
+            }
+        };
+        row.depth.push(centre_depth(scene, z_at));
         for (l, s) in scene.surfaces.iter().enumerate() {
             row.disparity[l].push(s.pinhole_disparity(centre));
         }
@@ -155,7 +165,7 @@ fn pinhole_sample(scene: &Scene, view: &View, px: f32, py: f32, layer_sum: &mut 
     acc
 }
 
-/// Planar depth of the first surface whose alpha exceeds 0.5 along the centre ray.
+/// Planar depth of the first surface whose alpha exceeds 0.5 along the pinhole ray `t`.
 fn centre_depth(scene: &Scene, t: [f32; 2]) -> f32 {
     Hits::find(&scene.surfaces, [0.0, 0.0], [t[0], t[1], 1.0])
         .iter()

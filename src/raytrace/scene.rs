@@ -58,8 +58,21 @@ impl Surface {
     }
 }
 
+/// Where in a pixel the depth map (`GroundTruth::pinhole_depth`) is taken.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ZPass {
+    /// The pixel centre: depth edges sit exactly where the colour's coverage crosses a half.
+    #[default]
+    PixelCentre,
+    /// One anti-aliasing sample, picked per pixel, as Cycles writes its Z pass (one sample, jittered in
+    /// the pixel): at an edge the depth label and the colour's majority disagree now and then,
+    /// so a mixed pixel mostly of one surface may carry the other's depth (issue 22's held-out
+    /// renders).
+    OneSample,
+}
+
 /// A scene: surfaces listed front to back (by `z0`) and the camera that looks at them.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct Scene {
     pub name: String,
     pub description: String,
@@ -68,6 +81,25 @@ pub struct Scene {
     pub width: usize,
     pub height: usize,
     pub surfaces: Vec<Surface>,
+    pub z_pass: ZPass,
+}
+
+/// The derived form, with `z_pass` only where it is not the default: the ground-truth cache
+/// keys hash this text, so the scenes that keep the pixel-centre depth keep their keys.
+impl std::fmt::Debug for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut d = f.debug_struct("Scene");
+        d.field("name", &self.name)
+            .field("description", &self.description)
+            .field("camera", &self.camera)
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("surfaces", &self.surfaces);
+        if self.z_pass != ZPass::default() {
+            d.field("z_pass", &self.z_pass);
+        }
+        d.finish()
+    }
 }
 
 impl Scene {

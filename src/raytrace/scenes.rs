@@ -19,7 +19,7 @@ use crate::camera::PhysicalCamera;
 use crate::{Error, Result};
 
 use super::noise::scatter;
-use super::scene::{Scene, Surface};
+use super::scene::{Scene, Surface, ZPass};
 use super::shape::Shape;
 use super::strokes::{self, Strokes};
 use super::texture::{arc, Checker, Cutout, Lights, Mottled, Opacity, Over, Photo, Rgb, Solid, Stripes, TextureRef};
@@ -32,7 +32,7 @@ fn camera(focal_length_mm: f32, fstop: f32, focus_distance: f32) -> PhysicalCame
 }
 
 fn scene(name: &str, description: &str, camera: PhysicalCamera, surfaces: Vec<Surface>) -> Scene {
-    Scene { name: name.into(), description: description.into(), camera, width: WIDTH, height: HEIGHT, surfaces }
+    Scene { name: name.into(), description: description.into(), camera, width: WIDTH, height: HEIGHT, surfaces, z_pass: ZPass::PixelCentre }
 }
 
 /// All built-in scenes, in a fixed order.
@@ -42,7 +42,9 @@ pub fn builtin_scenes() -> Vec<Scene> {
 
 /// The single-image scenes (issue 22): square 256 x 256 like the held-out Cycles set, each
 /// built around one failure of single-image methods seen there. Kept apart from
-/// [`builtin_scenes`] (the layered benchmark), found by name all the same.
+/// [`builtin_scenes`] (the layered benchmark), found by name all the same. Their depth is
+/// Cycles' Z pass, one anti-aliasing sample per pixel ([`ZPass::OneSample`]), so mixed edge
+/// pixels sometimes carry the other side's depth, as in the held-out renders.
 ///
 /// | scene           | lens, focus          | planes (m)                | CoC px (256^2)            |
 /// |-----------------|----------------------|---------------------------|---------------------------|
@@ -269,22 +271,56 @@ fn macro_scene() -> Scene {
     ])
 }
 
-fn square(name: &str, description: &str, camera: PhysicalCamera, surfaces: Vec<Surface>) -> Scene {
-    Scene { name: name.into(), description: description.into(), camera, width: 256, height: 256, surfaces }
+/// HDR discs on the outline of [`person`]`(0, top, size)` as a background at any depth sees
+/// it (billboards share image coordinates): along the shoulders, beside the neck and around
+/// the hair, each a little inside, on or outside the edge in turn.
+fn outline_lights(seed: u32, size: f32, top: f32) -> Vec<([f32; 2], f32, Rgb)> {
+    let (body_c, body_r) = ([0.0, top + 0.62 * size], [0.28 * size, 0.36 * size]);
+    let (head_c, hair_r) = ([0.0, top + 0.13 * size], [0.16 * size, 0.19 * size]);
+    let mut points = Vec::new();
+    for i in 0..9 {
+        let phi = std::f32::consts::PI * (1.12 + 0.76 * i as f32 / 8.0);
+        points.push((body_c, body_r, phi));
+    }
+    for i in 0..5 {
+        let phi = std::f32::consts::PI * (0.85 + 1.3 * i as f32 / 4.0);
+        points.push((head_c, hair_r, phi));
+    }
+    let mut discs: Vec<([f32; 2], f32, Rgb)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, &(c, r, phi))| {
+            let offset = 0.02 * (i % 3) as f32 - 0.02;
+            let centre = [c[0] + (r[0] + offset) * phi.cos(), c[1] + (r[1] + offset) * phi.sin()];
+            let level = 10.0 + 30.0 * scatter(seed, i as u32);
+            (centre, 0.015 + 0.012 * scatter(seed + 1, i as u32), [1.0, 0.8, 0.55].map(|c| c * level))
+        })
+        .collect();
+    // Beside the neck, on the shoulder line: half hidden, and one mostly hidden.
+    let neck_v = top + 0.27 * size;
+    discs.push(([-0.06 * size, neck_v], 0.02, [30.0, 26.0, 20.0]));
+    discs.push(([0.07 * size, neck_v + 0.03], 0.018, [12.0, 16.0, 25.0]));
+    discs
 }
 
-/// Lights stay a blur radius inside the frame: one cut by the frame edge spreads light from
-/// outside it, which no single-image method (nor the true layers) can know.
-///
+fn square(name: &str, description: &str, camera: PhysicalCamera, surfaces: Vec<Surface>) -> Scene {
+    Scene { name: name.into(), description: description.into(), camera, width: 256, height: 256, surfaces, z_pass: ZPass::OneSample }
+}
+
 /// Failure 1: an in-focus silhouette over a dark, far background whose HDR lights sit right
-/// behind and just outside its outline; anti-aliased edge pixels mix the two.
+/// behind and just outside its outline; anti-aliased edge pixels mix the two, and the depth
+/// is one jittered sample per pixel (Cycles' Z pass), so some mixed pixels carry the wrong
+/// side's depth. As in the held-out renders, lights sit on the outline itself (half hidden,
+/// or wholly hidden but for their blur) and the frame cuts some of them.
 fn silhouette_hdr() -> Scene {
     let cam = camera(85.0, 1.4, 1.5);
-    let near_outline = lights(71, 45, [-0.55, 0.55, -0.75, 0.2], [0.012, 0.03]);
+    let (size, top) = (1.25, -0.55);
+    let mut near_outline = lights(71, 45, [-0.55, 0.55, -0.75, 0.2], [0.012, 0.03]);
+    near_outline.discs.extend(outline_lights(75, size, top));
     let night = arc(Photo { sky_top: [0.01, 0.012, 0.03], sky_horizon: [0.06, 0.035, 0.03], ground: [0.02, 0.018, 0.015], buildings: [0.03, 0.03, 0.04], horizon: 0.3, seed: 73 });
-    let background = arc(Over(vec![arc(near_outline), arc(lights(72, 20, [-0.85, 0.85, -0.85, 0.85], [0.01, 0.02])), night]));
+    let background = arc(Over(vec![arc(near_outline), arc(lights(72, 24, [-1.05, 1.05, -1.05, 1.05], [0.01, 0.02])), night]));
     square("silhouette-hdr", "in-focus silhouette, HDR lights just behind its outline on a dark far background", cam, vec![
-        Surface::billboard("subject", 1.5, &cam, person(0.0, -0.55, 1.25, 74)),
+        Surface::billboard("subject", 1.5, &cam, person(0.0, top, size, 74)),
         Surface::billboard("background", 12.0, &cam, background),
     ])
 }
