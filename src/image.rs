@@ -27,6 +27,13 @@ impl Image {
         Self { width, height, pixels }
     }
 
+    /// The image less `margin` pixels on every side (an overscanned render cut back to its
+    /// frame); `None` when nothing would be left.
+    pub fn without_border(&self, margin: usize) -> Option<Image> {
+        let (width, height) = (self.width.checked_sub(2 * margin)?, self.height.checked_sub(2 * margin)?);
+        (width > 0 && height > 0).then(|| Image::from_fn(width, height, |x, y| self.get(x + margin, y + margin)))
+    }
+
     #[inline]
     pub fn index(&self, x: usize, y: usize) -> usize {
         y * self.width + x

@@ -504,3 +504,29 @@ fn refuses_to_overwrite_the_input_and_names_bad_flags() {
     ]);
     assert!(String::from_utf8_lossy(&missing.stderr).contains("nope.exr"));
 }
+
+/// `--overscan PX`: the input's outer PX pixels are blurred like the rest and cut from the
+/// output (and preview): the frame equals the whole render less its border, pixel for pixel.
+#[test]
+fn overscan_blurs_the_margin_and_cuts_it_from_the_output() {
+    let dir = common::temp_dir("cli-render", "overscan");
+    let input = write_input(&dir, Some(CAMERA));
+    let (whole, cut) = (dir.join("whole.exr"), dir.join("cut.exr"));
+    ok(lensblur(&["render", input.to_str().unwrap(), "-o", whole.to_str().unwrap()]));
+    let preview = dir.join("cut.png");
+    ok(lensblur(&[
+        "render", input.to_str().unwrap(), "-o", cut.to_str().unwrap(), "--overscan", "6", "--preview", preview.to_str().unwrap(),
+    ]));
+    let (whole, cut) = (read_image(&whole, ""), read_image(&cut, ""));
+    assert_eq!((cut.width, cut.height), (48 - 12, 40 - 12));
+    assert_eq!(Some(cut), whole.without_border(6), "the cut output is the whole render less 6 px a side");
+    assert_eq!(image::image_dimensions(&preview).unwrap(), (36, 28));
+    // A margin that leaves nothing, and unblurred channels that would not line up, are refused.
+    let too_big = lensblur(&["render", input.to_str().unwrap(), "-o", dir.join("x.exr").to_str().unwrap(), "--overscan", "20"]);
+    let stderr = String::from_utf8_lossy(&too_big.stderr);
+    assert!(!too_big.status.success() && stderr.contains("--overscan 20") && stderr.contains("48x40"), "{stderr}");
+    assert!(!dir.join("x.exr").exists(), "nothing is written");
+    let kept = lensblur(&["render", input.to_str().unwrap(), "-o", dir.join("y.exr").to_str().unwrap(), "--overscan", "2", "--keep-channels"]);
+    let stderr = String::from_utf8_lossy(&kept.stderr);
+    assert!(!kept.status.success() && stderr.contains("--keep-channels"), "{stderr}");
+}

@@ -16,11 +16,10 @@ use plugin_common::{blender_with_addon, fresh_dir, inset, json_after, read_rgba}
 use serde_json::{json, Value};
 
 /// Display-encoded PSNR per frame. Measured (Blender 3.4.1, seeded Cycles, 1024 samples):
-/// 32.2, 32.8, 35.8, 36.1, 36.1 dB over the frame; 38.7, 39.5, 42.3, 38.2, 38.0 dB inside a
-/// 10 px border. The border is the frame edge, which Cycles' lens sees past and the stack does
-/// not (the largest CoC of the pull is 7 px, the back wall on frame 1): the 36 dB holds
-/// inside it, with 2 dB left for another Cycles build's noise; the whole frame keeps the
-/// single-frame test's 30 dB.
+/// 39.8, 40.2, 42.8, 38.7, 38.6 dB over the frame (38.8, 39.4, 42.2, 38.3, 37.9 inside a
+/// 10 px border). The add-on renders the layers overscanned (Cycles' lens sees past the frame
+/// edge, a stack of the frame alone does not: 32.2, 32.8, 35.8, 36.1, 36.1 dB before), so the
+/// issue's 36 dB holds over the whole frame, with 2.6 dB left for another Cycles build's noise.
 #[test]
 fn a_focus_pull_from_blender_matches_cycles_depth_of_field_frame_by_frame() {
     let dir = fresh_dir("plugin-blender-animation");
@@ -32,16 +31,15 @@ fn a_focus_pull_from_blender_matches_cycles_depth_of_field_frame_by_frame() {
         let psnr = compare(&result, &reference).unwrap().psnr;
         let inner = compare(&inset(&result, 10), &inset(&reference, 10)).unwrap().psnr;
         println!("frame {frame}: add-on vs Cycles DOF {psnr:.2} dB, {inner:.2} dB inside 10 px");
-        assert!(inner >= 36.0, "frame {frame}: {inner:.2} dB inside the border");
-        assert!(psnr >= 30.0, "frame {frame}: {psnr:.2} dB over the frame");
+        assert!(psnr >= 36.0, "frame {frame}: {psnr:.2} dB over the frame ({inner:.2} dB inside 10 px)");
     }
-    the_camera_file_follows_the_animation(&checks);
+    the_camera_file_follows_the_animation(&checks, &out);
     the_result_is_an_image_sequence_node(&checks);
     setups_without_layers_and_stale_renders_are_warned_about(&checks);
     the_farm_bundle_runs_through_openjd(&out.join("farm"));
 }
 
-fn the_camera_file_follows_the_animation(checks: &Value) {
+fn the_camera_file_follows_the_animation(checks: &Value, out: &Path) {
     let frames = &checks["camera_file"]["frames"];
     let focus: Vec<f64> = (1..=5).map(|f| frames[f.to_string()]["focus_distance"].as_f64().unwrap()).collect();
     assert_eq!(focus, [2.0, 3.0, 4.0, 8.0, 15.0], "{frames}");
@@ -50,7 +48,14 @@ fn the_camera_file_follows_the_animation(checks: &Value) {
     assert_eq!((fstop[0], fstop[4]), (1.0, 2.0), "{frames}");
     assert!(fstop.windows(2).all(|w| w[0] < w[1]), "f-stop animated: {fstop:?}");
     assert_eq!(frames["3"]["focal_length_mm"], 85.0);
-    assert_eq!(frames["3"]["sensor_width_mm"], 36.0);
+    // The layers are overscanned and the sensor in the camera file spans them: 36 mm over the
+    // frame's width, the same pixel size.
+    let layers = lensblur::stack::read_stack(&out.join("shot/layers.0003.exr"), &Default::default()).unwrap().stack;
+    let frame = read_rgba(&out.join("shot/defocus.0003.exr"));
+    assert!(layers.width > frame.width && layers.width - frame.width == layers.height - frame.height, "overscan on every side");
+    let sensor = frames["3"]["sensor_width_mm"].as_f64().unwrap();
+    let expected = 36.0 * layers.width as f64 / frame.width as f64;
+    assert!((sensor - expected).abs() < 1e-3, "sensor {sensor} mm for {} px over a {} px frame", layers.width, frame.width);
 }
 
 fn the_result_is_an_image_sequence_node(checks: &Value) {

@@ -90,6 +90,12 @@ pub struct Args {
     /// input only).
     #[arg(long, help_heading = "Output")]
     pub keep_channels: bool,
+    /// The input was rendered with PX extra pixels on every side (overscan), so that light from
+    /// outside the frame blurs into it as a real lens sees it: they are read and blurred, then
+    /// cut from the output (and the preview). The camera describes the whole overscanned image
+    /// (its sensor width spans it).
+    #[arg(long, value_name = "PX", default_value_t = 0, help_heading = "Output")]
+    pub overscan: usize,
     /// Also write an 8-bit sRGB preview: .png (with alpha) or .jpg/.jpeg (over black).
     #[arg(long, value_name = "FILE.png", help_heading = "Output")]
     pub preview: Option<PathBuf>,
@@ -229,6 +235,12 @@ pub(super) fn check_flags(args: &Args) -> anyhow::Result<(OutputFormat, CameraAr
             args.input.display()
         );
     }
+    if args.overscan > 0 && args.keep_channels {
+        anyhow::bail!(
+            "--keep-channels copies the input's other channels unblurred at its size; with --overscan they would \
+             not line up with the cut output (drop one of them)"
+        );
+    }
     args.method_args.check(args.method)?;
     let mut camera = args.camera.clone();
     args.method_args.apply_to_camera(&mut camera)?;
@@ -316,6 +328,20 @@ pub(super) fn write_output(
     loaded: &LoadedInput,
     image: &Image,
 ) -> anyhow::Result<()> {
+    let cut;
+    let image = match args.overscan {
+        0 => image,
+        margin => {
+            cut = image.without_border(margin).with_context(|| {
+                format!(
+                    "--overscan {margin} cuts {} px from each side of a {}x{} frame: nothing is left (give the margin \
+                     the input was rendered with)",
+                    margin, image.width, image.height
+                )
+            })?;
+            &cut
+        }
+    };
     if format != OutputFormat::Exr {
         if args.output_layer.is_some() || args.keep_channels || args.half {
             anyhow::bail!(

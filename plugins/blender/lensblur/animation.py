@@ -7,7 +7,9 @@ job bundle that renders them on a farm (`deadline bundle submit DIR`) or locally
 
 From a script (and `blender -b`) both run to the end; from the UI they render one frame per
 timer tick and then poll lensblur, with progress in the status bar, and Esc cancels."""
+import contextlib
 import json
+import math
 import os
 import shlex
 import subprocess
@@ -30,6 +32,61 @@ def frame_list(scene, start, end):
     if end < start:
         raise LensblurError(f"frame range {start}-{end} is empty: the last frame comes before the first")
     return list(range(start, end + 1, max(1, scene.frame_step)))
+
+
+def frame_size(render):
+    """The rendered frame's pixel size (resolution scaled by its percentage)."""
+    scale = render.resolution_percentage / 100
+    return round(render.resolution_x * scale), round(render.resolution_y * scale)
+
+
+def overscan_margin(scene, frames):
+    """Pixels rendered past every side of the frame, so that light from outside it blurs in
+    as Cycles' lens sees it: the largest blur radius over the shot of a point far behind
+    focus (`K / focus distance`, K the CoC scale of lensblur's thin lens), plus 2; at most a
+    quarter of the frame. Blur in front of focus past that margin is still cut at the edge."""
+    width, height = frame_size(scene.render)
+    current = scene.frame_current
+    largest = 0.0
+    try:
+        for frame in frames:
+            scene.frame_set(frame)
+            _flags, summary, _warnings = camera.camera_flags(scene)
+            focal_mm = summary["focal_length"]
+            k_px = focal_mm * 1e-3 / (2 * summary["fstop"]) * focal_mm / summary["sensor_width"] * width
+            largest = max(largest, k_px / summary["focus_distance"])
+    finally:
+        scene.frame_set(current)
+    return min(math.ceil(largest) + 2, max(width, height) // 4)
+
+
+@contextlib.contextmanager
+def overscanned(scene, margin):
+    """The render grown by `margin` pixels on every side and the camera's field of view with
+    it (the same pixel size, the same centre: the sensor dimension Blender fits grows by the
+    same factor, the lens shift, in units of it, shrinks), restored afterwards."""
+    render, cam = scene.render, scene.camera.data
+    saved = (render.resolution_x, render.resolution_y, render.resolution_percentage,
+             cam.sensor_width, cam.sensor_height, cam.shift_x, cam.shift_y)
+    width, height = frame_size(render)
+    fit = cam.sensor_fit
+    if fit == "AUTO":
+        fit = "HORIZONTAL" if width * render.pixel_aspect_x >= height * render.pixel_aspect_y else "VERTICAL"
+    fitted = width if fit == "HORIZONTAL" else height
+    scale = (fitted + 2 * margin) / fitted
+    try:
+        render.resolution_x, render.resolution_y = width + 2 * margin, height + 2 * margin
+        render.resolution_percentage = 100
+        if cam.sensor_fit == "VERTICAL":
+            cam.sensor_height *= scale
+        else:  # AUTO fits the sensor width to the larger side
+            cam.sensor_width *= scale
+        cam.shift_x /= scale
+        cam.shift_y /= scale
+        yield
+    finally:
+        (render.resolution_x, render.resolution_y, render.resolution_percentage,
+         cam.sensor_width, cam.sensor_height, cam.shift_x, cam.shift_y) = saved
 
 
 def range_expression(frames):
@@ -60,6 +117,7 @@ class Shot:
         self.layers = stack.select_layers(available, layers, exclude)
         stack.check_depth_passes(self.scene, self.layers)
         self.warnings += checks.setup_warnings(self.scene, self.layers)
+        self.overscan = overscan_margin(self.scene, frames)
 
     def path(self, name, frame):
         return os.path.join(self.directory, f"{name}.{frame:04d}.exr")
@@ -72,9 +130,14 @@ class Shot:
         return os.path.join(self.directory, "camera.json")
 
     def render_frame(self, index):
-        """Renders frame `frames[index]`'s view layers (Blender) and notes its camera."""
+        """Renders frame `frames[index]`'s view layers (Blender), overscanned, and notes its
+        camera (whose sensor spans the overscanned image)."""
         frame = self.frames[index]
         self.scene.frame_set(frame)
+        with overscanned(self.scene, self.overscan):
+            self.render_overscanned(frame)
+
+    def render_overscanned(self, frame):
         flags, summary, warnings = camera.camera_flags(self.scene)
         if self.aperture is None:
             self.aperture = summary["aperture"]
@@ -102,7 +165,7 @@ class Shot:
             self.binary, "render", self.pattern("layers"), "-o", self.pattern("defocus"),
             "--frames", range_expression(self.frames), "--camera-file", self.camera_file,
             "--layers", ",".join(self.layers), "--method", method, "--aperture", self.aperture,
-            "--json",
+            "--overscan", str(self.overscan), "--json",
         ]
 
 
@@ -292,7 +355,10 @@ def write_bundle(shot, method, chunk_size):
         "Frames": range_expression(shot.frames),
         "ChunkSize": chunk_size,
         "CameraFile": shot.camera_file,
-        "Args": shlex.join(["--layers", ",".join(shot.layers), "--method", method, "--aperture", shot.aperture]),
+        "Args": shlex.join([
+            "--layers", ",".join(shot.layers), "--method", method, "--aperture", shot.aperture,
+            "--overscan", str(shot.overscan),
+        ]),
     }
     parameters = [{"name": name, "value": value} for name, value in values.items()]
     with open(os.path.join(bundle, PARAMETER_VALUES), "w") as f:
