@@ -4,9 +4,9 @@
 // same span path with row bounds from the aperture's row table and the shape's gauge in the
 // rim taps), glsl/drbokeh_layer_ring.comp DRBOKEH_LAYER_RING (default model, ring: the disk
 // path's gather, then the obstruction's, subtracted), and glsl/drbokeh_layer.comp none of them
-// (every model and aperture, per tap). Separate
-// pipelines rather than a runtime branch so that none carries another's code: lavapipe runs
-// branches under lane masks. Bindings, push constants and dispatch: see glsl/drbokeh_layer.comp.
+// (every model and aperture, per tap). Separate pipelines rather than a runtime branch so that
+// none carries another's code: lavapipe runs branches under lane masks. Bindings, push
+// constants and dispatch: see glsl/drbokeh_layer.comp.
 #ifndef LENSBLUR_DRBOKEH_LAYER_GLSL
 #define LENSBLUR_DRBOKEH_LAYER_GLSL
 
@@ -153,7 +153,6 @@ ivec2 interior_span(float t, int oy, ivec2 outer, int orientation) {
     return ivec2(-m, m);
 }
 #endif
-
 
 #ifdef DRBOKEH_LAYER_GAUGE
 // The row table's entry for v (clamped far outside [-1, 1]: an empty row there): (interior lo,
