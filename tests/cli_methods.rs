@@ -227,8 +227,8 @@ fn method_flags_are_refused_by_methods_that_do_not_read_them() {
     let input = write_single(&dir, checker(w, h), vec![0.5; w * h]);
     let camera = ["--blur", "10", "--focus-disparity", "0.5"];
     for (method, flag, value, readers) in [
-        ("gather", "--samples", "64", "vdslr and multiview"),
-        ("drbokeh", "--samples", "64", "vdslr and multiview"),
+        ("gather", "--samples", "64", "multiview and vdslr"),
+        ("drbokeh", "--samples", "64", "multiview and vdslr"),
         ("multiview", "--iterations", "3", "vdslr"),
         ("oracle", "--highlight-sigma", "0.3", "vdslr"),
         ("scatter", "--tilt-shift", "1,0", "vdslr"),
