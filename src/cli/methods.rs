@@ -18,8 +18,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     for method in Method::ALL {
         let spec = method.spec();
-        let default = if *method == Method::default() { " (default)" } else { "" };
-        println!("{}{default}: {}", spec.name, spec.summary);
+        // The default says so in its summary (which the add-on shows too).
+        println!("{}: {}", spec.name, spec.summary);
         let flags: Vec<&str> = spec.settings.iter().map(|s| flag(*s)).collect();
         let input = match spec.input {
             lensblur::render::InputKind::Layers => "layers",
