@@ -1,15 +1,16 @@
 //! The method registry: every rendering method, declared once. A new method is its module
-//! (exporting a [`MethodSpec`]) plus one line in [`Method::ALL`]; `--method`, its flag checks
-//! and help, `lensblur methods`, the benchmark, the tests and the Blender add-on follow.
-use crate::render::drbokeh::{render_cpu, DrBokehGpu, Model};
+//! (exporting a [`MethodSpec`], say `foo::METHOD`) plus one line `Method(&foo::METHOD)` in
+//! [`Method::ALL`] (a named constant below is optional); `--method`, its flag checks and help,
+//! `lensblur methods`, the benchmark and the tests' method loops follow. The Blender add-on's
+//! list and the README's method table are checked against it by tests.
+use crate::image::Image;
+use crate::render::drbokeh::{render_cpu, DrBokehGpu, Model, RenderOptions};
 use crate::render::gather::{render_gather_cpu, Gather};
 use crate::render::method::{InputKind, Method, MethodInput, MethodSpec, Renderer, Setting};
 use crate::render::multiview::{render_multiview_cpu, Multiview};
 use crate::render::oracle::render_oracle;
 use crate::render::scatter::{render_scatter_cpu, Scatter};
 use crate::render::vdslr::{render_vdslr_cpu, Vdslr};
-use crate::image::Image;
-use crate::render::drbokeh::RenderOptions;
 use crate::render::{Lens, MethodSettings};
 use crate::vk::Context;
 use crate::Result;
