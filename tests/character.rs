@@ -10,7 +10,7 @@ use lensblur::character::{debug, kernels, render_cats_eye, render_chromatic, Blo
 use lensblur::image::Image;
 use lensblur::render::drbokeh::{DrBokehGpu, Model};
 use lensblur::render::vdslr::FocusField;
-use lensblur::render::Lens;
+use lensblur::render::{Lens, Method};
 use lensblur::stack::{write_stack, Layer, LayerStack, StackWriteOptions};
 
 /// One opaque black layer at disparity 0 with a bright pixel at `(px, py)` in each listed spot.
@@ -384,7 +384,7 @@ fn every_method_honours_kernel_apertures_and_cats_eye() {
             .collect();
         taps.iter().sum::<f32>() / taps.len() as f32
     };
-    for method in ["drbokeh", "drbokeh-compat", "multiview", "vdslr", "oracle", "gather", "scatter"] {
+    for method in Method::ALL.iter().map(|m| m.name()) {
         // Disparity 0, focus 0.5: K = 24 gives the light a 12 px CoC, K = 12 a 6 px one.
         let flags = |k: &'static str, extra: &[&'static str]| {
             [&["--method", method, "--blur", k, "--focus-disparity", "0.5"][..], extra].concat()

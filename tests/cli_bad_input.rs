@@ -9,6 +9,7 @@ use std::process::{Command, Output};
 use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, LayerAttributes, WritableImage};
 use lensblur::camera::PhysicalCamera;
 use lensblur::image::Image;
+use lensblur::render::Method;
 use lensblur::stack::{write_image, write_stack, Layer, LayerStack, StackWriteOptions, WriteOptions};
 
 const CAMERA: PhysicalCamera =
@@ -295,7 +296,7 @@ fn a_missing_output_directory_is_refused_before_rendering() {
 fn a_circle_of_confusion_no_renderer_can_draw_is_refused() {
     let dir = common::temp_dir("bad-input", "huge-coc");
     let valid = valid_stack(&dir);
-    for method in ["drbokeh", "drbokeh-compat", "multiview", "vdslr", "oracle", "gather", "scatter"] {
+    for method in Method::ALL.iter().map(|m| m.name()) {
         refused(&dir, &valid, &["--blur", "1e30", "--focus-disparity", "0.3", "--method", method], &["circle of confusion", "4096 px", "--max-blur"]);
     }
     refused(&dir, &valid, &["--blur", "8", "--focus-disparity", "0.3", "--far-blur", "1e38"], &["circle of confusion", "--max-blur"]);

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use lensblur::camera::PhysicalCamera;
 use lensblur::image::Image;
+use lensblur::render::Method;
 use lensblur::stack::{write_stack, Layer, LayerStack, StackWriteOptions};
 
 /// K = 0.025 m * (50/3 * 24 px) = 10 px: visible blur on a 24 px wide frame.
@@ -171,7 +172,7 @@ fn without_vulkan_auto_falls_back_to_the_cpu_and_gpu_refuses() {
 fn every_method_renders_bit_identical_files_twice() {
     let dir = common::temp_dir("cli-device", "determinism");
     let input = write_input(&dir);
-    for method in ["drbokeh", "drbokeh-compat", "multiview", "vdslr", "oracle", "gather", "scatter"] {
+    for method in Method::ALL.iter().map(|m| m.name()) {
         let outputs: Vec<Vec<u8>> = (0..2)
             .map(|run| {
                 let out = dir.join(format!("{method}-{run}.exr"));

@@ -9,6 +9,7 @@ use std::process::{Command, Output};
 
 use common::temp_dir;
 use lensblur::image::Image;
+use lensblur::render::Method;
 use lensblur::stack::{read_rgba, write_stack, Layer, LayerStack, StackWriteOptions};
 
 fn lensblur(args: &[&str]) -> Output {
@@ -227,8 +228,8 @@ fn method_flags_are_refused_by_methods_that_do_not_read_them() {
     let input = write_single(&dir, checker(w, h), vec![0.5; w * h]);
     let camera = ["--blur", "10", "--focus-disparity", "0.5"];
     for (method, flag, value, readers) in [
-        ("gather", "--samples", "64", "vdslr and multiview"),
-        ("drbokeh", "--samples", "64", "vdslr and multiview"),
+        ("gather", "--samples", "64", "multiview and vdslr"),
+        ("drbokeh", "--samples", "64", "multiview and vdslr"),
         ("multiview", "--iterations", "3", "vdslr"),
         ("oracle", "--highlight-sigma", "0.3", "vdslr"),
         ("scatter", "--tilt-shift", "1,0", "vdslr"),
@@ -244,5 +245,59 @@ fn method_flags_are_refused_by_methods_that_do_not_read_them() {
     assert!(message.contains("expected X,Y"), "{message}");
     let message = refused(&input, &[&vdslr[..], &["--highlight-sigma", "-1"]].concat());
     assert!(message.contains("--highlight-sigma must be a positive number"), "{message}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The flag check reads the registry: every method accepts exactly the method flags it declares
+/// (`lensblur methods --json`), and any other is refused naming the methods that read it.
+#[test]
+fn every_method_accepts_the_flags_it_declares_and_refuses_the_rest() {
+    let dir = temp_dir("cli-methods", "declared");
+    let (w, h) = (16, 16);
+    let input = write_single(&dir, checker(w, h), vec![0.5; w * h]);
+    let camera = ["--blur", "4", "--focus-disparity", "0.5"];
+    let listing = lensblur(&["methods", "--json"]);
+    assert!(listing.status.success(), "{}", String::from_utf8_lossy(&listing.stderr));
+    let listing: serde_json::Value = serde_json::from_slice(&listing.stdout).unwrap();
+    let methods = listing["methods"].as_array().unwrap();
+    let names: Vec<&str> = methods.iter().map(|m| m["name"].as_str().unwrap()).collect();
+    let registry: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+    assert_eq!(names, registry, "the listing is the registry");
+    let flags_of = |m: &serde_json::Value| -> Vec<String> {
+        m["flags"].as_array().unwrap().iter().map(|f| f.as_str().unwrap().to_string()).collect()
+    };
+    // A valid value for every method flag (a flag missing here fails the test: add one).
+    let value = |flag: &str| match flag {
+        "--samples" => "4",
+        "--iterations" => "3",
+        "--highlight-sigma" => "0.3",
+        "--tilt-shift" => "1,0",
+        "--focal-planes" => "0.2,0.8",
+        other => panic!("no test value for {other}"),
+    };
+    let all_flags: std::collections::BTreeSet<String> = methods.iter().flat_map(flags_of).collect();
+    assert!(all_flags.len() >= 5, "{all_flags:?}");
+    for method in methods {
+        let name = method["name"].as_str().unwrap();
+        let declared = flags_of(method);
+        for flag in &all_flags {
+            // Focal planes stand for the focus: the camera gives none with them.
+            let camera = if flag == "--focal-planes" { &camera[..2] } else { &camera[..] };
+            let args = [camera, &["--method", name, flag, value(flag)]].concat();
+            if declared.contains(flag) {
+                render(&input, &format!("{name}{flag}.exr"), &args);
+                continue;
+            }
+            let readers: Vec<&str> =
+                methods.iter().filter(|m| flags_of(m).contains(flag)).map(|m| m["name"].as_str().unwrap()).collect();
+            let message = refused(&input, &args);
+            let expected = match readers.as_slice() {
+                [one] => one.to_string(),
+                [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
+                [] => unreachable!("{flag} is some method's flag"),
+            };
+            assert!(message.contains(&format!("{flag} applies to --method {expected}, not {name}")), "{message}");
+        }
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -174,3 +174,23 @@ print(json.dumps([[f32(v), camera.fmt(f32(v))] for v in values]))
         assert_eq!(parsed, *value as f32, "{text} does not read back as {value}");
     }
 }
+
+/// The add-on's method menu (`settings.METHODS`) is the registry: every method, in order, with
+/// the registry's label and one-line summary. Read from the source, so it needs no Blender.
+#[test]
+fn addon_method_list_is_the_registry() {
+    let source = std::fs::read_to_string(plugins_dir().join("blender/lensblur/settings.py")).unwrap();
+    let listed: Vec<Vec<String>> = source
+        .lines()
+        .skip_while(|l| !l.starts_with("METHODS = ["))
+        .skip(1)
+        .take_while(|l| !l.starts_with(']'))
+        .map(|l| {
+            let inner = l.trim().strip_prefix("(\"").and_then(|l| l.strip_suffix("\"),"));
+            inner.unwrap_or_else(|| panic!("not a (name, label, summary) tuple: {l}")).split("\", \"").map(String::from).collect()
+        })
+        .collect();
+    let registry: Vec<Vec<String>> =
+        Method::ALL.iter().map(|m| [m.spec().name, m.spec().label, m.spec().summary].map(String::from).to_vec()).collect();
+    assert_eq!(listed, registry, "plugins/blender/lensblur/settings.py METHODS vs `lensblur methods`");
+}

@@ -1,14 +1,12 @@
-//! The method registry: a name, the input a method is entitled to, and a render closure.
+//! The benchmark's methods: the registry's ([`Method::ALL`]) on the inputs each is entitled
+//! to, plus a few bench-only variants.
 use crate::camera::disparity_from_z;
 use crate::image::Image;
 use crate::raytrace::GroundTruth;
-use crate::render::gather::{render_gather_cpu, Gather};
-use crate::render::multiview::{Multiview, MultiviewParams};
-use crate::render::oracle::render_oracle;
-use crate::render::scatter::{render_scatter_cpu, Scatter};
-use crate::render::vdslr::{Vdslr, VdslrParams};
-use crate::render::Lens;
+use crate::render::drbokeh::RenderOptions;
+use crate::render::{Lens, Method, MethodInput, MethodSettings};
 use crate::stack::{split_into_layers, AutoLayerOptions};
+use crate::vk::Context;
 use crate::{Error, Result};
 
 pub use crate::render::InputKind;
@@ -42,40 +40,64 @@ impl<'a> BenchCase<'a> {
         }
         Ok((image, self.pinhole_disparity))
     }
+
+    /// The input of `kind`: the true layers, or the pinhole image and its disparity.
+    pub fn input(&self, kind: InputKind) -> Result<MethodInput<'a>> {
+        Ok(match kind {
+            InputKind::Layers => MethodInput::Layers(&self.truth.layers),
+            InputKind::SingleImage => {
+                let (image, disparity) = self.single_image()?;
+                MethodInput::SingleImage { image, disparity }
+            }
+        })
+    }
 }
 
 pub type RenderFn = Box<dyn Fn(&BenchCase) -> Result<Image> + Send + Sync>;
 
-pub struct Method {
+/// One column of the benchmark: a registry method on its entitled input, or a bench-only
+/// variant of one (a CPU reference, the single-image path of a layered method).
+pub struct BenchMethod {
     pub name: &'static str,
     pub input: InputKind,
     pub render: RenderFn,
 }
 
-impl Method {
+impl BenchMethod {
     pub fn new(name: &'static str, input: InputKind, render: impl Fn(&BenchCase) -> Result<Image> + Send + Sync + 'static) -> Self {
         Self { name, input, render: Box::new(render) }
     }
+
+    /// `method` as the registry declares it, prepared once on `ctx`, run with its tuned settings.
+    pub fn on_device(method: Method, ctx: &Context) -> Result<Self> {
+        let renderer = method.prepare(Some(ctx))?;
+        Ok(Self::new(method.name(), method.input(), move |case| {
+            renderer.render(case.input(method.input())?, case.lens, &RenderOptions::default(), &MethodSettings::default())
+        }))
+    }
+
+    /// `method` on the CPU (its reference path where it has a Vulkan one), named `name`.
+    /// Preparing a CPU path builds nothing, so it happens per render, where errors are reported.
+    pub fn on_cpu(method: Method, name: &'static str) -> Self {
+        Self::new(name, method.input(), move |case| {
+            let renderer = method.prepare(None)?;
+            renderer.render(case.input(method.input())?, case.lens, &RenderOptions::default(), &MethodSettings::default())
+        })
+    }
 }
 
-/// The CPU references: the layered oracle and the two single-image baselines (`gather-cpu`,
-/// `scatter-cpu`: the references of the Vulkan `gather` and `scatter`, cheap enough to keep).
-pub fn cpu_methods() -> Vec<Method> {
-    vec![
-        Method::new("oracle", InputKind::Layers, |case| Ok(render_oracle(&case.truth.layers, case.lens))),
-        Method::new("gather-cpu", InputKind::SingleImage, |case| {
-            let (image, disparity) = case.single_image()?;
-            Ok(render_gather_cpu(image, disparity, case.lens))
-        }),
-        Method::new("scatter-cpu", InputKind::SingleImage, |case| {
-            let (image, disparity) = case.single_image()?;
-            Ok(render_scatter_cpu(image, disparity, case.lens))
-        }),
-    ]
+/// The GPU baselines whose CPU references the benchmark also scores (cheap enough to keep).
+const CPU_REFERENCES: [(Method, &str); 2] = [(Method::Gather, "gather-cpu"), (Method::Scatter, "scatter-cpu")];
+
+/// The CPU methods: those of the registry that need no device (the layered oracle), then the
+/// references of the single-image baselines (`gather-cpu`, `scatter-cpu`).
+pub fn cpu_methods() -> Vec<BenchMethod> {
+    let registry = Method::ALL.iter().filter(|m| !m.uses_gpu()).map(|m| BenchMethod::on_cpu(*m, m.name()));
+    registry.chain(CPU_REFERENCES.iter().map(|(m, name)| BenchMethod::on_cpu(*m, name))).collect()
 }
 
 /// Keeps the methods named in `names` (in the registry's order); all of them for no names.
-pub fn select_methods(methods: Vec<Method>, names: &[String]) -> Result<Vec<Method>> {
+pub fn select_methods(methods: Vec<BenchMethod>, names: &[String]) -> Result<Vec<BenchMethod>> {
     if let Some(unknown) = names.iter().find(|n| !methods.iter().any(|m| m.name == n.as_str())) {
         let known: Vec<&str> = methods.iter().map(|m| m.name).collect();
         return Err(Error::param(format!("unknown method '{unknown}' (available: {})", known.join(", "))));
@@ -83,47 +105,27 @@ pub fn select_methods(methods: Vec<Method>, names: &[String]) -> Result<Vec<Meth
     Ok(methods.into_iter().filter(|m| names.is_empty() || names.iter().any(|n| n == m.name)).collect())
 }
 
-/// The Vulkan renderers, on one device: the single-image baselines, Virtual DSLR (single
-/// image), multiview synthesis and Dr.Bokeh (true layers; default model and released formulas).
-pub fn gpu_methods(ctx: &crate::vk::Context) -> Result<Vec<Method>> {
-    use crate::render::drbokeh::{DrBokehGpu, Model};
-    let (gather, scatter) = (Gather::new(ctx)?, Scatter::new(ctx)?);
-    let (vdslr, vdslr_params) = (Vdslr::new(ctx)?, VdslrParams::tuned());
-    let (multiview, multiview_params) = (Multiview::new(ctx)?, MultiviewParams::tuned());
-    let drbokeh = std::sync::Arc::new(DrBokehGpu::new(ctx)?);
-    let (compat, auto) = (drbokeh.clone(), drbokeh.clone());
-    Ok(vec![
-        Method::new("gather", InputKind::SingleImage, move |case| {
-            let (image, disparity) = case.single_image()?;
-            gather.run(image, disparity, case.lens)
-        }),
-        Method::new("scatter", InputKind::SingleImage, move |case| {
-            let (image, disparity) = case.single_image()?;
-            scatter.run(image, disparity, case.lens)
-        }),
-        Method::new("vdslr", InputKind::SingleImage, move |case| {
-            let (image, disparity) = case.single_image()?;
-            vdslr.run(image, disparity, case.lens, &vdslr_params)
-        }),
-        Method::new("multiview", InputKind::Layers, move |case| multiview.run(&case.truth.layers, case.lens, &multiview_params)),
-        Method::new("drbokeh", InputKind::Layers, move |case| drbokeh.render(&case.truth.layers, case.lens, Model::DrBokeh)),
-        Method::new("drbokeh-compat", InputKind::Layers, move |case| compat.render(&case.truth.layers, case.lens, Model::Compat)),
-        // What `lensblur render` does with one image + depth: split it into layers (soft cuts,
-        // push-pull fill of the hidden background), then Dr.Bokeh.
-        Method::new("drbokeh-auto", InputKind::SingleImage, move |case| {
-            let (image, disparity) = case.single_image()?;
-            let stack = split_into_layers(image, disparity, &case.lens.coc, &AutoLayerOptions::default());
-            auto.render(&stack, case.lens, Model::DrBokeh)
-        }),
-    ])
+/// The Vulkan renderers of the registry on one device, then `drbokeh-auto`: what `lensblur
+/// render` does with one image + depth (split it into layers with soft cuts and push-pull fill
+/// of the hidden background, then Dr.Bokeh).
+pub fn gpu_methods(ctx: &Context) -> Result<Vec<BenchMethod>> {
+    let mut methods: Vec<BenchMethod> =
+        Method::ALL.iter().filter(|m| m.uses_gpu()).map(|m| BenchMethod::on_device(*m, ctx)).collect::<Result<_>>()?;
+    let drbokeh = Method::DrBokeh.prepare(Some(ctx))?;
+    methods.push(BenchMethod::new("drbokeh-auto", InputKind::SingleImage, move |case| {
+        let (image, disparity) = case.single_image()?;
+        let stack = split_into_layers(image, disparity, &case.lens.coc, &AutoLayerOptions::default());
+        drbokeh.render(MethodInput::Layers(&stack), case.lens, &RenderOptions::default(), &MethodSettings::default())
+    }));
+    Ok(methods)
 }
 
-/// Every method: the oracle, the Vulkan renderers on `ctx`, then the CPU baselines' references.
-/// Without a device, only the CPU references.
-pub fn all_methods(ctx: Option<&crate::vk::Context>) -> Result<Vec<Method>> {
+/// Every method: the CPU ones of the registry, the Vulkan renderers on `ctx`, then the CPU
+/// baselines' references. Without a device, only the CPU methods.
+pub fn all_methods(ctx: Option<&Context>) -> Result<Vec<BenchMethod>> {
     let mut cpu = cpu_methods();
     let Some(ctx) = ctx else { return Ok(cpu) };
-    let references = cpu.split_off(1);
+    let references = cpu.split_off(cpu.len() - CPU_REFERENCES.len());
     let mut methods = cpu;
     methods.extend(gpu_methods(ctx)?);
     methods.extend(references);

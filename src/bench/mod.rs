@@ -2,7 +2,8 @@
 //! to (the true layers, or only the pinhole image and its depth), and is scored against the
 //! thin-lens ground truth with the paper's metrics (see [`crate::metrics`]).
 //!
-//! Methods live in a registry ([`Method`]); [`cpu_methods`] holds the CPU references, [`gpu_methods`] the
+//! The methods are the registry's ([`crate::render::Method::ALL`], as [`BenchMethod`]s);
+//! [`cpu_methods`] holds the CPU ones, [`gpu_methods`] the
 //! Vulkan renderers, [`all_methods`] both. [`run`] produces a [`BenchReport`] (JSON via serde, a
 //! text table via `Display`), [`contact_sheet`] a labelled PNG of all renders and errors.
 pub(crate) mod font;
@@ -21,7 +22,7 @@ mod sheet;
 mod table;
 pub mod scenes;
 
-pub use methods::{all_methods, cpu_methods, gpu_methods, select_methods, BenchCase, InputKind, Method};
+pub use methods::{all_methods, cpu_methods, gpu_methods, select_methods, BenchCase, BenchMethod, InputKind};
 pub use peer::{opendefocus_binary, run_opendefocus, PeerRun, OPENDEFOCUS_ENV};
 pub use runner::{append_external, run, run_with_progress, BenchReport, CaseResult, MethodSummary, Worst};
 pub use sheet::{contact_sheet, write_png, HEAT_MAX};

@@ -3,7 +3,7 @@ use std::time::Instant;
 
 use indicatif::ProgressBar;
 
-use super::methods::{BenchCase, InputKind, Method};
+use super::methods::{BenchCase, BenchMethod, InputKind};
 use crate::camera::Aperture;
 use crate::image::Image;
 use crate::metrics::{compare, Better, Metrics};
@@ -53,12 +53,12 @@ pub struct BenchReport {
 }
 
 /// Runs without a visible progress bar.
-pub fn run(scenes: &[GroundTruth], methods: &[Method]) -> Result<BenchReport> {
+pub fn run(scenes: &[GroundTruth], methods: &[BenchMethod]) -> Result<BenchReport> {
     run_with_progress(scenes, methods, &ProgressBar::hidden())
 }
 
 /// Runs every method on every scene, advancing `progress` once per pair.
-pub fn run_with_progress(scenes: &[GroundTruth], methods: &[Method], progress: &ProgressBar) -> Result<BenchReport> {
+pub fn run_with_progress(scenes: &[GroundTruth], methods: &[BenchMethod], progress: &ProgressBar) -> Result<BenchReport> {
     if scenes.is_empty() || methods.is_empty() {
         return Err(Error::param("the benchmark needs at least one scene and one method"));
     }

@@ -5,7 +5,7 @@ use std::fmt;
 
 use super::peer::{run_opendefocus, PeerRun};
 use super::runner::{append_external, run_with_progress, BenchReport};
-use super::Method;
+use super::BenchMethod;
 use crate::raytrace::GroundTruth;
 use crate::render::InputKind;
 use crate::Result;
@@ -23,7 +23,7 @@ pub struct SingleImageTable {
 }
 
 /// Runs `methods` and the peer on `truths`.
-pub fn run_single_image(truths: &[GroundTruth], methods: &[Method], progress: &indicatif::ProgressBar) -> Result<SingleImageTable> {
+pub fn run_single_image(truths: &[GroundTruth], methods: &[BenchMethod], progress: &indicatif::ProgressBar) -> Result<SingleImageTable> {
     let mut report = run_with_progress(truths, methods, progress)?;
     let (peer_missing, peer_init_seconds) = match run_opendefocus(truths) {
         PeerRun::Rendered { renders, init_seconds } => {

@@ -84,8 +84,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     check_output_paths(&[("-o", &args.output)], &inputs)?;
     OutputFormat::for_output(&args.output, "-o", OutputFormat::EXR)?;
     let model = match args.method {
-        Method::DrBokeh => Model::DrBokeh,
-        Method::DrBokehCompat => Model::Compat,
+        m if m == Method::DrBokeh => Model::DrBokeh,
+        m if m == Method::DrBokehCompat => Model::Compat,
         other => bail!("method '{other}' has no backward pass; use drbokeh or drbokeh-compat"),
     };
     let spinner = progress::spinner(args.json);

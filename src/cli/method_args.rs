@@ -1,10 +1,11 @@
 //! Settings of the lens-sampling methods on `lensblur render` (`--samples`, and Virtual DSLR's
 //! `--iterations`, `--highlight-sigma`, `--tilt-shift`, `--focal-planes`), resolved to a
-//! [`MethodSettings`]. A flag the chosen method does not read is an error, never ignored.
+//! [`MethodSettings`]. Each flag stands for one [`Setting`]; a flag whose setting the chosen
+//! method does not declare is an error, never ignored.
 use anyhow::{bail, Context as _};
 use lensblur::camera::disparity_from_z;
 use lensblur::render::vdslr::{FocusField, Highlight};
-use lensblur::render::{Lens, Method, MethodSettings};
+use lensblur::render::{Lens, Method, MethodSettings, Setting};
 
 use super::camera_args::CameraArgs;
 
@@ -30,10 +31,6 @@ pub struct MethodArgs {
     #[arg(long, value_name = "D1,D2,...", help_heading = "Method")]
     pub focal_planes: Option<String>,
 }
-
-/// Which flags which method reads.
-const VDSLR_ONLY: &str = "vdslr";
-const RAY_METHODS: &str = "vdslr and multiview";
 
 impl MethodArgs {
     /// `--focal-planes` stands for the focus: the first plane becomes the camera's focus
@@ -100,24 +97,36 @@ impl MethodArgs {
     /// Refuses flags `method` does not read, and two focus fields at once (before any reading).
     pub fn check(&self, method: Method) -> anyhow::Result<()> {
         let given = [
-            ("--samples", self.samples.is_some(), RAY_METHODS),
-            ("--iterations", self.iterations.is_some(), VDSLR_ONLY),
-            ("--highlight-sigma", self.highlight_sigma.is_some(), VDSLR_ONLY),
-            ("--tilt-shift", self.tilt_shift.is_some(), VDSLR_ONLY),
-            ("--focal-planes", self.focal_planes.is_some(), VDSLR_ONLY),
+            (Setting::Samples, self.samples.is_some()),
+            (Setting::Iterations, self.iterations.is_some()),
+            (Setting::HighlightSigma, self.highlight_sigma.is_some()),
+            (Setting::TiltShift, self.tilt_shift.is_some()),
+            (Setting::FocalPlanes, self.focal_planes.is_some()),
         ];
-        let reads = |methods: &str| match method {
-            Method::Vdslr => true,
-            Method::Multiview => methods == RAY_METHODS,
-            _ => false,
-        };
-        if let Some((flag, _, methods)) = given.iter().find(|(_, on, methods)| *on && !reads(methods)) {
+        if let Some((setting, _)) = given.iter().find(|(setting, on)| *on && !method.reads(*setting)) {
+            let flag = flag(*setting);
+            let readers: Vec<&str> = Method::readers(*setting).map(Method::name).collect();
+            let methods = match readers.split_last() {
+                Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+                _ => readers.join(""),
+            };
             bail!("{flag} applies to --method {methods}, not {method}: drop it or pick one of those methods");
         }
         if self.tilt_shift.is_some() && self.focal_planes.is_some() {
             bail!("--tilt-shift and --focal-planes each set the focus field: give one of them");
         }
         Ok(())
+    }
+}
+
+/// The flag that gives `setting` on the command line.
+pub fn flag(setting: Setting) -> &'static str {
+    match setting {
+        Setting::Samples => "--samples",
+        Setting::Iterations => "--iterations",
+        Setting::HighlightSigma => "--highlight-sigma",
+        Setting::TiltShift => "--tilt-shift",
+        Setting::FocalPlanes => "--focal-planes",
     }
 }
 

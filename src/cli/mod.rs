@@ -18,6 +18,7 @@ mod grad;
 mod info;
 mod input_args;
 mod method_args;
+mod methods;
 mod progress;
 mod raytrace;
 mod render;
@@ -28,6 +29,7 @@ Examples:
   lensblur example -o example-out       ray-trace a built-in scene, render it, compare
   lensblur render shot.exr -o out.exr --focal-length 50 --fstop 2 --focus-distance 3
   lensblur devices                      list Vulkan devices, mark the one in use
+  lensblur methods                      the rendering methods and the flags each accepts
   lensblur info shot.exr                every layer and channel of a file, depth ranges
   lensblur raytrace --list              the built-in ground-truth scenes
   lensblur raytrace fence -o out/fence  ray-trace one scene: pinhole, true layers, defocus
@@ -58,6 +60,8 @@ enum Command {
     FarmTemplate(farm_template::Args),
     /// List the Vulkan devices and the one lensblur would use.
     Devices(devices::Args),
+    /// List the rendering methods: what each reads, where it runs, which flags it accepts.
+    Methods(methods::Args),
     /// Describe a file: layers, channels, data windows, depth ranges, camera attributes.
     Info(info::InfoArgs),
     /// Ray-trace a built-in scene's ground truth (pinhole, true layers, thin-lens defocus).
@@ -96,6 +100,7 @@ pub fn main() -> std::process::ExitCode {
         Command::FitDepth(args) => fit_depth::run(args),
         Command::FarmTemplate(args) => farm_template::run(args),
         Command::Devices(args) => devices::run(args),
+        Command::Methods(args) => methods::run(args),
         Command::Info(args) => info::run(args),
         Command::Raytrace(args) => raytrace::run(args),
         Command::Bench(args) => bench::run(args),

@@ -75,8 +75,7 @@ pub struct Args {
     pub character: CharacterArgs,
     #[command(flatten)]
     pub method_args: MethodArgs,
-    /// Rendering method: drbokeh, drbokeh-compat, multiview, vdslr, oracle, gather, scatter.
-    #[arg(long, default_value = "drbokeh", help_heading = "Method")]
+    #[arg(long, default_value = "drbokeh", help_heading = "Method", help = super::methods::method_help())]
     pub method: Method,
     /// Write colour as a layer NAME in the input's convention: NAME.Combined.R,G,B,A for
     /// Blender multilayer, plain and PNG/JPEG inputs (what Blender's Image node reads as a

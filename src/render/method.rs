@@ -1,12 +1,12 @@
-//! Every rendering method behind one name, as `--method` and the benchmark pick them.
+//! The rendering-method interface: what every method declares once ([`MethodSpec`]) and how it
+//! renders ([`Renderer`]). The list of methods is [`Method::ALL`] (in `registry.rs`); the CLI's
+//! `--method` and flag checks, the benchmark, the tests and the Blender add-on all read it.
 use std::str::FromStr;
 
 use crate::image::Image;
-use crate::render::drbokeh::{render_cpu, DrBokehGpu, Model, RenderOptions};
-use crate::render::gather::{render_gather_cpu, Gather};
-use crate::render::scatter::{render_scatter_cpu, Scatter};
-use crate::render::multiview::{render_multiview_cpu, Multiview, MultiviewParams};
-use crate::render::vdslr::{render_vdslr_cpu, FocusField, Vdslr, VdslrParams};
+use crate::render::drbokeh::RenderOptions;
+use crate::render::multiview::MultiviewParams;
+use crate::render::vdslr::{FocusField, VdslrParams};
 use crate::render::Lens;
 use crate::stack::LayerStack;
 use crate::vk::Context;
@@ -21,24 +21,93 @@ pub enum InputKind {
     SingleImage,
 }
 
-/// A rendering method.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Method {
-    /// Dr.Bokeh's layered occlusion-aware gather (the default; Vulkan).
-    DrBokeh,
-    /// Dr.Bokeh with the formulas of its released code (Vulkan).
-    DrBokehCompat,
-    /// Lee et al. 2009: lens rays traced through the layers (Vulkan).
-    Multiview,
-    /// Virtual DSLR (Yang et al. 2016): pseudo ray tracing of one image + depth (Vulkan).
-    Vdslr,
-    /// Per-layer disk blur composited with "over" (CPU; the classical layered approach).
-    Oracle,
-    /// Blender-Defocus-like single-image gather (baseline; Vulkan).
-    Gather,
-    /// BokehMe's classical single-image scatter (baseline; Vulkan).
-    Scatter,
+/// A method-specific setting a user may give (the CLI maps each to one flag). A method lists
+/// the ones it reads in [`MethodSpec::settings`]; giving any other is refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Setting {
+    /// Lens samples per pixel.
+    Samples,
+    /// Intersection search iterations per lens ray.
+    Iterations,
+    /// Highlight weighting of the colour blend.
+    HighlightSigma,
+    /// A tilted focal plane (a focus field).
+    TiltShift,
+    /// Several focal planes at once (a focus field).
+    FocalPlanes,
 }
+
+impl Setting {
+    pub const ALL: [Setting; 5] =
+        [Setting::Samples, Setting::Iterations, Setting::HighlightSigma, Setting::TiltShift, Setting::FocalPlanes];
+
+    /// Whether the setting replaces the focal plane by a focus field.
+    pub fn is_focus_field(self) -> bool {
+        matches!(self, Setting::TiltShift | Setting::FocalPlanes)
+    }
+}
+
+/// The input handed to a [`Renderer`], of the kind its method declares.
+#[derive(Clone, Copy)]
+pub enum MethodInput<'a> {
+    Layers(&'a LayerStack),
+    SingleImage { image: &'a Image, disparity: &'a [f32] },
+}
+
+impl<'a> MethodInput<'a> {
+    /// The layers, for a layered method (an error names a caller that broke the contract).
+    pub fn layers(self) -> Result<&'a LayerStack> {
+        match self {
+            MethodInput::Layers(stack) => Ok(stack),
+            MethodInput::SingleImage { .. } => Err(Error::param("a layered method was handed a single image".to_string())),
+        }
+    }
+
+    /// The image and its disparity, for a single-image method.
+    pub fn single_image(self) -> Result<(&'a Image, &'a [f32])> {
+        match self {
+            MethodInput::SingleImage { image, disparity } => Ok((image, disparity)),
+            MethodInput::Layers(_) => Err(Error::param("a single-image method was handed layers".to_string())),
+        }
+    }
+}
+
+/// A method made ready to render many frames: its Vulkan pipelines built once on a device, or
+/// its CPU reference (same formulas; slow) without one.
+pub trait Renderer: Send + Sync {
+    fn render(&self, input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, settings: &MethodSettings) -> Result<Image>;
+}
+
+impl<F> Renderer for F
+where
+    F: Fn(MethodInput<'_>, &Lens, &RenderOptions, &MethodSettings) -> Result<Image> + Send + Sync,
+{
+    fn render(&self, input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, settings: &MethodSettings) -> Result<Image> {
+        self(input, lens, options, settings)
+    }
+}
+
+/// Everything about one method, declared once.
+pub struct MethodSpec {
+    /// The `--method` value.
+    pub name: &'static str,
+    /// A short display name (the Blender add-on's menu).
+    pub label: &'static str,
+    /// One line: what the method does and where it runs.
+    pub summary: &'static str,
+    pub input: InputKind,
+    /// Whether it runs on the Vulkan device (without one it falls back to its CPU reference).
+    pub uses_gpu: bool,
+    /// The method-specific settings it reads.
+    pub settings: &'static [Setting],
+    /// Makes the renderer: on `ctx` when given, else the CPU reference.
+    pub prepare: fn(Option<&Context>) -> Result<Box<dyn Renderer>>,
+}
+
+/// A rendering method: a handle on its [`MethodSpec`] in the registry.
+#[derive(Clone, Copy)]
+pub struct Method(pub(crate) &'static MethodSpec);
 
 /// The method `lensblur render` uses unless told otherwise: Dr.Bokeh.
 impl Default for Method {
@@ -47,49 +116,51 @@ impl Default for Method {
     }
 }
 
+impl PartialEq for Method {
+    fn eq(&self, other: &Self) -> bool {
+        self.name() == other.name()
+    }
+}
+
+impl Eq for Method {}
+
+impl std::fmt::Debug for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Method({})", self.name())
+    }
+}
+
 impl Method {
-    pub const ALL: [Method; 7] = [
-        Method::DrBokeh,
-        Method::DrBokehCompat,
-        Method::Multiview,
-        Method::Vdslr,
-        Method::Oracle,
-        Method::Gather,
-        Method::Scatter,
-    ];
+    pub fn spec(self) -> &'static MethodSpec {
+        self.0
+    }
 
     pub fn name(self) -> &'static str {
-        match self {
-            Method::DrBokeh => "drbokeh",
-            Method::DrBokehCompat => "drbokeh-compat",
-            Method::Multiview => "multiview",
-            Method::Vdslr => "vdslr",
-            Method::Oracle => "oracle",
-            Method::Gather => "gather",
-            Method::Scatter => "scatter",
-        }
+        self.0.name
     }
 
     pub fn input(self) -> InputKind {
-        match self {
-            Method::DrBokeh | Method::DrBokehCompat | Method::Multiview | Method::Oracle => {
-                InputKind::Layers
-            }
-            Method::Vdslr | Method::Gather | Method::Scatter => InputKind::SingleImage,
-        }
+        self.0.input
     }
 
     /// Whether the method runs on the Vulkan device (and so needs a [`Context`]).
     pub fn uses_gpu(self) -> bool {
-        matches!(
-            self,
-            Method::DrBokeh
-                | Method::DrBokehCompat
-                | Method::Multiview
-                | Method::Vdslr
-                | Method::Gather
-                | Method::Scatter
-        )
+        self.0.uses_gpu
+    }
+
+    /// Whether the method reads `setting`.
+    pub fn reads(self, setting: Setting) -> bool {
+        self.0.settings.contains(&setting)
+    }
+
+    /// The registered methods that read `setting`, in registry order.
+    pub fn readers(setting: Setting) -> impl Iterator<Item = Method> {
+        Method::ALL.iter().copied().filter(move |m| m.reads(setting))
+    }
+
+    /// The method ready to render many frames (see [`Renderer`]).
+    pub fn prepare(self, ctx: Option<&Context>) -> Result<Box<dyn Renderer>> {
+        (self.0.prepare)(ctx)
     }
 
     /// Renders `stack` (front to back) through `lens` with the default settings. Vulkan
@@ -115,36 +186,12 @@ impl Method {
         if lo <= hi {
             lens.coc.check_renderable(lo, hi)?;
         }
-        let single = || stack.flatten();
-        let (vdslr, multiview) = (&settings.vdslr, &settings.multiview);
-        match (self, ctx) {
-            (Method::DrBokeh | Method::DrBokehCompat, Some(ctx)) => {
-                Ok(DrBokehGpu::new(ctx)?.render_with(stack, lens, self.drbokeh_model(), options)?.0)
-            }
-            (Method::DrBokeh | Method::DrBokehCompat, None) => render_cpu(stack, lens, self.drbokeh_model()),
-            (Method::Multiview, Some(ctx)) => Multiview::new(ctx)?.run(stack, lens, multiview),
-            (Method::Multiview, None) => render_multiview_cpu(stack, lens, multiview),
-            (Method::Vdslr, ctx) => {
-                let (image, disparity) = single();
-                match ctx {
-                    Some(ctx) => Vdslr::new(ctx)?.run(&image, &disparity, lens, vdslr),
-                    None => render_vdslr_cpu(&image, &disparity, lens, vdslr),
-                }
-            }
-            (Method::Oracle, _) => Ok(super::oracle::render_oracle(stack, lens)),
-            (Method::Gather, ctx) => {
-                let (image, disparity) = single();
-                match ctx {
-                    Some(ctx) => Gather::new(ctx)?.run(&image, &disparity, lens),
-                    None => Ok(render_gather_cpu(&image, &disparity, lens)),
-                }
-            }
-            (Method::Scatter, ctx) => {
-                let (image, disparity) = single();
-                match ctx {
-                    Some(ctx) => Scatter::new(ctx)?.run(&image, &disparity, lens),
-                    None => Ok(render_scatter_cpu(&image, &disparity, lens)),
-                }
+        let renderer = self.prepare(ctx)?;
+        match self.input() {
+            InputKind::Layers => renderer.render(MethodInput::Layers(stack), lens, options, settings),
+            InputKind::SingleImage => {
+                let (image, disparity) = stack.flatten();
+                renderer.render(MethodInput::SingleImage { image: &image, disparity: &disparity }, lens, options, settings)
             }
         }
     }
@@ -165,21 +212,13 @@ impl Default for MethodSettings {
 }
 
 impl MethodSettings {
-    /// The focus field `method` renders with: only Virtual DSLR edits its disparity map.
+    /// The focus field `method` renders with: the plane, unless it reads a focus-field setting
+    /// (Virtual DSLR edits its disparity map).
     pub fn focus(&self, method: Method) -> &FocusField {
-        match method {
-            Method::Vdslr => &self.vdslr.focus,
-            _ => &FocusField::Plane,
-        }
-    }
-}
-
-impl Method {
-    fn drbokeh_model(self) -> Model {
-        if self == Method::DrBokehCompat {
-            Model::Compat
+        if Setting::ALL.into_iter().any(|s| s.is_focus_field() && method.reads(s)) {
+            &self.vdslr.focus
         } else {
-            Model::DrBokeh
+            &FocusField::Plane
         }
     }
 }
@@ -187,24 +226,15 @@ impl Method {
 impl FromStr for Method {
     type Err = Error;
     fn from_str(s: &str) -> Result<Self> {
-        Method::ALL
-            .into_iter()
-            .find(|m| m.name() == s)
-            .ok_or_else(|| {
-                let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
-                Error::param(format!(
-                    "unknown method '{s}' (available: {})",
-                    names.join(", ")
-                ))
-            })
+        Method::ALL.iter().copied().find(|m| m.name() == s).ok_or_else(|| {
+            let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+            Error::param(format!("unknown method '{s}' (available: {})", names.join(", ")))
+        })
     }
 }
 
 impl serde::Serialize for Method {
-    fn serialize<S: serde::Serializer>(
-        &self,
-        serializer: S,
-    ) -> std::result::Result<S::Ok, S::Error> {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
         serializer.serialize_str(self.name())
     }
 }

@@ -2,7 +2,7 @@
 //! `glsl/<method>_<pass>.comp`) and a CPU reference of the same math, used by tests.
 use crate::camera::{Aperture, CocModel};
 
-pub use method::{InputKind, Method, MethodSettings};
+pub use method::{InputKind, Method, MethodInput, MethodSettings, MethodSpec, Renderer, Setting};
 
 pub mod disk;
 pub mod drbokeh;
@@ -13,6 +13,7 @@ pub mod lens_samples;
 pub mod method;
 pub mod multiview;
 pub mod oracle;
+mod registry;
 pub mod scatter;
 pub mod vdslr;
 

@@ -1,7 +1,8 @@
 """Per-scene settings the panel edits; the operator's properties mirror them."""
 import bpy
 
-# Every `lensblur render --method` (tests/plugin_blender.rs checks the list against the tool).
+# Every `lensblur render --method`, as `lensblur methods --json` lists them (name, label,
+# summary); tests/plugin_blender.rs checks this list equals the tool's registry.
 METHODS = [
     ("drbokeh", "Dr.Bokeh", "Layered occlusion-aware gather (Vulkan); the default"),
     ("drbokeh-compat", "Dr.Bokeh (released code)", "Dr.Bokeh with the formulas of its released code (Vulkan)"),
