@@ -11,7 +11,8 @@ use rayon::prelude::*;
 
 use super::fill::push_pull;
 use super::info::{ChannelInfo, ExtraChannel, LayerInfo, PartInfo, SampleType, StackFile, StackInfo, Window};
-use super::naming::{glob_match, group_channels, ChannelGroup, Convention};
+use super::file_output_slots::group_channels;
+use super::naming::{glob_match, ChannelGroup, Convention};
 use super::{DepthKind, Layer, LayerStack};
 use crate::image::Image;
 use crate::{Error, Result};

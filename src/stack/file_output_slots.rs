@@ -7,7 +7,14 @@
 //! groups with `fg.R` by its dot, see [`super::naming`].)
 use std::collections::BTreeMap;
 
-use super::naming::{ChannelGroup, Convention, COLOUR_PASSES, DEPTH_PASSES};
+use super::naming::{group_by_prefix, ChannelGroup, Convention, COLOUR_PASSES, DEPTH_PASSES};
+
+/// Groups the channel names of one part into layers, in order of first appearance: by prefix
+/// ([`super::naming`]), then depth slots of Blender's File Output node join the colour slot
+/// they are named after.
+pub fn group_channels(names: &[String]) -> Vec<ChannelGroup> {
+    pair_depth_slots(group_by_prefix(names))
+}
 
 const SEPARATORS: [char; 4] = ['_', '.', '-', ' '];
 
@@ -118,8 +125,16 @@ pub fn pair_depth_slots(mut groups: Vec<ChannelGroup>) -> Vec<ChannelGroup> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::naming::group_channels;
     use super::*;
+
+    #[test]
+    fn file_output_value_depth_pairs_with_image_slot() {
+        let groups = groups(&["Depth.V", "Image.A", "Image.B", "Image.G", "Image.R"]);
+        assert_eq!(groups.len(), 1);
+        assert_eq!(groups[0].convention, Convention::BlenderFileOutput);
+        assert_eq!(groups[0].channels.depth.as_deref(), Some("Depth.V"));
+        assert_eq!(groups[0].channels.red.as_deref(), Some("Image.R"));
+    }
 
     fn groups(names: &[&str]) -> Vec<ChannelGroup> {
         group_channels(&names.iter().map(|s| s.to_string()).collect::<Vec<_>>())

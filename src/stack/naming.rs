@@ -136,13 +136,10 @@ pub struct ChannelGroup {
     pub ambiguity: Option<String>,
 }
 
-/// Groups the channel names of one part into layers, in order of first appearance; depth
-/// slots of Blender's File Output node join the colour slot they are named after.
-pub fn group_channels(names: &[String]) -> Vec<ChannelGroup> {
-    super::file_output_slots::pair_depth_slots(group_by_prefix(names))
-}
-
-fn group_by_prefix(names: &[String]) -> Vec<ChannelGroup> {
+/// Groups the channel names of one part into layers by their prefix, in order of first
+/// appearance (the first stage of `file_output_slots::group_channels`, which then pairs the
+/// depth slots of Blender's File Output node).
+pub(super) fn group_by_prefix(names: &[String]) -> Vec<ChannelGroup> {
     let mut order: Vec<String> = Vec::new();
     let mut groups: BTreeMap<String, (LayerChannels, bool, bool)> = BTreeMap::new();
     for name in names {
@@ -224,7 +221,7 @@ mod tests {
 
     #[test]
     fn blender_multilayer_passes_are_stripped() {
-        let groups = group_channels(&names(&[
+        let groups = group_by_prefix(&names(&[
             "fg.Combined.A",
             "fg.Combined.B",
             "fg.Combined.G",
@@ -243,18 +240,9 @@ mod tests {
     }
 
     #[test]
-    fn file_output_value_depth_pairs_with_image_slot() {
-        let groups = group_channels(&names(&["Depth.V", "Image.A", "Image.B", "Image.G", "Image.R"]));
-        assert_eq!(groups.len(), 1);
-        assert_eq!(groups[0].convention, Convention::BlenderFileOutput);
-        assert_eq!(groups[0].channels.depth.as_deref(), Some("Depth.V"));
-        assert_eq!(groups[0].channels.red.as_deref(), Some("Image.R"));
-    }
-
-    #[test]
     fn long_names_and_unprefixed() {
         let groups =
-            group_channels(&names(&["bg.red", "bg.green", "bg.blue", "bg.alpha", "bg.depth", "R", "G", "B", "Z"]));
+            group_by_prefix(&names(&["bg.red", "bg.green", "bg.blue", "bg.alpha", "bg.depth", "R", "G", "B", "Z"]));
         assert_eq!(groups[0].layer, "bg");
         assert_eq!(groups[0].convention, Convention::LayerDotChannel);
         assert!(groups[0].channels.is_complete());

@@ -1,5 +1,6 @@
-//! Dr.Bokeh backward pass (paper Sec. 4): options, the per-pair derivative terms shared by the
-//! gather passes, and the CPU [`Differentiable`] renderer.
+//! Dr.Bokeh backward pass (paper Sec. 4): options and the per-pair derivative terms shared by
+//! the gather passes (the CPU reference and its [`Differentiable`](crate::render::grad::Differentiable)
+//! renderer, `DrBokehCpu`, are in `backward_cpu.rs`, which uses this module and not the reverse).
 //!
 //! Gradients are gathers: every input-gradient element is owned by one loop iteration (one
 //! future shader invocation), which sums over the outputs its input influences. No scattered
@@ -27,11 +28,6 @@
 //! `rel = d - d_f`, so with `g_s = dL/ds` and `g_rel = dL/drel` (at fixed s) per pixel:
 //! `dL/dd = K g_s + g_rel`, `dL/dK = sum rel g_s`, `dL/dd_f = -sum dL/dd`.
 use super::{math, LensView, Model, Params, AREA_STEP_PX};
-use crate::image::Image;
-use crate::render::grad::{Differentiable, StackGradients};
-use crate::render::Lens;
-use crate::stack::LayerStack;
-use crate::Result;
 
 /// How the backward differentiates the forward's soft steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -76,23 +72,6 @@ impl BackwardOptions {
             0 => super::Window::Tiled,
             margin => super::Window::TiledGrown(margin),
         }
-    }
-}
-
-/// The f64 CPU reference as a [`Differentiable`] renderer.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct DrBokehCpu {
-    pub model: Model,
-    pub options: BackwardOptions,
-}
-
-impl Differentiable for DrBokehCpu {
-    fn forward(&self, stack: &LayerStack, lens: &Lens) -> Result<Image> {
-        super::render_cpu(stack, lens, self.model)
-    }
-
-    fn backward(&self, stack: &LayerStack, lens: &Lens, grad_output: &Image) -> Result<StackGradients> {
-        Ok(super::backward_cpu(stack, lens, self.model, self.options, grad_output)?.to_stack_gradients())
     }
 }
 
@@ -213,7 +192,8 @@ mod tests {
     use super::*;
     use crate::camera::{Aperture, CocModel};
     use crate::image::Image;
-    use crate::stack::Layer;
+    use crate::render::Lens;
+    use crate::stack::{Layer, LayerStack};
 
     fn params(model: Model) -> Params {
         let layer = Layer { name: "l".into(), rgba: Image::new(4, 4), disparity: vec![0.9; 16] };

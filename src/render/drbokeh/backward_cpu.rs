@@ -9,10 +9,28 @@ use super::backward::{pair_grad, vis_weight, BackwardOptions, Px};
 use super::cpu::{render_cpu_terms, LayerTerms};
 use super::{math, Model, Params, TILE};
 use crate::image::Image;
-use crate::render::grad::{LayerGradients, StackGradients};
+use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
 use crate::render::Lens;
 use crate::stack::{Layer, LayerStack};
 use crate::{Error, Result};
+
+/// The f64 CPU reference as a [`Differentiable`] renderer.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DrBokehCpu {
+    pub model: Model,
+    pub options: BackwardOptions,
+}
+
+impl Differentiable for DrBokehCpu {
+    fn forward(&self, stack: &LayerStack, lens: &Lens) -> Result<Image> {
+        super::render_cpu(stack, lens, self.model)
+    }
+
+    fn backward(&self, stack: &LayerStack, lens: &Lens, grad_output: &Image) -> Result<StackGradients> {
+        Ok(backward_cpu(stack, lens, self.model, self.options, grad_output)?.to_stack_gradients())
+    }
+}
+
 
 /// dL/d(inputs) of one layer in f64, plus each pixel's share of dL/dK.
 #[derive(Clone, Debug, PartialEq)]

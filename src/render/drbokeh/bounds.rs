@@ -8,7 +8,6 @@
 //! `reach_T = max(gather_T, max { support_U : tile U's support reaches tile T })` covers both.
 use rayon::prelude::*;
 
-use super::gpu::search_tiles;
 use super::{math, Model, Params, TILE};
 use crate::stack::{Layer, LayerStack};
 use crate::tiling::Rect;
@@ -203,4 +202,11 @@ fn abs_s_range(params: &Params, layer: &Layer, tx: usize, ty: usize) -> AbsSRang
         }
     }
     range
+}
+
+/// The 16x16 search tiles a frame core overlaps (cores start on multiples of 16).
+pub(crate) fn search_tiles(params: &Params, core: Rect) -> impl Iterator<Item = usize> + '_ {
+    let (tx0, tx1) = (core.x0 / TILE, core.x1.div_ceil(TILE));
+    let (ty0, ty1) = (core.y0 / TILE, core.y1.div_ceil(TILE));
+    (ty0..ty1).flat_map(move |ty| (tx0..tx1).map(move |tx| ty * params.tiles_x + tx))
 }

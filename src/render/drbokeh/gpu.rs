@@ -4,7 +4,7 @@
 //! ([`super::tiled`]). Every pixel reads the same sources in the same order whatever the
 //! tiling, so the output is bit-identical for every tile size and batch size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
 //! lens, area table, push constants) and the search windows are shared with it.
-use super::bounds::{search_windows, span_radii, NO_SPAN_RADII};
+use super::bounds::{search_tiles, search_windows, span_radii, NO_SPAN_RADII};
 use super::tiled::{frame_cores, run_batches, run_tiled, Footprint, TilePlan};
 use super::{AperturePath, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, Aperture, EMPTY_APERTURE_ROW};
@@ -411,13 +411,6 @@ fn aperture_rows(aperture: &Aperture) -> Vec<[f32; 4]> {
         (Some(gauge), Some(rows)) => std::iter::once(gauge).chain(rows).collect(),
         _ => vec![EMPTY_APERTURE_ROW],
     }
-}
-
-/// The 16x16 search tiles a frame core overlaps (cores start on multiples of 16).
-pub(crate) fn search_tiles(params: &Params, core: Rect) -> impl Iterator<Item = usize> + '_ {
-    let (tx0, tx1) = (core.x0 / TILE, core.x1.div_ceil(TILE));
-    let (ty0, ty1) = (core.y0 / TILE, core.y1.div_ceil(TILE));
-    (ty0..ty1).flat_map(move |ty| (tx0..tx1).map(move |tx| ty * params.tiles_x + tx))
 }
 
 /// Pixels around `core` its gathers read: the largest window over its search tiles and layers.

@@ -41,8 +41,8 @@ mod compat_direct;
 #[cfg(test)]
 mod tests;
 
-pub use backward::{BackwardOptions, DrBokehCpu};
-pub use backward_cpu::{backward_cpu, CpuGradients, CpuLayerGradients};
+pub use backward::BackwardOptions;
+pub use backward_cpu::{backward_cpu, CpuGradients, CpuLayerGradients, DrBokehCpu};
 pub use cpu::{render_cpu, render_cpu_params, render_cpu_terms, LayerTerms, Terms, Window};
 pub use gpu::{DrBokehGpu, LayerKernel, RenderOptions, RenderStats};
 pub use gpu_backward::DrBokehGpuGrad;
