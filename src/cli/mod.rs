@@ -94,7 +94,11 @@ pub fn main() -> std::process::ExitCode {
         std::process::exit(130);
     });
     let result = match cli.command {
-        Command::Render(args) => render::run(*args),
+        // A frame range renders a shot (render_sequence builds on render's steps), else one file.
+        Command::Render(args) => match args.frames.clone() {
+            Some(frames) => render_sequence::run(&args, &frames),
+            None => render::run(*args),
+        },
         Command::Example(args) => example::run(args),
         Command::Grad(args) => grad::run(args),
         Command::FitDepth(args) => fit_depth::run(args),

@@ -151,10 +151,8 @@ struct Timings {
     total: f64,
 }
 
+/// Renders one file (`render_sequence::run` renders a frame range with the same steps).
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if let Some(frames) = &args.frames {
-        return super::render_sequence::run(&args, frames);
-    }
     refuse_frame_pattern_without_frames(&args.input)?;
     let total = Instant::now();
     let inputs = input_files(&args.input, &args.input_args, &args.camera);
