@@ -1,12 +1,14 @@
-// Body of the Dr.Bokeh layer pass (pass 2b of 3), compiled three times:
+// Body of the Dr.Bokeh layer pass (pass 2b of 3), compiled five times:
 // glsl/drbokeh_layer_disk.comp defines DRBOKEH_LAYER_DISK (default model, disk aperture),
 // glsl/drbokeh_layer_gauge.comp DRBOKEH_LAYER_GAUGE (default model, polygon or ellipse: the
 // same span path with row bounds from the aperture's row table and the shape's gauge in the
 // rim taps), glsl/drbokeh_layer_ring.comp DRBOKEH_LAYER_RING (default model, ring: the disk
-// path's gather, then the obstruction's, subtracted), and glsl/drbokeh_layer.comp none of them
-// (every model and aperture, per tap). Separate pipelines rather than a runtime branch so that
-// none carries another's code: lavapipe runs branches under lane masks. Bindings, push
-// constants and dispatch: see glsl/drbokeh_layer.comp.
+// path's gather, then the obstruction's, subtracted), glsl/drbokeh_layer_kernel.comp
+// DRBOKEH_LAYER_KERNEL (default model, kernel image: per tap, without the other models' and
+// shapes' terms) and glsl/drbokeh_layer.comp none of them (every model and aperture, per tap).
+// Separate pipelines rather than a runtime branch so that none carries another's code: lavapipe
+// runs branches under lane masks. Bindings, push constants and dispatch: see
+// glsl/drbokeh_layer.comp.
 #ifndef LENSBLUR_DRBOKEH_LAYER_GLSL
 #define LENSBLUR_DRBOKEH_LAYER_GLSL
 
@@ -371,7 +373,24 @@ float visibility(float vis_sum, float vis_weight) {
     return vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
 }
 
-// Any model and aperture: the first kernel's per-tap terms over the clipped window disk.
+#ifdef DRBOKEH_LAYER_KERNEL
+// drbokeh_lens for a kernel image (the Euclidean gauge, aperture_kernel_weight's kernel
+// branch, the same operations) without the other shapes' gauges and weights: lavapipe runs
+// every branch of drbokeh_lens under lane masks, atan and cos of the polygon's gauge included.
+vec2 layer_lens(vec2 offset, float r, float rel) {
+    vec2 p = aperture_coords(offset, rel);
+    float sample_weight = aperture_kernel_sample(p / (r + 0.5), pc.kernel_size);
+    float blend = smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r);
+    return vec2(length(p), 1.0 + (sample_weight - 1.0) * blend);
+}
+#else
+vec2 layer_lens(vec2 offset, float r, float rel) {
+    return drbokeh_lens(offset, r, rel);
+}
+#endif
+
+// Any model and aperture: the first kernel's per-tap terms over the clipped window disk (the
+// kernel-image path: the default model and a kernel image only).
 void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
     int ix = drbokeh_read_index(pc.layer, x);
     float rel_x = texelFetch(disparity, ix).x - pc.focus_disparity;
@@ -379,7 +398,11 @@ void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
     float r_x = abs(s_x);
     float alpha_x = texelFetch(rgba, ix).w;
     int box_half = drbokeh_visibility_box_compat(r_x);
+#ifdef DRBOKEH_LAYER_KERNEL
+    const bool compat = false;
+#else
     bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
+#endif
     cw = vec4(0.0);
     float vis_sum = 0.0;
     float vis_weight = 0.0;
@@ -400,7 +423,7 @@ void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
             vec2 offset = vec2(float(-ox), float(-oy));
             bool is_self = ox == 0 && oy == 0;
             if (p.w > 0.0) {
-                vec2 lens = drbokeh_lens(offset, r_y, rel_y);
+                vec2 lens = layer_lens(offset, r_y, rel_y);
                 float s = compat ? drbokeh_scatter_compat(r_y, lens.x) : drbokeh_scatter(r_y, lens.x);
                 float o = compat ? drbokeh_occlusion_compat(rel_y, rel_x, r_x, is_self)
                                  : drbokeh_occlusion(s_y, s_x, r_x, alpha_x, is_self);
@@ -414,7 +437,7 @@ void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
                     vis_weight += 1.0;
                 }
             } else {
-                vec2 lens = drbokeh_lens(offset, r_x, rel_x);
+                vec2 lens = layer_lens(offset, r_x, rel_x);
                 float d = drbokeh_scatter(r_x, lens.x) * lens.y;
                 vis_sum += p.w * d;
                 vis_weight += d;

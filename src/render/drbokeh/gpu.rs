@@ -38,6 +38,8 @@ pub struct DrBokehGpu {
     layer_gauge: Option<PipelineVariants>,
     /// The disk path's gather less the ring's obstruction's.
     layer_ring: Option<ComputePipeline>,
+    /// Kernel images under the default model, per tap.
+    layer_kernel: Option<ComputePipeline>,
     composite: ComputePipeline,
 }
 
@@ -144,14 +146,15 @@ impl DrBokehGpu {
 
     pub fn with_kernel(ctx: &Context, kernel: LayerKernel) -> Result<Self> {
         let push = std::mem::size_of::<super::DrBokehPush>();
-        let (layer, layer_disk, layer_gauge, layer_ring) = match kernel {
+        let (layer, layer_disk, layer_gauge, layer_ring, layer_kernel) = match kernel {
             LayerKernel::Optimised | LayerKernel::OptimisedNoInterior => (
                 ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER, &LAYER_SLOTS, push)?,
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_DISK, &LAYER_SLOTS, push)?),
                 Some(PipelineVariants::new(ctx, &shaders::DRBOKEH_LAYER_GAUGE, &LAYER_GAUGE_SLOTS, push)?),
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_RING, &LAYER_SLOTS, push)?),
+                Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_KERNEL, &LAYER_SLOTS, push)?),
             ),
-            LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None, None),
+            LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None, None, None),
         };
         Ok(Self {
             ctx: ctx.clone(),
@@ -162,6 +165,7 @@ impl DrBokehGpu {
             layer_disk,
             layer_gauge,
             layer_ring,
+            layer_kernel,
             composite: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_COMPOSITE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage], push)?,
         })
     }
@@ -242,16 +246,18 @@ impl DrBokehGpu {
         // the bindings below it declares.
         let gauge;
         let path = params.lens.path(params.model);
-        let (layer_pipeline, spans, binding_count) = match (path, &self.layer_disk, &self.layer_gauge, &self.layer_ring) {
-            (AperturePath::Disk, Some(disk), _, _) => (disk, true, LAYER_SLOTS.len()),
-            (AperturePath::Ring, _, _, Some(ring)) => (ring, true, LAYER_SLOTS.len()),
-            (AperturePath::Gauge, _, Some(variants), _) => {
-                gauge = variants.get(&params.lens.gauge_specialization())?;
-                (&gauge, true, LAYER_GAUGE_SLOTS.len())
-            }
-            _ if self.kernel == LayerKernel::Baseline => (&self.layer, false, 7),
-            _ => (&self.layer, false, LAYER_SLOTS.len()),
-        };
+        let (layer_pipeline, spans, binding_count) =
+            match (path, &self.layer_disk, &self.layer_gauge, &self.layer_ring, &self.layer_kernel) {
+                (AperturePath::Disk, Some(disk), _, _, _) => (disk, true, LAYER_SLOTS.len()),
+                (AperturePath::Ring, _, _, Some(ring), _) => (ring, true, LAYER_SLOTS.len()),
+                (AperturePath::Kernel, _, _, _, Some(kernel)) => (kernel, false, LAYER_SLOTS.len()),
+                (AperturePath::Gauge, _, Some(variants), _, _) => {
+                    gauge = variants.get(&params.lens.gauge_specialization())?;
+                    (&gauge, true, LAYER_GAUGE_SLOTS.len())
+                }
+                _ if self.kernel == LayerKernel::Baseline => (&self.layer, false, 7),
+                _ => (&self.layer, false, LAYER_SLOTS.len()),
+            };
         let push = params.push_tile(0, b.core, b.read);
         if self.kernel != LayerKernel::Baseline {
             let extent = [b.read.width() as u32, b.read.height() as u32, params.layer_count as u32];

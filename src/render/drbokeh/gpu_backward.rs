@@ -248,7 +248,7 @@ impl DrBokehGpuGrad {
                 (&gauge.0, &gauge.1)
             }
             AperturePath::Ring => (&self.own_ring, &self.source_ring),
-            AperturePath::PerTap => (&self.own, &self.source),
+            AperturePath::Kernel | AperturePath::PerTap => (&self.own, &self.source),
         };
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
         let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];

@@ -140,7 +140,10 @@ pub enum AperturePath {
     /// Default model, ring: the disk path's gather less a second one over the obstruction
     /// (the ring's weight is `S(r) (1 - blend S(inner r))`), both with row spans.
     Ring,
-    /// Every tap evaluated (compat model, kernel images).
+    /// Default model, kernel image: every tap evaluated, without the other models' and
+    /// shapes' code.
+    Kernel,
+    /// Every tap evaluated (the compat model).
     PerTap,
 }
 
@@ -177,6 +180,7 @@ impl LensView {
         match model {
             Model::DrBokeh if !kernel && (-0.5..0.5).contains(&self.aperture[0]) => AperturePath::Disk,
             Model::DrBokeh if self.is_ring() => AperturePath::Ring,
+            Model::DrBokeh if kernel => AperturePath::Kernel,
             Model::DrBokeh if !kernel => AperturePath::Gauge,
             _ => AperturePath::PerTap,
         }
