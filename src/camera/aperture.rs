@@ -113,7 +113,7 @@ impl Aperture {
     }
 
     /// The cat's-eye pupil of a disk aperture vignetted by a disk shifted by `shift` (aperture
-    /// radii; shorter than 2, or no light passes).
+    /// radii; shorter than 1.9: at 2 the disks only touch and no light passes).
     pub fn cats_eye(shift: [f32; 2]) -> Result<Self> {
         let length = shift[0].hypot(shift[1]);
         if !(length.is_finite() && length < 1.9) {
