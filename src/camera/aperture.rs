@@ -258,10 +258,7 @@ impl Aperture {
             &Aperture::Ring { inner } => ring_weight((u * u + v * v).sqrt(), r, inner),
             Aperture::Kernel(kernel) => {
                 let scale = 1.0 / (r + 0.5);
-                let [start, end] = KERNEL_FADE_PX;
-                let t = ((r - start) / (end - start)).clamp(0.0, 1.0);
-                let blend = t * t * (3.0 - 2.0 * t);
-                1.0 + (kernel.sample(u * scale, v * scale) - 1.0) * blend
+                1.0 + (kernel.sample(u * scale, v * scale) - 1.0) * kernel_fade(r)
             }
             _ => 1.0,
         }
@@ -329,13 +326,21 @@ pub fn polygon_gauge(u: f32, v: f32, n: f32, rotation: f32, roundness: f32) -> f
 /// `aperture_ring_weight` in `glsl/common/aperture.glsl` and `math::ring_weight` (f64).
 #[inline]
 pub fn ring_weight(g: f32, r: f32, inner: f32) -> f32 {
-    let hermite = |t: f32| {
-        let t = t.clamp(0.0, 1.0);
-        t * t * (3.0 - 2.0 * t)
-    };
+    1.0 - kernel_fade(r) * (1.0 - hermite(g - (inner * r - 0.5)))
+}
+
+/// How far a kernel image or the ring has faded in at CoC radius `r` ([`KERNEL_FADE_PX`]).
+#[inline]
+fn kernel_fade(r: f32) -> f32 {
     let [start, end] = KERNEL_FADE_PX;
-    let blend = hermite((r - start) / (end - start));
-    1.0 - blend * (1.0 - hermite(g - (inner * r - 0.5)))
+    hermite((r - start) / (end - start))
+}
+
+/// GLSL's `smoothstep(0, 1, t)`: the Hermite ramp, exactly 0 below 0 and 1 above 1.
+#[inline]
+fn hermite(t: f32) -> f32 {
+    let t = t.clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
 }
 
 /// Gauge of the cat's-eye: the intersection of the unit disks centred at `a` and `-a`

@@ -69,10 +69,7 @@ def overscanned(scene, margin):
     saved = (render.resolution_x, render.resolution_y, render.resolution_percentage,
              cam.sensor_width, cam.sensor_height, cam.shift_x, cam.shift_y)
     width, height = frame_size(render)
-    fit = cam.sensor_fit
-    if fit == "AUTO":
-        fit = "HORIZONTAL" if width * render.pixel_aspect_x >= height * render.pixel_aspect_y else "VERTICAL"
-    fitted = width if fit == "HORIZONTAL" else height
+    fitted = width if camera.fitted_axis(scene, cam) == "HORIZONTAL" else height
     scale = (fitted + 2 * margin) / fitted
     try:
         render.resolution_x, render.resolution_y = width + 2 * margin, height + 2 * margin

@@ -64,17 +64,25 @@ def fmt(value):
     return repr(value)
 
 
+def fitted_axis(scene, cam):
+    """The image side Blender fits the sensor to: "HORIZONTAL" or "VERTICAL" (AUTO fits the
+    larger side, measured with the pixel aspect)."""
+    render = scene.render
+    if cam.sensor_fit != "AUTO":
+        return cam.sensor_fit
+    width = render.resolution_x * render.pixel_aspect_x
+    height = render.resolution_y * render.pixel_aspect_y
+    return "HORIZONTAL" if width >= height else "VERTICAL"
+
+
 def effective_sensor_width(scene, cam):
     """Sensor width (mm) spanning the image width, following Blender's sensor fit."""
     render = scene.render
     width = render.resolution_x * render.pixel_aspect_x
     height = render.resolution_y * render.pixel_aspect_y
-    fit = cam.sensor_fit
-    if fit == "AUTO":
-        fit = "HORIZONTAL" if width >= height else "VERTICAL"
-        size = cam.sensor_width
-    else:
-        size = cam.sensor_width if fit == "HORIZONTAL" else cam.sensor_height
+    fit = fitted_axis(scene, cam)
+    # AUTO keeps its size in sensor_width whichever side it fits.
+    size = cam.sensor_height if cam.sensor_fit == "VERTICAL" else cam.sensor_width
     return size if fit == "HORIZONTAL" else size * width / height
 
 
