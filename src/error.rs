@@ -27,6 +27,20 @@ pub enum Error {
     Input { path: PathBuf, message: String },
     #[error("invalid parameter: {0}")]
     Parameter(String),
+    /// A physical camera parameter that neither the caller, the file's header nor the shot's
+    /// camera file gives; `parameter` is its key (`focal-length`, `fstop`, `focus-distance`).
+    #[error(
+        "no {parameter} (not given, and the file's header has no camera): give a physical camera \
+         (focal length, f-stop, focus distance, optionally sensor width) or the normalised model \
+         (CoC pixels per unit of disparity, focus disparity)"
+    )]
+    MissingCamera { parameter: &'static str },
+    /// A physical camera parameter that is not a positive number (given or from the header).
+    #[error("{parameter} must be a positive number, got {value} (given or from the file's header)")]
+    InvalidCamera { parameter: &'static str, value: f32 },
+    /// The operation does not apply to this input or method (the message says why).
+    #[error("{0}")]
+    Unsupported(String),
     /// The I/O error is the `source()`; the message names the file only (see the module note).
     #[error("{path}")]
     Io { path: PathBuf, source: std::io::Error },

@@ -46,6 +46,9 @@
 //! - [`camera`]: the circle-of-confusion model and aperture shapes, shared by CPU and GPU paths.
 //! - [`image`]: the in-memory RGBA float image.
 //! - [`stack`]: layer stacks and their file formats (EXR, PNG/JPEG) — I/O lives at the edges.
+//! - [`input`]: a render's input as a caller hands it: read the file, resolve the camera
+//!   (caller, header, shot camera file), auto-layer a flat image; map gradients back onto the
+//!   file's channels.
 //! - [`cache_dir`]: the user cache folder every rebuildable file goes to.
 //! - [`atomic_file`]: outputs appear whole (temporary file, rename) and interrupts remove parts.
 //! - [`sequence`]: shots: frame ranges, frame file patterns, per-frame camera files.
@@ -60,6 +63,7 @@ pub mod camera;
 pub mod character;
 pub mod error;
 pub mod image;
+pub mod input;
 pub mod bench;
 pub mod metrics;
 pub mod optim;

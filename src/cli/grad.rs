@@ -10,14 +10,12 @@ use std::time::Instant;
 use anyhow::{bail, Context as _};
 use lensblur::image::Image;
 use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpuGrad, Model, RenderOptions};
-use lensblur::render::grad::StackGradients;
+use lensblur::render::grad::CameraGradients;
 use lensblur::render::{InputKind, Method};
-use lensblur::stack::fill::push_pull_adjoint;
-use lensblur::stack::{read_rgba, OutputFormat, write_named_channels, DepthKind, Layer, StackInfo};
+use lensblur::stack::{read_rgba, write_named_channels, OutputFormat};
 use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
-use super::file_channels::FileChannels;
 use super::input_args::{check_output_paths, input_files, InputArgs, LoadedInput};
 use super::progress;
 
@@ -66,16 +64,6 @@ pub struct Args {
     pub json: bool,
 }
 
-/// dL/d(camera parameter), as printed and in `--json`.
-#[derive(serde::Serialize)]
-struct CameraGradients {
-    k_px: f64,
-    focus_disparity: f64,
-    focus_distance: Option<f64>,
-    fstop: Option<f64>,
-    focal_length_mm: Option<f64>,
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     let mut inputs = input_files(&args.input, &args.input_args, &args.camera);
@@ -105,12 +93,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Teardown validated before the file appears: a validation error leaves no output.
     ctx.finish()?;
     spinner.set_message(format!("writing {}", args.output.display()));
-    let channels = gradient_channels(info, &loaded, &grads)?;
+    let channels = loaded.gradient_channels(&grads)?;
     let origin = (info.display_window.x, info.display_window.y);
     write_named_channels(&args.output, (loaded.stack.width, loaded.stack.height), origin, channels)
         .context("writing -o")?;
     spinner.finish_and_clear();
-    let camera = camera_gradients(&loaded, &grads);
+    let camera = CameraGradients::new(&grads, &loaded.camera.lens.coc, loaded.camera.physical.as_ref());
     if args.json {
         let report = serde_json::json!({
             "input": args.input, "output": args.output, "method": args.method, "leaky": args.leaky,
@@ -145,57 +133,4 @@ fn read_grad_output(path: &Path, loaded: &LoadedInput, max_pixels: u64) -> anyho
         p[3] = 0.0; // alpha of the render is not differentiated
     }
     Ok(g)
-}
-
-/// Every channel of the file, zero unless a rendered layer's gradient lands on it.
-fn gradient_channels(info: &StackInfo, loaded: &LoadedInput, grads: &StackGradients) -> anyhow::Result<Vec<(String, Vec<f32>)>> {
-    let mut channels = FileChannels::zeroed(info);
-    for (layer, grad) in loaded.stack.layers.iter().zip(&grads.layers) {
-        let Some(names) = channels.layer(&layer.name) else { continue };
-        for (c, name) in names.colour.iter().enumerate() {
-            if let Some(name) = name {
-                channels.set(name, grad.rgba.iter().map(|g| g[c]).collect());
-            }
-        }
-        if let Some(name) = &names.depth {
-            let Some(read) = info.layers.iter().find(|l| l.name == layer.name) else { continue };
-            let stored = stored_depth_gradient(loaded.depth_kind, layer, &read.depth_weights, &grad.disparity)
-                .with_context(|| format!("layer '{}'", layer.name))?;
-            channels.set(name, stored);
-        }
-    }
-    Ok(channels.into_list())
-}
-
-/// dL/d(stored depth). Where the reader did not read the stored depth (weight 0: no coverage)
-/// the layer's disparity was filled from the covered pixels, so the gradient that reached it
-/// flows back through the fill onto them; then dL/d(stored) = dL/d(disparity) *
-/// d(disparity)/d(stored) on the covered pixels, and 0 on the others.
-fn stored_depth_gradient(kind: DepthKind, layer: &Layer, weights: &[f32], grad: &[f32]) -> anyhow::Result<Vec<f32>> {
-    let (w, h) = (layer.rgba.width, layer.rgba.height);
-    if weights.len() != w * h {
-        bail!("the reader recorded {} depth weights for {}x{} pixels", weights.len(), w, h);
-    }
-    let through_fill = push_pull_adjoint(w, h, weights, grad);
-    let chain = |((&g, &d), &weight): ((&f32, &f32), &f32)| {
-        if weight > 0.0 {
-            g * kind.disparity_derivative(kind.from_disparity(d))
-        } else {
-            0.0
-        }
-    };
-    Ok(through_fill.iter().zip(&layer.disparity).zip(weights).map(chain).collect())
-}
-
-/// K = (f / 2N) (f / sensor) width and d_f = 1 / D, so dK/dN = -K/N, dK/df = 2K/f, dd_f/dD = -1/D^2.
-fn camera_gradients(loaded: &LoadedInput, grads: &StackGradients) -> CameraGradients {
-    let k = loaded.camera.lens.coc.k_px as f64;
-    let physical = loaded.camera.physical;
-    CameraGradients {
-        k_px: grads.k_px,
-        focus_disparity: grads.focus_disparity,
-        focus_distance: physical.map(|c| grads.focus_disparity * -1.0 / (c.focus_distance as f64).powi(2)),
-        fstop: physical.map(|c| grads.k_px * -k / c.fstop as f64),
-        focal_length_mm: physical.map(|c| grads.k_px * 2.0 * k / c.focal_length_mm as f64),
-    }
 }

@@ -1,18 +1,16 @@
 //! Input flags shared by `render`, `grad` and `fit-depth`: which file, which layers, how
-//! depth is encoded, and how a single image is split into layers. Loading resolves the camera
-//! too, because auto-layering spaces layers by CoC.
+//! depth is encoded, and how a single image is split into layers; they make the library's
+//! [`InputOptions`] and [`lensblur::input::load`] does the rest.
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
 
 use anyhow::bail;
 use lensblur::camera::CameraHints;
+pub use lensblur::input::LoadedInput;
+use lensblur::input::{load, InputOptions};
 use lensblur::render::InputKind;
-use lensblur::stack::{
-    is_ldr_path, read_ldr, read_stack, split_into_layers, AutoLayerOptions, DepthKind, Layer,
-    LayerStack, ReadOptions, StackInfo, DEFAULT_MAX_PIXELS,
-};
+use lensblur::stack::{is_ldr_path, AutoLayerOptions, DepthKind, DEFAULT_MAX_PIXELS};
 
-use super::camera_args::{CameraArgs, ResolvedCamera};
+use super::camera_args::{flag_error, CameraArgs};
 
 #[derive(clap::Args, Clone, Debug)]
 pub struct InputArgs {
@@ -47,33 +45,17 @@ pub struct InputArgs {
     pub replace_nonfinite: bool,
 }
 
-/// A loaded input, ready for a renderer.
-pub struct LoadedInput {
-    pub stack: LayerStack,
-    /// Header facts of an EXR input (None for PNG/JPEG).
-    pub info: Option<StackInfo>,
-    pub depth_kind: DepthKind,
-    pub camera: ResolvedCamera,
-    /// The single input image was split into this many layers.
-    pub auto_layered: Option<usize>,
-    pub read_time: Duration,
-    pub layering_time: Duration,
-}
-
 impl InputArgs {
     /// Reads `path`, resolves the camera and, when `input` wants layers and the file holds
     /// one image, splits it into layers.
-    pub fn load(
-        &self,
-        path: &Path,
-        camera: &CameraArgs,
-        input: InputKind,
-    ) -> anyhow::Result<LoadedInput> {
+    pub fn load(&self, path: &Path, camera: &CameraArgs, input: InputKind) -> anyhow::Result<LoadedInput> {
         self.load_frame(path, camera, &CameraHints::default(), input)
     }
 
     /// [`load`](Self::load) for a frame of a shot: `camera_file` holds the frame's camera
-    /// from the shot's camera file, for what neither the flags nor the header give.
+    /// from the shot's camera file, for what neither the flags nor the header give. The
+    /// policy is the library's ([`lensblur::input::load`]); this checks the flag combinations
+    /// first, so a refusal names the flag, and prints the warnings.
     pub fn load_frame(
         &self,
         path: &Path,
@@ -81,87 +63,23 @@ impl InputArgs {
         camera_file: &CameraHints,
         input: InputKind,
     ) -> anyhow::Result<LoadedInput> {
-        let start = Instant::now();
-        let (stack, info, depth_kind) = self.read(path)?;
-        let read_time = start.elapsed();
-        let hints = info
-            .as_ref()
-            .map(|i| CameraHints::from_attributes(&i.camera))
-            .unwrap_or_default();
-        let camera = camera.resolve_with_file(stack.width, &hints, camera_file)?;
-        if camera.physical.is_some() {
-            if let Some(warning) = depth_kind.physical_camera_warning() {
-                eprintln!("lensblur: warning: {warning}");
-            }
-        }
-        let start = Instant::now();
-        let single = info.as_ref().map_or(true, |i| i.single_image) && stack.layers.len() == 1;
-        let (stack, auto_layered) = if single && input == InputKind::Layers {
-            let layered = split_into_layers(
-                &stack.layers[0].rgba,
-                &stack.layers[0].disparity,
-                &camera.lens.coc,
-                &self.auto_layer_options(),
-            );
-            let count = layered.layers.len();
-            (layered, Some(count))
-        } else {
-            (stack, None)
-        };
-        Ok(LoadedInput {
-            stack,
-            info,
-            depth_kind,
-            camera,
-            auto_layered,
-            read_time,
-            layering_time: start.elapsed(),
-        })
-    }
-
-    fn read(&self, path: &Path) -> anyhow::Result<(LayerStack, Option<StackInfo>, DepthKind)> {
         if is_ldr_path(path) {
-            let Some(depth_path) = &self.depth else {
-                bail!(
-                    "{}: a PNG/JPEG input needs its depth image: --depth DEPTH.png",
-                    path.display()
-                );
-            };
-            if self.layers.is_some() {
-                bail!(
-                    "--layers selects layers of an EXR; {} is a single image",
-                    path.display()
-                );
+            if self.depth.is_none() {
+                bail!("{}: a PNG/JPEG input needs its depth image: --depth DEPTH.png", path.display());
             }
-            let kind = self.depth_kind.unwrap_or(DepthKind::Disparity);
-            let ldr = read_ldr(path, depth_path, kind, self.max_pixels)?;
-            let (w, h) = (ldr.image.width, ldr.image.height);
-            let layer = Layer {
-                name: "image".into(),
-                rgba: ldr.image,
-                disparity: ldr.disparity,
-            };
-            return Ok((LayerStack::new(w, h, vec![layer])?, None, kind));
+            if self.layers.is_some() {
+                bail!("--layers selects layers of an EXR; {} is a single image", path.display());
+            }
+        } else if self.depth.is_some() {
+            bail!("--depth is for PNG/JPEG inputs; {} carries its depth in its channels", path.display());
         }
-        if self.depth.is_some() {
-            bail!(
-                "--depth is for PNG/JPEG inputs; {} carries its depth in its channels",
-                path.display()
-            );
-        }
-        let kind = self.depth_kind.unwrap_or(DepthKind::Z);
-        let options = ReadOptions {
-            layers: self.layers.clone(),
-            depth_kind: kind,
-            max_pixels: self.max_pixels,
-            replace_nonfinite: self.replace_nonfinite,
-        };
+        let request = camera.request()?;
         // The library's errors name the file already: no "reading FILE" context on top.
-        let file = read_stack(path, &options)?;
-        for warning in &file.info.warnings {
+        let loaded = load(path, &self.options(), &request, camera_file, input).map_err(flag_error)?;
+        for warning in &loaded.warnings {
             eprintln!("lensblur: warning: {warning}");
         }
-        Ok((file.stack, Some(file.info), kind))
+        Ok(loaded)
     }
 
     /// Files these flags read besides the input itself, described for [`check_output_paths`].
@@ -169,12 +87,19 @@ impl InputArgs {
         self.depth.iter().map(|p| ("the --depth input file", p.as_path())).collect()
     }
 
-    fn auto_layer_options(&self) -> AutoLayerOptions {
+    fn options(&self) -> InputOptions {
         let defaults = AutoLayerOptions::default();
-        AutoLayerOptions {
-            coc_spacing_px: self.layer_spacing.unwrap_or(defaults.coc_spacing_px),
-            max_layers: self.max_layers.unwrap_or(defaults.max_layers),
-            ..defaults
+        InputOptions {
+            layers: self.layers.clone(),
+            depth_kind: self.depth_kind,
+            depth_image: self.depth.clone(),
+            max_pixels: self.max_pixels,
+            replace_nonfinite: self.replace_nonfinite,
+            auto_layer: AutoLayerOptions {
+                coc_spacing_px: self.layer_spacing.unwrap_or(defaults.coc_spacing_px),
+                max_layers: self.max_layers.unwrap_or(defaults.max_layers),
+                ..defaults
+            },
         }
     }
 }

@@ -12,7 +12,6 @@ mod character_args;
 mod devices;
 mod example;
 mod farm_template;
-mod file_channels;
 mod fit_depth;
 mod grad;
 mod info;

@@ -11,7 +11,8 @@ use lensblur::sequence::FramePattern;
 use lensblur::stack::{
     is_ldr_path, write_image, write_ldr, LayerStack, OutputFormat, SampleType, StackNaming, WriteOptions,
 };
-use lensblur::vk::Context;
+use lensblur::render::placement::{place, CpuReason, DevicePreference, Placement};
+use lensblur::vk::{Context, ContextOptions};
 
 use super::camera_args::CameraArgs;
 use super::character_args::CharacterArgs;
@@ -285,34 +286,34 @@ pub enum DeviceChoice {
     Cpu,
 }
 
-/// The Vulkan context `method` runs on, or None for the CPU path. Falls back to the CPU only
-/// in `auto` mode and only when no device was named: a named device that fails is an error.
+/// The Vulkan context `method` runs on, or None for the CPU path (the library's policy:
+/// [`place`]), saying on stderr why the CPU path runs when the user may not expect it.
 pub(super) fn open_device(choice: DeviceChoice, method: Method) -> anyhow::Result<Option<Context>> {
-    if !method.uses_gpu() {
-        return Ok(None);
-    }
-    if choice == DeviceChoice::Cpu {
-        eprintln!("lensblur: warning: rendering {method} on the CPU (reference path, slow)");
-        return Ok(None);
-    }
-    let named = std::env::var("LENSBLUR_DEVICE").is_ok_and(|v| !v.is_empty());
-    match Context::from_env() {
-        Ok(ctx) => Ok(Some(ctx)),
-        Err(error @ (lensblur::Error::NoVulkan(_) | lensblur::Error::Vulkan { .. }))
-            if choice == DeviceChoice::Auto && !named =>
-        {
-            eprintln!(
-                "lensblur: warning: no usable Vulkan device ({error}); rendering {method} on the CPU \
-                 (slow); --device cpu says so explicitly, --device gpu makes this an error"
-            );
-            Ok(None)
-        }
-        Err(error) => Err(anyhow::Error::new(error).context(if named {
+    let preference = match choice {
+        DeviceChoice::Auto => DevicePreference::Auto,
+        DeviceChoice::Gpu => DevicePreference::Gpu,
+        DeviceChoice::Cpu => DevicePreference::Cpu,
+    };
+    let options = ContextOptions::from_env();
+    let named = options.device.is_some();
+    let placement = place(method, preference, &options).with_context(|| {
+        if named {
             "opening the Vulkan device named by LENSBLUR_DEVICE (see `lensblur devices`; unset it, or --device cpu)"
         } else {
             "opening the Vulkan device (see `lensblur devices`; --device cpu renders without one)"
-        })),
+        }
+    })?;
+    match &placement {
+        Placement::Cpu(CpuReason::Asked) => {
+            eprintln!("lensblur: warning: rendering {method} on the CPU (reference path, slow)");
+        }
+        Placement::Cpu(CpuReason::NoDevice(error)) => eprintln!(
+            "lensblur: warning: no usable Vulkan device ({error}); rendering {method} on the CPU \
+             (slow); --device cpu says so explicitly, --device gpu makes this an error"
+        ),
+        Placement::Gpu(_) | Placement::Cpu(CpuReason::CpuMethod) => {}
     }
+    Ok(placement.into_context())
 }
 
 /// Writes `image` to `output` (and `preview`) as the flags say; `loaded` is the input it came

@@ -2,11 +2,14 @@
 //!
 //! Gradients are in the stack's own units: premultiplied RGBA and disparity per pixel of every
 //! layer, plus the two scalars of the CoC model. Converting a disparity gradient into one w.r.t.
-//! the depth channel as stored in a file is the caller's job (`DepthKind::disparity_derivative`).
+//! the depth channel as stored in a file is [`stored_depth_gradient`]'s job, to the physical camera
+//! [`CameraGradients`]'s.
+use crate::camera::{CocModel, PhysicalCamera};
 use crate::image::Image;
 use crate::render::Lens;
-use crate::stack::LayerStack;
-use crate::Result;
+use crate::stack::fill::push_pull_adjoint;
+use crate::stack::{DepthKind, Layer, LayerStack};
+use crate::{Error, Result};
 
 /// dL/d(input) of one layer.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -33,4 +36,110 @@ pub struct StackGradients {
 pub trait Differentiable {
     fn forward(&self, stack: &LayerStack, lens: &Lens) -> Result<Image>;
     fn backward(&self, stack: &LayerStack, lens: &Lens, grad_output: &Image) -> Result<StackGradients>;
+}
+
+/// dL/d(stored depth) of one layer read from a file with depth convention `kind`, from
+/// dL/d(disparity) `grad`. `weights` are the reader's per-pixel depth weights: where it did
+/// not read the stored depth (weight 0: no coverage) the layer's disparity was filled from the
+/// covered pixels, so the gradient that reached it flows back through the fill onto them; then
+/// dL/d(stored) = dL/d(disparity) * d(disparity)/d(stored) on the covered pixels, 0 elsewhere.
+pub fn stored_depth_gradient(kind: DepthKind, layer: &Layer, weights: &[f32], grad: &[f32]) -> Result<Vec<f32>> {
+    let (w, h) = (layer.rgba.width, layer.rgba.height);
+    if weights.len() != w * h || grad.len() != w * h {
+        return Err(Error::Unsupported(format!(
+            "layer '{}': {} depth weights and {} gradients for {w}x{h} pixels",
+            layer.name,
+            weights.len(),
+            grad.len()
+        )));
+    }
+    let through_fill = push_pull_adjoint(w, h, weights, grad);
+    let chain = |((&g, &d), &weight): ((&f32, &f32), &f32)| {
+        if weight > 0.0 {
+            g * kind.disparity_derivative(kind.from_disparity(d))
+        } else {
+            0.0
+        }
+    };
+    Ok(through_fill.iter().zip(&layer.disparity).zip(weights).map(chain).collect())
+}
+
+/// dL/d(camera parameter): the CoC model's two, and with a physical camera its own three.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct CameraGradients {
+    pub k_px: f64,
+    pub focus_disparity: f64,
+    pub focus_distance: Option<f64>,
+    pub fstop: Option<f64>,
+    pub focal_length_mm: Option<f64>,
+}
+
+impl CameraGradients {
+    /// Chain rule from `grads` (w.r.t. K and the focus disparity of `coc`) to the physical
+    /// camera behind it: K = (f / 2N) (f / sensor) width and d_f = 1 / D, so dK/dN = -K/N,
+    /// dK/df = 2K/f, dd_f/dD = -1/D^2.
+    pub fn new(grads: &StackGradients, coc: &CocModel, physical: Option<&PhysicalCamera>) -> Self {
+        let k = coc.k_px as f64;
+        Self {
+            k_px: grads.k_px,
+            focus_disparity: grads.focus_disparity,
+            focus_distance: physical.map(|c| grads.focus_disparity * -1.0 / (c.focus_distance as f64).powi(2)),
+            fstop: physical.map(|c| grads.k_px * -k / c.fstop as f64),
+            focal_length_mm: physical.map(|c| grads.k_px * 2.0 * k / c.focal_length_mm as f64),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image::Image;
+
+    /// A loss linear in K and d_f (L = a K + b d_f) has dL/dK = a, dL/dd_f = b; the chain
+    /// rule's physical gradients must match central differences of L through the camera.
+    #[test]
+    fn camera_gradients_match_finite_differences_through_the_physical_camera() {
+        let (a, b) = (0.37, -2.5);
+        let grads = StackGradients { layers: Vec::new(), k_px: a, focus_disparity: b };
+        let camera = PhysicalCamera { focal_length_mm: 50.0, sensor_width_mm: 36.0, fstop: 2.8, focus_distance: 3.0 };
+        let loss = |c: &PhysicalCamera| {
+            let coc = CocModel::from_physical(c, 640).unwrap();
+            a * coc.k_px as f64 + b * coc.focus_disparity as f64
+        };
+        let coc = CocModel::from_physical(&camera, 640).unwrap();
+        let got = CameraGradients::new(&grads, &coc, Some(&camera));
+        let central = |step: &dyn Fn(f32) -> PhysicalCamera, h: f32| (loss(&step(h)) - loss(&step(-h))) / (2.0 * h as f64);
+        let fd_fstop = central(&|h| PhysicalCamera { fstop: camera.fstop + h, ..camera }, 1e-2);
+        let fd_focal = central(&|h| PhysicalCamera { focal_length_mm: camera.focal_length_mm + h, ..camera }, 1e-1);
+        let fd_focus = central(&|h| PhysicalCamera { focus_distance: camera.focus_distance + h, ..camera }, 1e-2);
+        for (name, analytic, numeric) in [
+            ("fstop", got.fstop.unwrap(), fd_fstop),
+            ("focal length", got.focal_length_mm.unwrap(), fd_focal),
+            ("focus distance", got.focus_distance.unwrap(), fd_focus),
+        ] {
+            // f32 camera maths: 1e-3 relative.
+            assert!((analytic - numeric).abs() <= 1e-3 * numeric.abs().max(1e-6), "{name}: {analytic} vs {numeric}");
+        }
+        assert_eq!(CameraGradients::new(&grads, &coc, None).fstop, None);
+    }
+
+    /// Planar Z: d(disparity)/dZ = -1/Z^2 on covered pixels; uncovered pixels pass their
+    /// gradient through the fill's adjoint onto covered ones, so the total is kept there.
+    #[test]
+    fn stored_depth_gradient_applies_the_convention_and_routes_uncovered_pixels_through_the_fill() {
+        let (w, h) = (4, 1);
+        let z = [2.0f32, 4.0, 5.0, 8.0];
+        let layer = Layer { name: "l".into(), rgba: Image::new(w, h), disparity: z.iter().map(|z| 1.0 / z).collect() };
+        let all = stored_depth_gradient(DepthKind::Z, &layer, &[1.0; 4], &[1.0; 4]).unwrap();
+        for (g, z) in all.iter().zip(z) {
+            assert!((g + 1.0 / (z * z)).abs() < 1e-6, "{g} at Z {z}");
+        }
+        let weights = [1.0, 1.0, 0.0, 1.0];
+        let grad = [0.0, 0.0, 1.0, 0.0];
+        let routed = stored_depth_gradient(DepthKind::Disparity, &layer, &weights, &grad).unwrap();
+        assert_eq!(routed[2], 0.0, "the uncovered pixel keeps none");
+        let total: f32 = routed.iter().sum();
+        assert!((total - 1.0).abs() < 1e-5, "the fill's adjoint keeps the gradient's sum: {total}");
+        assert!(stored_depth_gradient(DepthKind::Z, &layer, &[1.0; 3], &[1.0; 4]).is_err());
+    }
 }

@@ -13,6 +13,7 @@ pub mod lens_samples;
 pub mod method;
 pub mod multiview;
 pub mod oracle;
+pub mod placement;
 mod registry;
 pub mod scatter;
 pub mod vdslr;

@@ -1,8 +1,8 @@
-//! Output files named after an input's channels (`grad`): every channel of the
+//! Output files named after an input's channels (gradients): every channel of the
 //! input, written single-part; multi-part inputs get `<part>.<channel>` names.
 use std::collections::BTreeMap;
 
-use lensblur::stack::StackInfo;
+use super::StackInfo;
 
 /// Channel name -> display-window samples, for every channel of an input file.
 pub struct FileChannels<'a> {

@@ -1,0 +1,268 @@
+//! A render's input, the way a caller hands it over: a file (a layered EXR in any naming
+//! convention, or a PNG/JPEG with a depth image), what the caller says about the camera, and
+//! which kind of input the method takes. [`load`] reads the file, resolves the camera (the
+//! caller's values win, then the file's header, then a shot's camera file) and, when a layered
+//! method is handed one flat image, splits it into layers (auto-layering spaces layers by CoC,
+//! so the camera is resolved first). The command line is one caller of this; a library user
+//! gets the same policy without rewriting it.
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use crate::camera::{Aperture, CameraHints, CocModel, PhysicalCamera};
+use crate::render::grad::{stored_depth_gradient, StackGradients};
+use crate::render::{InputKind, Lens};
+use crate::stack::{
+    is_ldr_path, read_ldr, read_stack, split_into_layers, AutoLayerOptions, DepthKind, FileChannels, Layer,
+    LayerStack, ReadOptions, StackInfo, DEFAULT_MAX_PIXELS,
+};
+use crate::{Error, Result};
+
+/// What a caller says about the camera. The physical parameters it leaves out come from the
+/// file's header, then from a shot's camera file; `normalised` replaces the physical camera.
+#[derive(Clone, Debug, Default)]
+pub struct CameraRequest {
+    /// Physical parameters given by the caller (each optional).
+    pub physical: CameraHints,
+    /// The normalised model (CoC pixels per unit of disparity, focus disparity): no physical
+    /// camera, and nothing is taken from the header.
+    pub normalised: Option<CocModel>,
+    pub aperture: Aperture,
+}
+
+/// The lens a render uses, and the physical camera behind it (if any).
+#[derive(Clone, Debug)]
+pub struct ResolvedCamera {
+    pub lens: Lens,
+    pub physical: Option<PhysicalCamera>,
+    /// Which physical parameters came from the file's header rather than the caller, by key
+    /// (`focal-length`, `fstop`, `focus-distance`, `sensor-width`), for reports.
+    pub from_header: Vec<&'static str>,
+    /// Which came from the shot's camera file (neither the caller nor the header gave them).
+    pub from_camera_file: Vec<&'static str>,
+}
+
+/// Sensor width when neither the caller nor the file says (Blender's default camera).
+pub const DEFAULT_SENSOR_WIDTH_MM: f32 = 36.0;
+
+impl CameraRequest {
+    /// The camera for an image `width_px` wide: the caller's values, else the header's, else
+    /// the camera file's. A physical parameter none of them gives is
+    /// [`Error::MissingCamera`]; one that is not a positive number is [`Error::InvalidCamera`].
+    pub fn resolve(&self, width_px: usize, header: &CameraHints, camera_file: &CameraHints) -> Result<ResolvedCamera> {
+        let aperture = self.aperture.clone();
+        if let Some(coc) = self.normalised {
+            let lens = Lens { coc, aperture };
+            return Ok(ResolvedCamera { lens, physical: None, from_header: Vec::new(), from_camera_file: Vec::new() });
+        }
+        let given = &self.physical;
+        let sources = [
+            ("focal-length", given.focal_length_mm, header.focal_length_mm, camera_file.focal_length_mm),
+            ("fstop", given.fstop, header.fstop, camera_file.fstop),
+            ("focus-distance", given.focus_distance, header.focus_distance, camera_file.focus_distance),
+            ("sensor-width", given.sensor_width_mm, header.sensor_width_mm, camera_file.sensor_width_mm),
+        ];
+        let mut values = [0.0f32; 4];
+        for (value, (parameter, given, header, file)) in values.iter_mut().zip(sources) {
+            *value = match given.or(header).or(file) {
+                Some(v) => v,
+                None if parameter == "sensor-width" => DEFAULT_SENSOR_WIDTH_MM,
+                None => return Err(Error::MissingCamera { parameter }),
+            };
+            if !(value.is_finite() && *value > 0.0) {
+                return Err(Error::InvalidCamera { parameter, value: *value });
+            }
+        }
+        let [focal_length_mm, fstop, focus_distance, sensor_width_mm] = values;
+        let physical = PhysicalCamera { focal_length_mm, sensor_width_mm, fstop, focus_distance };
+        physical.validate()?;
+        let coc = CocModel::from_physical(&physical, width_px)?;
+        let unflagged = sources.into_iter().filter(|(_, given, _, _)| given.is_none());
+        let (from_header, from_file): (Vec<_>, Vec<_>) = unflagged.partition(|(_, _, header, _)| header.is_some());
+        Ok(ResolvedCamera {
+            lens: Lens { coc, aperture },
+            physical: Some(physical),
+            from_header: from_header.into_iter().map(|(name, ..)| name).collect(),
+            from_camera_file: from_file.into_iter().filter(|(.., file)| file.is_some()).map(|(name, ..)| name).collect(),
+        })
+    }
+}
+
+/// How to read an input file and split a flat image into layers.
+#[derive(Clone, Debug)]
+pub struct InputOptions {
+    /// Layers of an EXR to use, by name or glob; None: every layer with colour, alpha and depth.
+    pub layers: Option<Vec<String>>,
+    /// How depth is stored; None: planar Z for an EXR, normalised disparity for a depth image.
+    pub depth_kind: Option<DepthKind>,
+    /// The depth image of a PNG/JPEG input (required for one; refused for an EXR).
+    pub depth_image: Option<PathBuf>,
+    /// Files whose header declares more pixels are refused before any pixel is read.
+    pub max_pixels: u64,
+    /// Set NaN/Inf colour and alpha samples to 0 (with a warning) instead of refusing the file.
+    pub replace_nonfinite: bool,
+    pub auto_layer: AutoLayerOptions,
+}
+
+impl Default for InputOptions {
+    fn default() -> Self {
+        Self {
+            layers: None,
+            depth_kind: None,
+            depth_image: None,
+            max_pixels: DEFAULT_MAX_PIXELS,
+            replace_nonfinite: false,
+            auto_layer: AutoLayerOptions::default(),
+        }
+    }
+}
+
+/// A loaded input, ready for a renderer.
+pub struct LoadedInput {
+    pub stack: LayerStack,
+    /// Header facts of an EXR input (None for PNG/JPEG).
+    pub info: Option<StackInfo>,
+    pub depth_kind: DepthKind,
+    pub camera: ResolvedCamera,
+    /// The single input image was split into this many layers.
+    pub auto_layered: Option<usize>,
+    /// What the caller should tell the user: the file's own warnings (replaced samples,
+    /// ignored channels) and a depth encoding that cannot drive a physical camera.
+    pub warnings: Vec<String>,
+    pub read_time: Duration,
+    pub layering_time: Duration,
+}
+
+/// Reads `path`, resolves the camera (`camera_file`: the frame's entry of a shot's camera
+/// file, or the default for none) and, when `wants` is [`InputKind::Layers`] and the file holds
+/// one image, splits it into layers.
+pub fn load(
+    path: &Path,
+    options: &InputOptions,
+    camera: &CameraRequest,
+    camera_file: &CameraHints,
+    wants: InputKind,
+) -> Result<LoadedInput> {
+    let start = Instant::now();
+    let (stack, info, depth_kind, mut warnings) = read(path, options)?;
+    let read_time = start.elapsed();
+    let hints = info.as_ref().map(|i| CameraHints::from_attributes(&i.camera)).unwrap_or_default();
+    let camera = camera.resolve(stack.width, &hints, camera_file)?;
+    if camera.physical.is_some() {
+        warnings.extend(depth_kind.physical_camera_warning());
+    }
+    let start = Instant::now();
+    let single = info.as_ref().map_or(true, |i| i.single_image) && stack.layers.len() == 1;
+    let (stack, auto_layered) = if single && wants == InputKind::Layers {
+        let flat = &stack.layers[0];
+        let layered = split_into_layers(&flat.rgba, &flat.disparity, &camera.lens.coc, &options.auto_layer);
+        let count = layered.layers.len();
+        (layered, Some(count))
+    } else {
+        (stack, None)
+    };
+    Ok(LoadedInput { stack, info, depth_kind, camera, auto_layered, warnings, read_time, layering_time: start.elapsed() })
+}
+
+fn read(path: &Path, options: &InputOptions) -> Result<(LayerStack, Option<StackInfo>, DepthKind, Vec<String>)> {
+    if is_ldr_path(path) {
+        let Some(depth_path) = &options.depth_image else {
+            return Err(Error::input(path, "a PNG/JPEG input needs its depth image (a grey PNG)"));
+        };
+        if options.layers.is_some() {
+            return Err(Error::input(path, "is a single image: there are no layers to select"));
+        }
+        let kind = options.depth_kind.unwrap_or(DepthKind::Disparity);
+        let ldr = read_ldr(path, depth_path, kind, options.max_pixels)?;
+        let (w, h) = (ldr.image.width, ldr.image.height);
+        let layer = Layer { name: "image".into(), rgba: ldr.image, disparity: ldr.disparity };
+        return Ok((LayerStack::new(w, h, vec![layer])?, None, kind, Vec::new()));
+    }
+    if options.depth_image.is_some() {
+        return Err(Error::input(path, "carries its depth in its channels: a separate depth image is for PNG/JPEG inputs"));
+    }
+    let kind = options.depth_kind.unwrap_or(DepthKind::Z);
+    let read = ReadOptions {
+        layers: options.layers.clone(),
+        depth_kind: kind,
+        max_pixels: options.max_pixels,
+        replace_nonfinite: options.replace_nonfinite,
+    };
+    let file = read_stack(path, &read)?;
+    let warnings = file.info.warnings.clone();
+    Ok((file.stack, Some(file.info), kind, warnings))
+}
+
+impl LoadedInput {
+    /// Gradients of a render of this input, mapped onto every channel of the file it came
+    /// from (its names; multi-part inputs as `<part>.<channel>`): colour and alpha as stored
+    /// (premultiplied), depth through the file's depth convention and the reader's fill,
+    /// zero for channels that do not reach the render. Fails for a PNG/JPEG input (its
+    /// channels are not a stack's) or a stack that was auto-layered.
+    pub fn gradient_channels(&self, grads: &StackGradients) -> Result<Vec<(String, Vec<f32>)>> {
+        let Some(info) = &self.info else {
+            return Err(Error::Unsupported("gradients map onto the channels of an EXR stack; this input is a PNG/JPEG".into()));
+        };
+        if self.auto_layered.is_some() {
+            return Err(Error::Unsupported("gradients of an auto-layered image do not map onto its channels".into()));
+        }
+        let mut channels = FileChannels::zeroed(info);
+        for (layer, grad) in self.stack.layers.iter().zip(&grads.layers) {
+            let Some(names) = channels.layer(&layer.name) else { continue };
+            for (c, name) in names.colour.iter().enumerate() {
+                if let Some(name) = name {
+                    channels.set(name, grad.rgba.iter().map(|g| g[c]).collect());
+                }
+            }
+            if let Some(name) = &names.depth {
+                let Some(read) = info.layers.iter().find(|l| l.name == layer.name) else { continue };
+                channels.set(name, stored_depth_gradient(self.depth_kind, layer, &read.depth_weights, &grad.disparity)?);
+            }
+        }
+        Ok(channels.into_list())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn hints(focal: Option<f32>, fstop: Option<f32>, focus: Option<f32>) -> CameraHints {
+        CameraHints { focal_length_mm: focal, sensor_width_mm: None, fstop, focus_distance: focus }
+    }
+
+    #[test]
+    fn the_callers_values_win_then_the_header_then_the_camera_file() {
+        let request = CameraRequest { physical: hints(Some(85.0), None, None), ..CameraRequest::default() };
+        let header = hints(Some(50.0), Some(2.0), None);
+        let file = hints(Some(35.0), Some(4.0), Some(3.0));
+        let camera = request.resolve(1000, &header, &file).unwrap();
+        let physical = camera.physical.unwrap();
+        assert_eq!((physical.focal_length_mm, physical.fstop, physical.focus_distance), (85.0, 2.0, 3.0));
+        assert_eq!(physical.sensor_width_mm, DEFAULT_SENSOR_WIDTH_MM);
+        assert_eq!(camera.from_header, ["fstop"]);
+        assert_eq!(camera.from_camera_file, ["focus-distance"]);
+        // K = (f / 2N) (f / sensor) width, in pixels per unit of disparity (f in metres).
+        let k = 0.085 / (2.0 * 2.0) * (85.0 / 36.0) * 1000.0;
+        assert!((camera.lens.coc.k_px - k).abs() < 1e-3 * k, "{} vs {k}", camera.lens.coc.k_px);
+        assert!((camera.lens.coc.focus_disparity - 1.0 / 3.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_missing_or_invalid_parameter_is_a_typed_error_naming_it() {
+        let request = CameraRequest::default();
+        let error = request.resolve(100, &hints(Some(50.0), None, Some(2.0)), &CameraHints::default()).unwrap_err();
+        assert!(matches!(error, Error::MissingCamera { parameter: "fstop" }), "{error:?}");
+        let request = CameraRequest { physical: hints(None, Some(-2.0), None), ..CameraRequest::default() };
+        let error = request.resolve(100, &hints(Some(50.0), None, Some(2.0)), &CameraHints::default()).unwrap_err();
+        assert!(matches!(error, Error::InvalidCamera { parameter: "fstop", value } if value == -2.0), "{error:?}");
+    }
+
+    #[test]
+    fn the_normalised_model_takes_nothing_from_the_header() {
+        let coc = CocModel::new(12.0, 0.25).unwrap();
+        let request = CameraRequest { normalised: Some(coc), ..CameraRequest::default() };
+        let camera = request.resolve(100, &hints(Some(50.0), Some(2.0), Some(3.0)), &CameraHints::default()).unwrap();
+        assert!(camera.physical.is_none() && camera.from_header.is_empty());
+        assert_eq!((camera.lens.coc.k_px, camera.lens.coc.focus_disparity), (12.0, 0.25));
+    }
+}
