@@ -5,16 +5,16 @@
 //! cargo run --release --example render_stack -- IN.exr OUT.exr [FOCUS_M [FSTOP]]
 //! ```
 //!
-//! The camera is the input header's where it has one (Blender stamps its lens; `lensblur`
-//! writes all four values), else a 50 mm lens on a 36 mm sensor at f/2.8; FOCUS_M (metres)
-//! and FSTOP override. Depth is read as Z in metres, the layers in any naming convention
+//! The camera: FOCUS_M (metres) and FSTOP where given, else the input header's (Blender stamps
+//! its lens; `lensblur` writes all four values), else a 50 mm lens on a 36 mm sensor at f/2.8. Depth is read as Z in metres, the layers in any naming convention
 //! `lensblur render` reads. CI builds this file in a crate outside the repository
 //! (tests/out_of_tree.rs), so it must not reach anything private.
 use std::path::Path;
 
-use lensblur::camera::{Aperture, CameraHints, CocModel, PhysicalCamera};
-use lensblur::render::{Lens, Method};
-use lensblur::stack::{read_stack, write_image, ReadOptions, WriteOptions};
+use lensblur::camera::CameraHints;
+use lensblur::input::{load, CameraRequest, InputOptions};
+use lensblur::render::Method;
+use lensblur::stack::{write_image, WriteOptions};
 use lensblur::vk::Context;
 
 const USAGE: &str = "usage: render_stack IN.exr OUT.exr [FOCUS_M [FSTOP]]";
@@ -38,23 +38,21 @@ fn render(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
     let focus = number(2, "FOCUS_M")?;
     let fstop = number(3, "FSTOP")?;
 
-    let file = read_stack(Path::new(&args[0]), &ReadOptions::default())?;
-    let hints = CameraHints::from_attributes(&file.info.camera);
-    let camera = PhysicalCamera {
-        focal_length_mm: hints.focal_length_mm.unwrap_or(50.0),
-        sensor_width_mm: hints.sensor_width_mm.unwrap_or(36.0),
-        fstop: fstop.or(hints.fstop).unwrap_or(2.8),
-        focus_distance: focus.or(hints.focus_distance).ok_or_else(|| {
-            format!("{} has no focus distance in its header: give FOCUS_M; {USAGE}", args[0])
-        })?,
-    };
-    camera.validate()?;
-    let lens = Lens { coc: CocModel::from_physical(&camera, file.stack.width)?, aperture: Aperture::Disk };
+    // The policy `lensblur render` applies: our values win, then the file's header, then the
+    // fallback (here a 50 mm lens at f/2.8); a layered method gets a flat image auto-layered.
+    let request = CameraRequest { physical: CameraHints { focus_distance: focus, fstop, ..CameraHints::default() }, ..CameraRequest::default() };
+    let fallback = CameraHints { focal_length_mm: Some(50.0), fstop: Some(2.8), ..CameraHints::default() };
+    let method = Method::default();
+    let input = load(Path::new(&args[0]), &InputOptions::default(), &request, &fallback, method.input())
+        .map_err(|error| format!("{error}; give FOCUS_M if the header has no focus distance. {USAGE}"))?;
+    for warning in &input.warnings {
+        eprintln!("render_stack: warning: {warning}");
+    }
+    let camera = input.camera.physical.expect("no normalised model was asked for");
 
     // One device for every render of this process (here one); LENSBLUR_DEVICE picks another.
     let ctx = Context::from_env()?;
-    let method = Method::default();
-    let image = method.render(Some(&ctx), &file.stack, &lens)?;
+    let image = method.render(Some(&ctx), &input.stack, &input.camera.lens)?;
     let options = WriteOptions { camera: Some(camera), ..WriteOptions::default() };
     write_image(Path::new(&args[1]), &image, &options)?;
     ctx.finish()?;
@@ -64,7 +62,7 @@ fn render(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
         args[1],
         image.width,
         image.height,
-        file.stack.layers.len(),
+        input.stack.layers.len(),
         method.name(),
         camera.fstop,
         camera.focus_distance

@@ -54,9 +54,9 @@
 //! - [`sequence`]: shots: frame ranges, frame file patterns, per-frame camera files.
 //! - [`render`]: one module per rendering method, each with GPU host code and a CPU reference.
 //! - [`character`]: lens character and artist controls layered on any method.
-//! - [`raytrace`]: the thin-lens ground-truth ray tracer and the built-in scenes.
+//! - [`raytrace`] (feature `raytrace`): the thin-lens ground-truth ray tracer and the built-in scenes.
 //! - [`metrics`]: image quality metrics used by the benchmark.
-//! - [`bench`](mod@bench): the method registry, benchmark runner, report table and contact sheet.
+//! - [`bench`](mod@bench) (feature `bench`): the benchmark runner, report table and contact sheet.
 pub mod atomic_file;
 pub mod cache_dir;
 pub mod camera;
@@ -64,9 +64,11 @@ pub mod character;
 pub mod error;
 pub mod image;
 pub mod input;
+#[cfg(feature = "bench")]
 pub mod bench;
 pub mod metrics;
 pub mod optim;
+#[cfg(feature = "raytrace")]
 pub mod raytrace;
 pub mod render;
 pub mod sequence;

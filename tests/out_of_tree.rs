@@ -17,7 +17,8 @@ edition = "2021"
 publish = false
 
 [dependencies]
-lensblur = { path = "REPO" }
+# The library alone: none of the command line's crates.
+lensblur = { path = "REPO", default-features = false }
 
 # Not a member of any workspace above it.
 [workspace]
@@ -66,6 +67,24 @@ fn a_crate_outside_the_repository_builds_and_renders_through_lensblur() {
     assert!((alpha - 1.0).abs() < 1e-3, "mean alpha {alpha}: {line}");
 
     render_stack_example_matches_the_library(&dir);
+    the_library_alone_pulls_in_no_command_line_crate(&dir);
+}
+
+/// `default-features = false` is the library without the command line: its dependency tree
+/// holds none of the CLI's crates (they cost a dependent build time and version conflicts).
+fn the_library_alone_pulls_in_no_command_line_crate(dir: &Path) {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let output = Command::new(cargo)
+        .args(["tree", "--offline", "--prefix", "none", "--edges", "normal"])
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "cargo tree: {}", String::from_utf8_lossy(&output.stderr));
+    let tree = String::from_utf8_lossy(&output.stdout);
+    assert!(tree.lines().any(|l| l.starts_with("lensblur ")), "lensblur missing from the tree:\n{tree}");
+    for crate_name in ["clap", "indicatif", "ctrlc", "anyhow"] {
+        assert!(!tree.lines().any(|l| l.starts_with(&format!("{crate_name} "))), "{crate_name} in the library's tree:\n{tree}");
+    }
 }
 
 /// `examples/render_stack.rs`, copied unchanged into the dependent crate, renders a layered

@@ -161,7 +161,7 @@ mod tests {
         let base = TraceOptions::default();
         let key = cache_key(&scene, &base);
         assert!(key.starts_with("fence-"), "{key}");
-        assert_eq!(key, cache_key(&scene, &TraceOptions { progress: Some(indicatif::ProgressBar::hidden()), ..base.clone() }));
+        assert_eq!(key, cache_key(&scene, &TraceOptions { progress: Some(crate::raytrace::RowProgress::new(|_, _| {})), ..base.clone() }));
         let variants = [
             TraceOptions { samples_per_axis: 9, ..base.clone() },
             TraceOptions { scale: 0.5, ..base.clone() },

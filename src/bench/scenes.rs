@@ -6,7 +6,7 @@ use std::path::Path;
 use indicatif::ProgressBar;
 
 use super::gt_cache;
-use crate::raytrace::{builtin_scenes, render_ground_truth, single_image_scenes, GroundTruth, Scene, TraceOptions};
+use crate::raytrace::{builtin_scenes, render_ground_truth, single_image_scenes, GroundTruth, RowProgress, Scene, TraceOptions};
 use crate::{Error, Result};
 
 /// The sampling of the benchmark's ground truth. Rounds of 8 x 8 stratified rays until the
@@ -17,7 +17,7 @@ use crate::{Error, Result};
 /// the full settings at half scale 47 to 52 and 34 to 40 dB (it was 15 to 32 dB with the
 /// former 4 x 4 rays of `--quick`). `--quick`: half the native resolution (CoC radii halve
 /// too), a looser tolerance and fewer rounds.
-pub fn trace_options(quick: bool, progress: Option<ProgressBar>) -> TraceOptions {
+pub fn trace_options(quick: bool, progress: Option<RowProgress>) -> TraceOptions {
     let defaults = TraceOptions::default();
     if quick {
         TraceOptions { scale: 0.5, max_rounds: 24, tolerance: 0.003, progress, ..defaults }
@@ -43,7 +43,13 @@ fn truths_of(scenes: Vec<Scene>, names: &[String], quick: bool, progress: Option
         let known: Vec<&str> = scenes.iter().map(|s| s.name.as_str()).collect();
         return Err(Error::param(format!("no built-in scene '{unknown}'; available: {}", known.join(", "))));
     }
-    let options = trace_options(quick, progress);
+    let rows = progress.clone().map(|bar| {
+        RowProgress::new(move |done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        })
+    });
+    let options = trace_options(quick, rows);
     scenes
         .iter()
         .filter(|s| names.is_empty() || names.contains(&s.name))
@@ -53,7 +59,7 @@ fn truths_of(scenes: Vec<Scene>, names: &[String], quick: bool, progress: Option
                 return Ok(truth);
             }
             // The tracer sets the bar's length per image; restart it for each scene.
-            if let Some(bar) = &options.progress {
+            if let Some(bar) = &progress {
                 bar.reset();
                 bar.set_message(scene.name.clone());
             }

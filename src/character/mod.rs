@@ -11,6 +11,7 @@ pub mod debug;
 pub mod focus;
 pub mod kernels;
 pub mod remap;
+#[cfg(feature = "bench")]
 pub mod sheet;
 pub mod vignette;
 

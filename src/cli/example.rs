@@ -19,6 +19,7 @@ use lensblur::stack::{
 use lensblur::vk::Context;
 
 use super::camera_args::CameraArgs;
+use super::progress;
 
 #[derive(clap::Args)]
 #[command(
@@ -59,7 +60,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let options = TraceOptions {
         samples_per_axis: args.samples,
         scale: args.scale,
-        progress: Some(bar.clone()),
+        progress: Some(progress::rows(&bar)),
         ..TraceOptions::default()
     };
     let start = Instant::now();

@@ -4,6 +4,7 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
+use lensblur::raytrace::RowProgress;
 
 /// A ticking spinner, or a hidden one when stdout carries a JSON report.
 pub fn spinner(hidden: bool) -> ProgressBar {
@@ -107,4 +108,13 @@ mod tests {
         progress(1, 2);
         assert!(bar.message().starts_with("drbokeh (pass 2/2): tile 1/2"), "{}", bar.message());
     }
+}
+
+/// The ray tracer's row reports drawn on `bar`.
+pub fn rows(bar: &ProgressBar) -> RowProgress {
+    let bar = bar.clone();
+    RowProgress::new(move |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })
 }

@@ -7,6 +7,8 @@ use anyhow::{bail, Context};
 use indicatif::{ProgressBar, ProgressStyle};
 use lensblur::raytrace::{builtin_scene, builtin_scenes, output, render_ground_truth, Scene, TraceOptions};
 
+use super::progress;
+
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  lensblur raytrace --list\n  lensblur raytrace fence -o out/fence\n  lensblur raytrace all -o out/truth --samples 8 --scale 0.5\n\n\
 Writes pinhole.exr (R,G,B,A,Z), layers.exr (<Layer>.Combined.R/G/B/A + <Layer>.Depth.Z, Z = 1e10 where empty),\n\
@@ -58,7 +60,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn render_one(scene: &Scene, args: &Args, dir: PathBuf) -> anyhow::Result<()> {
     let bar = ProgressBar::new(0).with_message(scene.name.clone());
     bar.set_style(ProgressStyle::with_template("{msg:>14} [{bar:40}] {pos}/{len} rows {elapsed}").unwrap_or_else(|_| ProgressStyle::default_bar()));
-    let options = TraceOptions { samples_per_axis: args.samples, scale: args.scale, seed: args.seed, min_rounds: args.min_rounds, max_rounds: args.max_rounds, tolerance: args.tolerance, progress: Some(bar.clone()) };
+    let options = TraceOptions { samples_per_axis: args.samples, scale: args.scale, seed: args.seed, min_rounds: args.min_rounds, max_rounds: args.max_rounds, tolerance: args.tolerance, progress: Some(progress::rows(&bar)) };
     let start = Instant::now();
     let truth = render_ground_truth(scene, &options).with_context(|| format!("rendering scene '{}'", scene.name))?;
     bar.finish_and_clear();
@@ -87,3 +89,4 @@ fn list(scale: f32) -> anyhow::Result<()> {
     }
     Ok(())
 }
+

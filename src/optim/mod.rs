@@ -9,11 +9,13 @@
 //! - [`experiment`]: the benchmark of the paper's Tables 2-3 on our ray-traced scenes.
 pub mod adam;
 pub mod depth_error;
+#[cfg(feature = "raytrace")]
 pub mod experiment;
 pub mod fit;
 pub mod loss;
 
 pub use adam::Adam;
 pub use depth_error::{coc_error, depth_error, DepthError};
+#[cfg(feature = "raytrace")]
 pub use experiment::{experiment_truths, fit_scene, format_results, run_experiment, ExperimentOptions, SceneResult};
 pub use fit::{fit_depth, FitOptions, FitResult};

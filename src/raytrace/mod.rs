@@ -20,7 +20,7 @@ mod trace;
 pub use render::{render_ground_truth, EMPTY_DEPTH};
 pub use scene::{Scene, Surface, ZPass};
 pub use scenes::{builtin_scene, builtin_scenes, single_image_scenes};
-pub use trace::TraceOptions;
+pub use trace::{RowProgress, TraceOptions};
 
 use crate::camera::{CocModel, PhysicalCamera};
 use crate::image::Image;

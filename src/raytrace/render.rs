@@ -32,15 +32,16 @@ pub fn render_ground_truth(scene: &Scene, options: &TraceOptions) -> Result<Grou
     let (width, height) = scene.size(options.scale);
     let coc = CocModel::from_physical(&scene.camera, width)?;
     let view = View::new(scene, width, height);
-    if let Some(bar) = &options.progress {
-        bar.set_length(height as u64);
+    let finished = std::sync::atomic::AtomicUsize::new(0);
+    if let Some(progress) = &options.progress {
+        (progress.0)(0, height);
     }
     let rows: Vec<Row> = (0..height)
         .into_par_iter()
         .map(|y| {
             let row = render_row(scene, options, &view, y);
-            if let Some(bar) = &options.progress {
-                bar.inc(1);
+            if let Some(progress) = &options.progress {
+                (progress.0)(finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, height);
             }
             row
         })

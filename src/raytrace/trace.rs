@@ -9,7 +9,7 @@
 //! through a disk of radius `f_px R |1/z - 1/z_f|` pixels around `p`, i.e. a point at depth z
 //! spreads into a CoC of radius `K |1/z - 1/z_f|` with
 //! `K = R f_px = (f / 2N) (f / sensor_width) W`, the camera model's K.
-use indicatif::ProgressBar;
+use std::sync::Arc;
 
 use super::sampling::{PixelSamples, Rng};
 use super::scene::{Scene, Surface, MAX_SURFACES};
@@ -35,8 +35,25 @@ pub struct TraceOptions {
     /// Target standard error of a defocused pixel in display units (sRGB-encoded, clipped
     /// to [0, 1], the scale the metrics use); 0.002 is half an 8-bit step.
     pub tolerance: f32,
-    /// Advanced by one per finished image row.
-    pub progress: Option<ProgressBar>,
+    /// Told as image rows finish.
+    pub progress: Option<RowProgress>,
+}
+
+/// Called with (rows finished, rows in all) from the tracer's worker threads: a progress bar,
+/// a log line, a farm's task status; the library draws nothing itself.
+#[derive(Clone)]
+pub struct RowProgress(pub Arc<dyn Fn(usize, usize) + Send + Sync>);
+
+impl RowProgress {
+    pub fn new(report: impl Fn(usize, usize) + Send + Sync + 'static) -> Self {
+        Self(Arc::new(report))
+    }
+}
+
+impl std::fmt::Debug for RowProgress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("RowProgress")
+    }
 }
 
 impl Default for TraceOptions {
