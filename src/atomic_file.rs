@@ -123,7 +123,7 @@ mod tests {
         let out = dir.join("out.bin");
         let result = write_atomically(&out, |w| {
             w.write_all(b"half").map_err(|e| Error::Io { path: out.clone(), source: e })?;
-            Err(Error::param("encoder failed"))
+            Err(Error::internal("encoder failed"))
         });
         assert!(result.is_err());
         assert!(listing(&dir).is_empty(), "{:?}", listing(&dir));

@@ -1,5 +1,12 @@
 //! The library's one error type. The CLI adds `anyhow` context on top of it.
 //!
+//! A caller can match on what went wrong: the device ([`Error::Vulkan`], [`Error::NoVulkan`],
+//! [`Error::OutOfDeviceMemory`], ...), a file ([`Error::Input`], [`Error::Io`]), a value it
+//! passed ([`Error::InvalidParameter`] names which), data that cannot be used as handed over
+//! ([`Error::Data`]: sizes that do not match, an empty stack), the camera
+//! ([`Error::MissingCamera`], [`Error::InvalidCamera`]), an operation that does not apply
+//! ([`Error::Unsupported`]), or a bug of ours ([`Error::Internal`]).
+//!
 //! A variant that wraps another error returns it from `source()` and leaves it out of its own
 //! message: the CLI prints the whole chain (`{:#}`), so a cause named in both places would be
 //! printed twice (`x.exr: No such file or directory: No such file or directory`).
@@ -25,8 +32,14 @@ pub enum Error {
     OutOfDeviceMemory { tile: usize, source: Box<Error> },
     #[error("{path}: {message}")]
     Input { path: PathBuf, message: String },
-    #[error("invalid parameter: {0}")]
-    Parameter(String),
+    /// A value the caller passed is out of range or malformed; `parameter` names it (`aperture`,
+    /// `frame range`, `vdslr settings`, ...) and the message says what is accepted.
+    #[error("{message}")]
+    InvalidParameter { parameter: &'static str, message: String },
+    /// Data that cannot be used as handed over: sizes or lengths that do not match, an empty
+    /// stack, non-finite depth, nothing visible to measure.
+    #[error("{0}")]
+    Data(String),
     /// A physical camera parameter that neither the caller, the file's header nor the shot's
     /// camera file gives; `parameter` is its key (`focal-length`, `fstop`, `focus-distance`).
     #[error(
@@ -41,6 +54,10 @@ pub enum Error {
     /// The operation does not apply to this input or method (the message says why).
     #[error("{0}")]
     Unsupported(String),
+    /// A broken internal invariant (a shader's bindings, a buffer's size): a bug in lensblur,
+    /// not in what the caller passed.
+    #[error("internal error (a bug in lensblur; please report it): {0}")]
+    Internal(String),
     /// The I/O error is the `source()`; the message names the file only (see the module note).
     #[error("{path}")]
     Io { path: PathBuf, source: std::io::Error },
@@ -60,8 +77,17 @@ fn vulkan_hint(result: ash::vk::Result) -> &'static str {
 }
 
 impl Error {
-    pub fn param(message: impl Into<String>) -> Self {
-        Error::Parameter(message.into())
+    pub fn invalid(parameter: &'static str, message: impl Into<String>) -> Self {
+        Error::InvalidParameter { parameter, message: message.into() }
+    }
+    pub fn data(message: impl Into<String>) -> Self {
+        Error::Data(message.into())
+    }
+    pub fn unsupported(message: impl Into<String>) -> Self {
+        Error::Unsupported(message.into())
+    }
+    pub fn internal(message: impl Into<String>) -> Self {
+        Error::Internal(message.into())
     }
     pub fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
         Error::Input { path: path.into(), message: message.into() }
@@ -120,5 +146,19 @@ mod tests {
         let other = Error::Vulkan { call: "vkCreateBuffer", result: ash::vk::Result::ERROR_OUT_OF_DEVICE_MEMORY };
         assert!(!other.is_device_lost());
         assert!(!other.to_string().contains("device was lost"));
+    }
+
+    /// A caller tells a bad value it passed from bad data and from a bug by the variant.
+    #[test]
+    fn callers_can_match_what_went_wrong() {
+        let aperture = crate::camera::Aperture::parse("polygon:2").unwrap_err();
+        assert!(matches!(aperture, Error::InvalidParameter { parameter: "aperture", .. }), "{aperture:?}");
+        assert!(aperture.to_string().contains("3 to 16 blades"), "{aperture}");
+        let frames = crate::sequence::parse_frames("5-x").unwrap_err();
+        assert!(matches!(frames, Error::InvalidParameter { parameter: "frame range", .. }), "{frames:?}");
+        let layer = crate::stack::Layer { name: "a".into(), rgba: crate::image::Image::new(4, 4), disparity: vec![0.5; 16] };
+        let sizes = crate::stack::LayerStack::new(8, 4, vec![layer]).unwrap_err();
+        assert!(matches!(sizes, Error::Data(_)), "{sizes:?}");
+        assert!(Error::internal("x").to_string().contains("a bug in lensblur"));
     }
 }

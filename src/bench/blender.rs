@@ -57,7 +57,7 @@ impl BlenderDefocus {
     pub fn matching(camera: &PhysicalCamera, width: usize, height: usize, max_coc_px: f32) -> Result<Self> {
         camera.validate()?;
         if width != height {
-            return Err(Error::param("the Blender comparison maps the camera for square frames only"));
+            return Err(Error::unsupported("the Blender comparison maps the camera for square frames only"));
         }
         let w = width as f32;
         let z_scale = 1000.0 / camera.sensor_width_mm;
@@ -221,7 +221,7 @@ struct ScriptReport {
 fn run_blender(dir: &Path, rgbz: &Path, png: &Path, settings: &BlenderDefocus, repeats: usize) -> Result<(ScriptReport, f64)> {
     let script = dir.join("blender_defocus.py");
     std::fs::write(&script, SCRIPT).map_err(|e| Error::input(&script, format!("cannot write: {e}")))?;
-    let params = serde_json::to_string(settings).map_err(|e| Error::param(format!("Blender settings: {e}")))?;
+    let params = serde_json::to_string(settings).map_err(|e| Error::internal(format!("Blender settings: {e}")))?;
     let start = Instant::now();
     let out = Command::new("blender")
         .args(["-b", "--factory-startup", "--python-exit-code", "1", "--python"])

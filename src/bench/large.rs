@@ -80,7 +80,7 @@ pub fn layered_stack(
     max_coc_px: f32,
 ) -> Result<(LayerStack, Lens)> {
     if layers < 2 {
-        return Err(Error::param("the procedural stack needs at least two layers"));
+        return Err(Error::invalid("layers", "the procedural stack needs at least two layers"));
     }
     let (near, far) = (1.0f32, 0.5f32);
     let (focus_disparity, k) = match focus {

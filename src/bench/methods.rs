@@ -30,7 +30,7 @@ impl<'a> BenchCase<'a> {
     pub fn single_image(&self) -> Result<(&'a Image, &'a [f32])> {
         let image = &self.truth.pinhole;
         if self.pinhole_disparity.len() != image.pixels.len() {
-            return Err(Error::param(format!(
+            return Err(Error::data(format!(
                 "scene '{}': {} disparity values for a {}x{} pinhole image",
                 self.truth.name,
                 self.pinhole_disparity.len(),
@@ -100,7 +100,7 @@ pub fn cpu_methods() -> Vec<BenchMethod> {
 pub fn select_methods(methods: Vec<BenchMethod>, names: &[String]) -> Result<Vec<BenchMethod>> {
     if let Some(unknown) = names.iter().find(|n| !methods.iter().any(|m| m.name == n.as_str())) {
         let known: Vec<&str> = methods.iter().map(|m| m.name).collect();
-        return Err(Error::param(format!("unknown method '{unknown}' (available: {})", known.join(", "))));
+        return Err(Error::invalid("method", format!("unknown method '{unknown}' (available: {})", known.join(", "))));
     }
     Ok(methods.into_iter().filter(|m| names.is_empty() || names.iter().any(|n| n == m.name)).collect())
 }

@@ -60,7 +60,7 @@ pub fn run(scenes: &[GroundTruth], methods: &[BenchMethod]) -> Result<BenchRepor
 /// Runs every method on every scene, advancing `progress` once per pair.
 pub fn run_with_progress(scenes: &[GroundTruth], methods: &[BenchMethod], progress: &ProgressBar) -> Result<BenchReport> {
     if scenes.is_empty() || methods.is_empty() {
-        return Err(Error::param("the benchmark needs at least one scene and one method"));
+        return Err(Error::invalid("benchmark", "the benchmark needs at least one scene and one method"));
     }
     progress.set_length((scenes.len() * methods.len()) as u64);
     let (mut cases, mut renders) = (Vec::new(), Vec::new());
@@ -90,7 +90,7 @@ pub fn run_with_progress(scenes: &[GroundTruth], methods: &[BenchMethod], progre
 /// scene in the report's order, and the seconds it measured for each.
 pub fn append_external(report: &mut BenchReport, truths: &[GroundTruth], name: &'static str, input: InputKind, renders: Vec<(Image, f64)>) -> Result<()> {
     if renders.len() != report.scenes.len() || truths.len() != report.scenes.len() {
-        return Err(Error::param(format!("{name}: {} renders for {} scenes", renders.len(), report.scenes.len())));
+        return Err(Error::internal(format!("{name}: {} renders for {} scenes", renders.len(), report.scenes.len())));
     }
     for (i, ((image, seconds), truth)) in renders.into_iter().zip(truths).enumerate() {
         let metrics = compare(&image, &truth.defocused)?;

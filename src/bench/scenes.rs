@@ -41,7 +41,7 @@ pub fn single_image_truths(names: &[String], quick: bool, progress: Option<Progr
 fn truths_of(scenes: Vec<Scene>, names: &[String], quick: bool, progress: Option<ProgressBar>, cache: Option<&Path>) -> Result<Vec<GroundTruth>> {
     if let Some(unknown) = names.iter().find(|n| !scenes.iter().any(|s| &s.name == *n)) {
         let known: Vec<&str> = scenes.iter().map(|s| s.name.as_str()).collect();
-        return Err(Error::param(format!("no built-in scene '{unknown}'; available: {}", known.join(", "))));
+        return Err(Error::invalid("scene name", format!("no built-in scene '{unknown}'; available: {}", known.join(", "))));
     }
     let rows = progress.clone().map(|bar| {
         RowProgress::new(move |done, total| {

@@ -63,7 +63,7 @@ impl Layout {
 /// Builds the sheet for `scenes` and the renders kept in `report` (same order as the run).
 pub fn contact_sheet(scenes: &[GroundTruth], report: &BenchReport) -> Result<RgbImage> {
     if report.renders.len() != scenes.len() || report.renders.iter().any(|r| r.len() != report.methods.len()) {
-        return Err(Error::param("the contact sheet needs the scenes and renders of the same benchmark run"));
+        return Err(Error::data("the contact sheet needs the scenes and renders of the same benchmark run"));
     }
     let factors: Vec<usize> = scenes.iter().map(|s| s.pinhole.width.div_ceil(TILE_MAX_WIDTH).max(1)).collect();
     let layout = Layout::new(scenes, &factors, report.methods.len());

@@ -71,13 +71,13 @@ pub const CATS_EYE_SHAPE: f32 = -1.0;
 impl Aperture {
     pub fn polygon(blades: u32, rotation_deg: f32, roundness: f32) -> Result<Self> {
         if !(3..=16).contains(&blades) {
-            return Err(Error::param(format!("a polygon aperture needs 3 to 16 blades, got {blades}")));
+            return Err(Error::invalid("aperture", format!("a polygon aperture needs 3 to 16 blades, got {blades}")));
         }
         if !(0.0..=1.0).contains(&roundness) {
-            return Err(Error::param(format!("aperture roundness must be in [0, 1], got {roundness}")));
+            return Err(Error::invalid("aperture", format!("aperture roundness must be in [0, 1], got {roundness}")));
         }
         if !rotation_deg.is_finite() {
-            return Err(Error::param("aperture rotation must be finite"));
+            return Err(Error::invalid("aperture", "aperture rotation must be finite"));
         }
         // An n-gon is unchanged by a turn of 360/n degrees. Reducing here (in f64) keeps the
         // gauge's angle arithmetic in range: a huge rotation (found by fuzzing:
@@ -92,12 +92,12 @@ impl Aperture {
     /// ovals of a desqueezed anamorphic plate).
     pub fn anamorphic(squeeze: f32, rotation_deg: f32) -> Result<Self> {
         if !(squeeze.is_finite() && (1.0..=8.0).contains(&squeeze)) {
-            return Err(Error::param(format!(
+            return Err(Error::invalid("aperture", format!(
                 "anamorphic squeeze must be in [1, 8] (use rotation=90 for tall ovals), got {squeeze}"
             )));
         }
         if !rotation_deg.is_finite() {
-            return Err(Error::param("anamorphic rotation must be finite"));
+            return Err(Error::invalid("aperture", "anamorphic rotation must be finite"));
         }
         // An ellipse is unchanged by a half turn (reduced as the polygon's rotation is).
         let rotation = (rotation_deg as f64).rem_euclid(180.0).to_radians() as f32;
@@ -107,7 +107,7 @@ impl Aperture {
     /// The catadioptric aperture: the disk less a central obstruction of `inner` x its radius.
     pub fn ring(inner: f32) -> Result<Self> {
         if !(inner.is_finite() && (0.0..=0.9).contains(&inner)) {
-            return Err(Error::param(format!("ring inner radius must be in [0, 0.9], got {inner}")));
+            return Err(Error::invalid("aperture", format!("ring inner radius must be in [0, 0.9], got {inner}")));
         }
         Ok(Aperture::Ring { inner })
     }
@@ -117,7 +117,7 @@ impl Aperture {
     pub fn cats_eye(shift: [f32; 2]) -> Result<Self> {
         let length = shift[0].hypot(shift[1]);
         if !(length.is_finite() && length < 1.9) {
-            return Err(Error::param(format!("cat's-eye shift must be shorter than 1.9 aperture radii, got {length}")));
+            return Err(Error::invalid("aperture", format!("cat's-eye shift must be shorter than 1.9 aperture radii, got {length}")));
         }
         Ok(Aperture::CatsEye { shift })
     }
@@ -133,13 +133,13 @@ impl Aperture {
                 let blades = parts
                     .next()
                     .and_then(|b| b.parse::<u32>().ok())
-                    .ok_or_else(|| Error::param(format!("aperture '{spec}': expected polygon:BLADES, e.g. polygon:6")))?;
+                    .ok_or_else(|| Error::invalid("aperture", format!("aperture '{spec}': expected polygon:BLADES, e.g. polygon:6")))?;
                 let (mut rotation, mut roundness) = (0.0f32, 0.0f32);
                 for (key, value) in options(spec, parts)? {
                     match key {
                         "rotation" => rotation = value,
                         "roundness" => roundness = value,
-                        _ => return Err(Error::param(format!("aperture '{spec}': unknown option '{key}' (rotation, roundness)"))),
+                        _ => return Err(Error::invalid("aperture", format!("aperture '{spec}': unknown option '{key}' (rotation, roundness)"))),
                     }
                 }
                 Aperture::polygon(blades, rotation, roundness)
@@ -150,7 +150,7 @@ impl Aperture {
                 for (key, value) in options(spec, parts)? {
                     match key {
                         "rotation" => rotation = value,
-                        _ => return Err(Error::param(format!("aperture '{spec}': unknown option '{key}' (rotation)"))),
+                        _ => return Err(Error::invalid("aperture", format!("aperture '{spec}': unknown option '{key}' (rotation)"))),
                     }
                 }
                 Aperture::anamorphic(squeeze, rotation)
@@ -158,18 +158,18 @@ impl Aperture {
             "ring" => {
                 let inner = leading_number(spec, parts.next(), "ring:INNER, e.g. ring:0.5")?;
                 if parts.next().is_some() {
-                    return Err(Error::param(format!("aperture '{spec}': ring takes only the inner radius")));
+                    return Err(Error::invalid("aperture", format!("aperture '{spec}': ring takes only the inner radius")));
                 }
                 Aperture::ring(inner)
             }
             "image" => {
                 let path: String = parts.collect::<Vec<_>>().join(":");
                 if path.is_empty() {
-                    return Err(Error::param("aperture 'image:FILE' needs a file"));
+                    return Err(Error::invalid("aperture", "aperture 'image:FILE' needs a file"));
                 }
                 Ok(Aperture::Kernel(KernelImage::load(Path::new(&path))?))
             }
-            _ => Err(Error::param(format!(
+            _ => Err(Error::invalid("aperture", format!(
                 "unknown aperture '{spec}': use disk, polygon:BLADES[:rotation=DEG][:roundness=R], \
                  anamorphic:SQUEEZE[:rotation=DEG], ring:INNER or image:FILE"
             ))),
@@ -290,11 +290,11 @@ fn options<'a>(spec: &str, parts: impl Iterator<Item = &'a str>) -> Result<Vec<(
     parts
         .map(|option| {
             let (key, value) = option.split_once('=').ok_or_else(|| {
-                Error::param(format!("aperture '{spec}': option '{option}' is not key=value"))
+                Error::invalid("aperture", format!("aperture '{spec}': option '{option}' is not key=value"))
             })?;
             let value: f32 = value
                 .parse()
-                .map_err(|_| Error::param(format!("aperture '{spec}': '{value}' is not a number")))?;
+                .map_err(|_| Error::invalid("aperture", format!("aperture '{spec}': '{value}' is not a number")))?;
             Ok((key, value))
         })
         .collect()
@@ -303,7 +303,7 @@ fn options<'a>(spec: &str, parts: impl Iterator<Item = &'a str>) -> Result<Vec<(
 /// The number right after an aperture's name (`anamorphic:2`, `ring:0.5`).
 fn leading_number(spec: &str, part: Option<&str>, expected: &str) -> Result<f32> {
     part.and_then(|p| p.parse::<f32>().ok())
-        .ok_or_else(|| Error::param(format!("aperture '{spec}': expected {expected}")))
+        .ok_or_else(|| Error::invalid("aperture", format!("aperture '{spec}': expected {expected}")))
 }
 
 /// Gauge of a regular `n`-gon inscribed in the unit circle, blended toward the disk by
@@ -379,17 +379,17 @@ impl KernelImage {
 
     pub fn from_weights(size: usize, mut weights: Vec<f32>) -> Result<Self> {
         if size == 0 || weights.len() != size * size {
-            return Err(Error::param("kernel image must be square and non-empty"));
+            return Err(Error::invalid("aperture", "kernel image must be square and non-empty"));
         }
         let peak = weights.iter().cloned().fold(0.0f32, f32::max);
         if !(peak > 0.0 && peak.is_finite()) {
-            return Err(Error::param("kernel image is black (or not finite): the aperture would pass no light"));
+            return Err(Error::invalid("aperture", "kernel image is black (or not finite): the aperture would pass no light"));
         }
         weights.iter_mut().for_each(|w| *w = (*w / peak).max(0.0));
         let kernel = Self { size, weights };
         // Renderers sample the kernel over the CoC disk only: light in the corners never passes.
         if kernel.mean_over_disk() <= 0.0 {
-            return Err(Error::param("kernel image is black inside its inscribed circle: the aperture would pass no light"));
+            return Err(Error::invalid("aperture", "kernel image is black inside its inscribed circle: the aperture would pass no light"));
         }
         Ok(kernel)
     }

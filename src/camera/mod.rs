@@ -37,7 +37,7 @@ impl PhysicalCamera {
         ];
         for (name, value) in checks {
             if !(value.is_finite() && value > 0.0) {
-                return Err(Error::param(format!(
+                return Err(Error::invalid("camera", format!(
                     "{name} must be a positive number, got {value}"
                 )));
             }
@@ -78,12 +78,12 @@ pub struct CocModel {
 impl CocModel {
     pub fn new(k_px: f32, focus_disparity: f32) -> Result<Self> {
         if !(k_px.is_finite() && k_px >= 0.0) {
-            return Err(Error::param(format!(
+            return Err(Error::invalid("coc model", format!(
                 "blur K must be a non-negative number, got {k_px}"
             )));
         }
         if !focus_disparity.is_finite() {
-            return Err(Error::param(format!(
+            return Err(Error::invalid("coc model", format!(
                 "focus disparity must be finite, got {focus_disparity}"
             )));
         }
@@ -127,10 +127,10 @@ impl CocModel {
         }
         // Plain notation for everyday values, exponents for the absurd ones that land here.
         let show = |v: f32| if v == 0.0 || (1e-3..1e6).contains(&v.abs()) { format!("{v}") } else { format!("{v:e}") };
-        Err(Error::param(format!(
+        Err(Error::data(format!(
             "a circle of confusion of {r:.3e} px (disparity {}, K = {} px per unit, focus disparity {}) is larger than \
              the {MAX_COC_RADIUS_PX} px the renderers handle; check the depth's scene units and the camera \
-             (--focus-distance, --blur), or limit it with --max-blur",
+             (focus distance, K), or limit it (BlurRemap's maximum; --max-blur on the command line)",
             show(d),
             show(self.k_px),
             show(self.focus_disparity)

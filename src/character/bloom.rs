@@ -25,7 +25,7 @@ impl Bloom {
     /// Parses `THRESHOLD[:GAIN]`.
     pub fn parse(spec: &str) -> Result<Self> {
         let number = |s: &str| {
-            s.trim().parse::<f32>().map_err(|_| Error::param(format!("bloom '{spec}': '{s}' is not a number")))
+            s.trim().parse::<f32>().map_err(|_| Error::invalid("bloom", format!("bloom '{spec}': '{s}' is not a number")))
         };
         let bloom = match spec.split_once(':') {
             Some((t, g)) => Bloom { threshold: number(t)?, gain: number(g)? },
@@ -37,10 +37,10 @@ impl Bloom {
 
     pub fn validate(&self) -> Result<()> {
         if !(self.threshold.is_finite() && self.threshold >= 0.0) {
-            return Err(Error::param(format!("bloom threshold must be a non-negative number, got {}", self.threshold)));
+            return Err(Error::invalid("bloom", format!("bloom threshold must be a non-negative number, got {}", self.threshold)));
         }
         if !(self.gain.is_finite() && self.gain >= 1.0) {
-            return Err(Error::param(format!("bloom gain must be a number >= 1, got {}", self.gain)));
+            return Err(Error::invalid("bloom", format!("bloom gain must be a number >= 1, got {}", self.gain)));
         }
         Ok(())
     }

@@ -12,7 +12,7 @@ pub fn parse_offsets(spec: &str) -> Result<[f32; 3]> {
     let values: Vec<f32> = spec.split(',').filter_map(|v| v.trim().parse().ok()).collect();
     match values[..] {
         [r, g, b] if values.iter().all(|v| v.is_finite()) && spec.split(',').count() == 3 => Ok([r, g, b]),
-        _ => Err(Error::param(format!("chromatic '{spec}': expected R,G,B focus offsets in CoC pixels, e.g. 1.5,0,-1.5"))),
+        _ => Err(Error::invalid("chromatic", format!("chromatic '{spec}': expected R,G,B focus offsets in CoC pixels, e.g. 1.5,0,-1.5"))),
     }
 }
 
@@ -34,7 +34,7 @@ pub fn render_chromatic(
     offsets_px: [f32; 3],
 ) -> Result<Image> {
     if offsets_px.iter().any(|o| !o.is_finite()) {
-        return Err(Error::param("chromatic focus offsets must be finite"));
+        return Err(Error::invalid("chromatic", "chromatic focus offsets must be finite"));
     }
     if chromatic_renders(lens, offsets_px) == 1 {
         return render(stack, lens);
@@ -47,9 +47,9 @@ pub fn render_chromatic(
         // that far, so say which flag cannot work (before any render) instead of rendering
         // a meaningless lens.
         if !lens.coc.focus_disparity.is_finite() {
-            return Err(Error::param(format!(
+            return Err(Error::invalid("chromatic", format!(
                 "chromatic focus offset of {offset} px needs an infinite focus shift at K = {:e} px per unit; \
-                 use smaller --chromatic offsets or a larger blur",
+                 use smaller chromatic offsets (--chromatic on the command line) or a larger blur",
                 lens.coc.k_px
             )));
         }

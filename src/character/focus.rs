@@ -9,7 +9,7 @@ const COVERING_ALPHA: f32 = 0.5;
 /// flattened stack's disparity there (a pixel only partly covered by every layer).
 pub fn focus_disparity_at(stack: &LayerStack, x: usize, y: usize) -> Result<f32> {
     if x >= stack.width || y >= stack.height {
-        return Err(Error::param(format!(
+        return Err(Error::invalid("focus pixel", format!(
             "focus pixel ({x}, {y}) is outside the {}x{} image",
             stack.width, stack.height
         )));
@@ -25,5 +25,5 @@ pub fn focus_disparity_at(stack: &LayerStack, x: usize, y: usize) -> Result<f32>
 /// Parses the CLI form `X,Y` (pixels, origin top-left).
 pub fn parse_pixel(spec: &str) -> Result<[usize; 2]> {
     let parsed = spec.split_once(',').and_then(|(x, y)| Some([x.trim().parse().ok()?, y.trim().parse().ok()?]));
-    parsed.ok_or_else(|| Error::param(format!("focus pixel '{spec}': expected X,Y in pixels, e.g. 640,360")))
+    parsed.ok_or_else(|| Error::invalid("focus pixel", format!("focus pixel '{spec}': expected X,Y in pixels, e.g. 640,360")))
 }

@@ -74,7 +74,7 @@ fn centroid(mask: &dyn Fn(f32, f32) -> f32) -> Result<[f32; 2]> {
         }
     }
     if sw <= 0.0 {
-        return Err(Error::param("cat's-eye vignetting is so strong that no light passes the aperture"));
+        return Err(Error::invalid("cats-eye", "cat's-eye vignetting is so strong that no light passes the aperture"));
     }
     Ok([(su / sw) as f32, (sv / sw) as f32])
 }

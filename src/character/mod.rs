@@ -114,7 +114,7 @@ impl Character {
             return Ok(());
         }
         let field = if tilt { "--tilt-shift" } else { "--focal-planes" };
-        Err(Error::param(format!(
+        Err(Error::invalid("lens character", format!(
             "{} cannot be combined with {field}: they act on one focal plane through the frame centre; drop one of them",
             conflicts.join(", ")
         )))

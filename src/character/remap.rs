@@ -29,12 +29,12 @@ impl BlurRemap {
     pub fn validate(&self) -> Result<()> {
         for (name, m) in [("near blur multiplier", self.near), ("far blur multiplier", self.far)] {
             if !(m.is_finite() && m >= 0.0) {
-                return Err(Error::param(format!("{name} must be a non-negative number, got {m}")));
+                return Err(Error::invalid("blur remap", format!("{name} must be a non-negative number, got {m}")));
             }
         }
         match self.max_px {
             Some(r) if !(r.is_finite() && r >= 0.0) => {
-                Err(Error::param(format!("maximum blur must be a non-negative number of pixels, got {r}")))
+                Err(Error::invalid("blur remap", format!("maximum blur must be a non-negative number of pixels, got {r}")))
             }
             _ => Ok(()),
         }

@@ -40,10 +40,10 @@ impl CatsEye {
     pub fn validate(&self) -> Result<()> {
         // Two unit disks shifted by 2 radii share no area: no light would pass at a corner.
         if !(self.strength.is_finite() && (0.0..=1.5).contains(&self.strength)) {
-            return Err(Error::param(format!("cat's-eye strength must be in [0, 1.5], got {}", self.strength)));
+            return Err(Error::invalid("cats-eye", format!("cat's-eye strength must be in [0, 1.5], got {}", self.strength)));
         }
         if self.grid < 2 {
-            return Err(Error::param("cat's-eye grid needs at least 2 nodes per side"));
+            return Err(Error::invalid("cats-eye", "cat's-eye grid needs at least 2 nodes per side"));
         }
         Ok(())
     }

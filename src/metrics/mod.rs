@@ -48,7 +48,7 @@ impl Metrics {
 /// Scores `result` against `truth` (both linear premultiplied RGBA of the same size).
 pub fn compare(result: &Image, truth: &Image) -> Result<Metrics> {
     if (result.width, result.height) != (truth.width, truth.height) {
-        return Err(Error::param(format!(
+        return Err(Error::data(format!(
             "cannot compare a {}x{} result with a {}x{} ground truth",
             result.width, result.height, truth.width, truth.height
         )));

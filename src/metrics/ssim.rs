@@ -12,7 +12,7 @@ const C2: f64 = 0.03 * 0.03;
 /// Mean SSIM over RGB channels; images must be at least `WINDOW` pixels on each side.
 pub fn ssim(result: &DisplayImage, truth: &DisplayImage) -> Result<f64> {
     if result.width < WINDOW || result.height < WINDOW {
-        return Err(Error::param(format!(
+        return Err(Error::data(format!(
             "SSIM needs images of at least {WINDOW}x{WINDOW} pixels, got {}x{}",
             result.width, result.height
         )));

@@ -21,7 +21,7 @@ impl Adam {
     /// One step: `params -= lr * m_hat / (sqrt(v_hat) + eps)`.
     pub fn step(&mut self, params: &mut [f64], grads: &[f64]) -> Result<()> {
         if params.len() != self.m.len() || grads.len() != self.m.len() {
-            return Err(Error::param(format!("Adam holds {} parameters, got {} and {} gradients", self.m.len(), params.len(), grads.len())));
+            return Err(Error::data(format!("Adam holds {} parameters, got {} and {} gradients", self.m.len(), params.len(), grads.len())));
         }
         self.t += 1;
         let (c1, c2) = (1.0 - self.beta1.powi(self.t), 1.0 - self.beta2.powi(self.t));

@@ -55,7 +55,7 @@ pub fn visible_mean_disparity(stack: &LayerStack, truth: &LayerStack) -> Vec<f64
 /// Compares two stacks with the same layers (front to back); coverage comes from `truth`.
 pub fn depth_error(fitted: &LayerStack, truth: &LayerStack) -> Result<DepthError> {
     if fitted.layers.len() != truth.layers.len() || (fitted.width, fitted.height) != (truth.width, truth.height) {
-        return Err(Error::param("depth error needs two stacks with the same layers and size"));
+        return Err(Error::data("depth error needs two stacks with the same layers and size"));
     }
     let mut pairs: Vec<(f64, f64)> = Vec::new();
     for ((f, t), mask) in fitted.layers.iter().zip(&truth.layers).zip(visible(truth)) {
@@ -63,7 +63,7 @@ pub fn depth_error(fitted: &LayerStack, truth: &LayerStack) -> Result<DepthError
         pairs.extend(shown.map(|((&a, &b), _)| (a as f64, b as f64)));
     }
     if pairs.is_empty() {
-        return Err(Error::param("depth error: no layer pixel is more than half visible"));
+        return Err(Error::data("depth error: no layer pixel is more than half visible"));
     }
     let (dot, norm) = pairs.iter().fold((0.0, 0.0), |(d, n), (a, b)| (d + a * b, n + a * a));
     let scale = if norm > 0.0 { dot / norm } else { 1.0 };
@@ -80,7 +80,7 @@ pub fn depth_error(fitted: &LayerStack, truth: &LayerStack) -> Result<DepthError
 /// blur scores well here and badly in [`depth_error`].
 pub fn coc_error(fitted: &LayerStack, fitted_coc: &CocModel, truth: &LayerStack, true_coc: &CocModel) -> Result<f64> {
     if fitted.layers.len() != truth.layers.len() || (fitted.width, fitted.height) != (truth.width, truth.height) {
-        return Err(Error::param("CoC error needs two stacks with the same layers and size"));
+        return Err(Error::data("CoC error needs two stacks with the same layers and size"));
     }
     let (mut sum, mut count) = (0.0f64, 0usize);
     for ((f, t), mask) in fitted.layers.iter().zip(&truth.layers).zip(visible(truth)) {
@@ -90,7 +90,7 @@ pub fn coc_error(fitted: &LayerStack, fitted_coc: &CocModel, truth: &LayerStack,
         }
     }
     if count == 0 {
-        return Err(Error::param("CoC error: no layer pixel is more than half visible"));
+        return Err(Error::data("CoC error: no layer pixel is more than half visible"));
     }
     Ok(sum / count as f64)
 }

@@ -117,7 +117,7 @@ fn free_layers(stack: &LayerStack, fixed: &[String]) -> Result<Vec<bool>> {
     for pattern in fixed {
         if !stack.layers.iter().any(|l| glob_match(pattern, &l.name)) {
             let names: Vec<&str> = stack.layers.iter().map(|l| l.name.as_str()).collect();
-            return Err(Error::param(format!(
+            return Err(Error::invalid("fixed layers", format!(
                 "no layer matches the fixed-layer pattern '{pattern}'; layers: {}",
                 names.join(", ")
             )));
@@ -137,14 +137,14 @@ pub fn fit_depth(
     mut progress: impl FnMut(usize, f64),
 ) -> Result<FitResult> {
     if (target.width, target.height) != (stack.width, stack.height) {
-        return Err(Error::param(format!("target is {}x{} but the stack is {}x{}", target.width, target.height, stack.width, stack.height)));
+        return Err(Error::data(format!("target is {}x{} but the stack is {}x{}", target.width, target.height, stack.width, stack.height)));
     }
     if !(options.learning_rate.is_finite() && options.learning_rate > 0.0) {
-        return Err(Error::param(format!("learning rate must be positive, got {}", options.learning_rate)));
+        return Err(Error::invalid("learning rate", format!("learning rate must be positive, got {}", options.learning_rate)));
     }
     let free = free_layers(stack, &options.fixed_layers)?;
     if !options.fit_focus && !free.contains(&true) {
-        return Err(Error::param("every layer's depth is fixed and the focus is not fitted: nothing to fit"));
+        return Err(Error::invalid("fit", "every layer's depth is fixed and the focus is not fitted: nothing to fit"));
     }
     let mut params = Params::new(stack, lens, free, options.fit_focus);
     let mut adam = Adam::new(params.values.len(), options.learning_rate);
@@ -167,7 +167,7 @@ pub fn fit_depth(
         let g = parameter_gradient(&params, &grads, &loss.grad_disparity)?;
         adam.step(&mut params.values, &g)?;
     }
-    let (_, stack, lens, render) = best.ok_or_else(|| Error::param("no iterate was evaluated"))?;
+    let (_, stack, lens, render) = best.ok_or_else(|| Error::internal("no iterate was evaluated"))?;
     Ok(FitResult { stack, lens, render, history })
 }
 
@@ -176,12 +176,12 @@ fn parameter_gradient(params: &Params, grads: &crate::render::grad::StackGradien
     let mut out = Vec::with_capacity(params.values.len());
     let mut theta = params.values.iter();
     if grads.layers.len() != smooth.len() {
-        return Err(Error::param(format!("renderer returned gradients for {} of {} layers", grads.layers.len(), smooth.len())));
+        return Err(Error::internal(format!("renderer returned gradients for {} of {} layers", grads.layers.len(), smooth.len())));
     }
     let free_layers = grads.layers.iter().zip(smooth).zip(&params.free).filter(|(_, &free)| free);
     for ((render, smooth), _) in free_layers {
         if render.disparity.len() != smooth.len() {
-            return Err(Error::param("renderer returned a disparity gradient of the wrong size"));
+            return Err(Error::internal("renderer returned a disparity gradient of the wrong size"));
         }
         for ((&g, &s), &t) in render.disparity.iter().zip(smooth).zip(&mut theta) {
             out.push((g as f64 + s) * params.scale * sigmoid(t));

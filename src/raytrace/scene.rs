@@ -106,14 +106,14 @@ impl Scene {
     pub fn validate(&self) -> Result<()> {
         self.camera.validate()?;
         if self.surfaces.is_empty() || self.surfaces.len() > MAX_SURFACES {
-            return Err(Error::param(format!("scene '{}' needs 1 to {MAX_SURFACES} surfaces", self.name)));
+            return Err(Error::invalid("scene", format!("scene '{}' needs 1 to {MAX_SURFACES} surfaces", self.name)));
         }
         if self.width == 0 || self.height == 0 {
-            return Err(Error::param(format!("scene '{}' has an empty image size", self.name)));
+            return Err(Error::invalid("scene", format!("scene '{}' has an empty image size", self.name)));
         }
         for s in &self.surfaces {
             if !(s.z0 > 0.0 && s.z0.is_finite() && s.texture_scale > 0.0) {
-                return Err(Error::param(format!("surface '{}' must lie in front of the camera", s.name)));
+                return Err(Error::invalid("scene", format!("surface '{}' must lie in front of the camera", s.name)));
             }
         }
         Ok(())

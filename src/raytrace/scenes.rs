@@ -63,7 +63,7 @@ pub fn builtin_scene(name: &str) -> Result<Scene> {
     scenes
         .into_iter()
         .find(|s| s.name == name)
-        .ok_or_else(|| Error::param(format!("no built-in scene '{name}'; available: {}", names.join(", "))))
+        .ok_or_else(|| Error::invalid("scene name", format!("no built-in scene '{name}'; available: {}", names.join(", "))))
 }
 
 fn dusk_photo(seed: u32) -> TextureRef {

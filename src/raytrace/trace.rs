@@ -66,16 +66,16 @@ impl Default for TraceOptions {
 impl TraceOptions {
     pub fn validate(&self) -> Result<()> {
         if !(1..=64).contains(&self.samples_per_axis) {
-            return Err(Error::param(format!("samples per axis must be 1 to 64, got {}", self.samples_per_axis)));
+            return Err(Error::invalid("trace options", format!("samples per axis must be 1 to 64, got {}", self.samples_per_axis)));
         }
         if !(1..=1024).contains(&self.max_rounds) || !(1..=1024).contains(&self.min_rounds) {
-            return Err(Error::param(format!("rounds must be 1 to 1024, got {} to {}", self.min_rounds, self.max_rounds)));
+            return Err(Error::invalid("trace options", format!("rounds must be 1 to 1024, got {} to {}", self.min_rounds, self.max_rounds)));
         }
         if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
-            return Err(Error::param(format!("tolerance must be a non-negative number, got {}", self.tolerance)));
+            return Err(Error::invalid("trace options", format!("tolerance must be a non-negative number, got {}", self.tolerance)));
         }
         if !(self.scale.is_finite() && self.scale > 0.0 && self.scale <= 16.0) {
-            return Err(Error::param(format!("scale must be in (0, 16], got {}", self.scale)));
+            return Err(Error::invalid("trace options", format!("scale must be in (0, 16], got {}", self.scale)));
         }
         Ok(())
     }

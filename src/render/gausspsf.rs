@@ -75,22 +75,22 @@ struct Splat {
 impl GaussPsf {
     fn validate(&self, stack: &LayerStack) -> Result<()> {
         if !(self.sigma_per_radius.is_finite() && self.sigma_per_radius > 0.0) {
-            return Err(Error::param(format!("GaussPSF sigma per radius must be positive, got {}", self.sigma_per_radius)));
+            return Err(Error::invalid("gausspsf settings", format!("GaussPSF sigma per radius must be positive, got {}", self.sigma_per_radius)));
         }
         if !(self.sigma_floor.is_finite() && self.sigma_floor > 0.0) {
-            return Err(Error::param(format!(
+            return Err(Error::invalid("gausspsf settings", format!(
                 "GaussPSF sigma floor must be positive, got {}",
                 self.sigma_floor
             )));
         }
         if !(self.truncation.is_finite() && self.truncation > 0.0) {
-            return Err(Error::param(format!(
+            return Err(Error::invalid("gausspsf settings", format!(
                 "GaussPSF truncation must be positive, got {}",
                 self.truncation
             )));
         }
         if stack.layers.is_empty() || stack.width == 0 || stack.height == 0 {
-            return Err(Error::param("GaussPSF needs a non-empty stack"));
+            return Err(Error::data("GaussPSF needs a non-empty stack"));
         }
         Ok(())
     }
@@ -343,7 +343,7 @@ impl Differentiable for GaussPsf {
         grad_output: &Image,
     ) -> Result<StackGradients> {
         if (grad_output.width, grad_output.height) != (stack.width, stack.height) {
-            return Err(Error::param(format!(
+            return Err(Error::data(format!(
                 "output gradient is {}x{} but the stack is {}x{}",
                 grad_output.width, grad_output.height, stack.width, stack.height
             )));

@@ -33,10 +33,10 @@ impl LensSamples {
     /// At least `samples` slots per set (rounded up to a square), `patterns` sets.
     pub fn new(aperture: &Aperture, samples: u32, patterns: u32, seed: u32) -> Result<Self> {
         if samples == 0 || samples > 4096 {
-            return Err(Error::param(format!("lens samples must be in 1..=4096, got {samples}")));
+            return Err(Error::invalid("lens samples", format!("lens samples must be in 1..=4096, got {samples}")));
         }
         if patterns == 0 || patterns > 1024 {
-            return Err(Error::param(format!("lens sample patterns must be in 1..=1024, got {patterns}")));
+            return Err(Error::invalid("lens samples", format!("lens sample patterns must be in 1..=1024, got {patterns}")));
         }
         let n = (samples as f64).sqrt().ceil() as usize;
         let mut rng = SplitMix64(u64::from(seed) ^ 0x9e37_79b9_7f4a_7c15);

@@ -60,7 +60,7 @@ impl<'a> MethodInput<'a> {
     pub fn layers(self) -> Result<&'a LayerStack> {
         match self {
             MethodInput::Layers(stack) => Ok(stack),
-            MethodInput::SingleImage { .. } => Err(Error::param("a layered method was handed a single image".to_string())),
+            MethodInput::SingleImage { .. } => Err(Error::unsupported("a layered method was handed a single image".to_string())),
         }
     }
 
@@ -68,7 +68,7 @@ impl<'a> MethodInput<'a> {
     pub fn single_image(self) -> Result<(&'a Image, &'a [f32])> {
         match self {
             MethodInput::SingleImage { image, disparity } => Ok((image, disparity)),
-            MethodInput::Layers(_) => Err(Error::param("a single-image method was handed layers".to_string())),
+            MethodInput::Layers(_) => Err(Error::unsupported("a single-image method was handed layers".to_string())),
         }
     }
 }
@@ -228,7 +228,7 @@ impl FromStr for Method {
     fn from_str(s: &str) -> Result<Self> {
         Method::ALL.iter().copied().find(|m| m.name() == s).ok_or_else(|| {
             let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
-            Error::param(format!("unknown method '{s}' (available: {})", names.join(", ")))
+            Error::invalid("method", format!("unknown method '{s}' (available: {})", names.join(", ")))
         })
     }
 }

@@ -13,7 +13,7 @@ pub const MAX_FRAMES: usize = 1_000_000;
 /// refuses overlapping ranges), as is an empty expression.
 pub fn parse_frames(expression: &str) -> Result<Vec<i64>> {
     let invalid = |why: String| {
-        Error::param(format!(
+        Error::invalid("frame range", format!(
             "frame range '{expression}': {why} (expected e.g. 1001-1100, 1-99:2, 1,5,9 or 1-10,20-30:5)"
         ))
     };

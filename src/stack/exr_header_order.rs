@@ -11,7 +11,7 @@ const MULTIPART_BIT: u32 = 0x1000;
 
 /// Sorts the attributes of every header of the EXR file in `bytes` by name, in place.
 pub fn sort_header_attributes(bytes: &mut [u8]) -> Result<()> {
-    let malformed = |what: &str| Error::param(format!("cannot reorder the EXR header: {what}"));
+    let malformed = |what: &str| Error::data(format!("cannot reorder the EXR header: {what}"));
     let version = bytes.get(4..8).ok_or_else(|| malformed("file shorter than its version field"))?;
     let multipart = u32::from_le_bytes([version[0], version[1], version[2], version[3]]) & MULTIPART_BIT != 0;
     let mut at = 8;

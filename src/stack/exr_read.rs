@@ -176,7 +176,7 @@ pub(super) fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
         return Err(Error::input(
             path,
             "not an OpenEXR file (missing EXR magic number; empty or another format?); lensblur reads \
-             layered EXRs, and PNG/JPEG images with their depth image (--depth DEPTH.png)",
+             layered EXRs, and PNG/JPEG images with their depth image (InputOptions::depth_image; --depth DEPTH.png on the command line)",
         ));
     }
     let meta = MetaData::read_from_file(path, false).map_err(|e| {
@@ -307,7 +307,7 @@ fn select<'c>(path: &Path, candidates: &'c [Candidate], patterns: Option<&[Strin
     let Some(patterns) = patterns else {
         // Leaving an ambiguous layer out would render an incomplete stack without a word.
         if let Some(message) = candidates.iter().filter(|c| c.group.ambiguity.is_some()).find_map(missing_message) {
-            return Err(Error::input(path, format!("{message}; or choose the layers with --layers")));
+            return Err(Error::input(path, format!("{message}; or choose the layers (ReadOptions::layers; --layers on the command line)")));
         }
         let complete: Vec<&Candidate> = candidates.iter().filter(|c| c.group.channels.is_complete()).collect();
         if complete.is_empty() {
@@ -316,7 +316,7 @@ fn select<'c>(path: &Path, candidates: &'c [Candidate], patterns: Option<&[Strin
                 path,
                 format!(
                     "no layer has both colour and depth channels; found {}. Render a depth pass into \
-                     the file (a Z channel; Blender: View Layer > Passes > Z) or select layers with --layers",
+                     the file (a Z channel; Blender: View Layer > Passes > Z) or select layers (ReadOptions::layers; --layers on the command line)",
                     describe(&all)
                 ),
             ));
@@ -450,7 +450,7 @@ fn check_finite(path: &Path, layer: &str, channel: &str, values: &mut [f32], rep
             path,
             format!(
                 "layer '{layer}' channel '{channel}' has {bad} NaN/Inf sample(s); fix the render \
-                 (often a shader or denoiser fault) or pass --replace-nonfinite to set them to 0"
+                 (often a shader or denoiser fault) or set them to 0 (ReadOptions::replace_nonfinite; --replace-nonfinite on the command line)"
             ),
         ));
     }
@@ -591,7 +591,7 @@ fn depth_to_disparity(
             format!(
                 "layer '{layer}' channel '{channel}' has {invalid} covered pixel(s) with invalid depth \
                  (NaN, negative, or zero for --depth-kind {}); far is 1e10 or inf for z, 0 for \
-                 disparity/inverse-z; check --depth-kind or fix the depth pass",
+                 disparity/inverse-z; check the depth kind (ReadOptions::depth_kind; --depth-kind on the command line) or fix the depth pass",
                 kind.name()
             ),
         ));

@@ -43,7 +43,7 @@ pub fn replace_channels(
     let display = window_of(&image.attributes.display_window);
     for replacement in replacements {
         if replacement.values.len() != display.width * display.height {
-            return Err(Error::param(format!(
+            return Err(Error::data(format!(
                 "replacement for channel '{}' has {} samples, the display window {}",
                 replacement.channel,
                 replacement.values.len(),

@@ -93,7 +93,7 @@ fn samples(values: Vec<f32>, sample_type: SampleType) -> Result<FlatSamples> {
         SampleType::Half => Ok(FlatSamples::F16(
             values.into_iter().map(f16::from_f32).collect(),
         )),
-        SampleType::Uint => Err(Error::param(
+        SampleType::Uint => Err(Error::unsupported(
             "colour cannot be written as unsigned integers; use half or float",
         )),
     }
@@ -118,7 +118,7 @@ fn rgba_channels(
 
 fn extra_channel(extra: &ExtraChannel, pixels: usize) -> Result<AnyChannel<FlatSamples>> {
     if extra.values.len() != pixels {
-        return Err(Error::param(format!(
+        return Err(Error::data(format!(
             "pass-through channel '{}' has {} samples, the image {pixels}",
             extra.name,
             extra.values.len()
@@ -137,7 +137,7 @@ pub fn write_image(path: &Path, image: &Image, options: &WriteOptions) -> Result
     let (part, prefix, _) = match &options.output_layer {
         // EXR names are Latin-1: the exr crate panics on anything else.
         Some(name) if Text::new_or_none(name).is_none() => {
-            return Err(Error::param(format!(
+            return Err(Error::invalid("output layer name", format!(
                 "output layer name '{name}' has characters an EXR name cannot hold; use Latin-1 (e.g. ASCII)"
             )));
         }
@@ -147,7 +147,7 @@ pub fn write_image(path: &Path, image: &Image, options: &WriteOptions) -> Result
     let mut channels = rgba_channels(image, &prefix, options.sample_type)?;
     for extra in &options.extra_channels {
         if channels.iter().any(|c| c.name.to_string() == extra.name) {
-            return Err(Error::param(format!(
+            return Err(Error::data(format!(
                 "pass-through channel '{}' collides with an output channel",
                 extra.name
             )));
@@ -198,7 +198,7 @@ pub fn write_named_channels(
         .into_iter()
         .map(|(name, values)| {
             if values.len() != width * height {
-                return Err(Error::param(format!("channel '{name}' has {} samples, the image {}", values.len(), width * height)));
+                return Err(Error::data(format!("channel '{name}' has {} samples, the image {}", values.len(), width * height)));
             }
             Ok(AnyChannel::new(name.as_str(), FlatSamples::F32(values)))
         })
@@ -234,7 +234,7 @@ struct Frame {
 
 fn write_parts(path: &Path, frame: Frame, parts: Vec<PartChannels>, camera: Option<&PhysicalCamera>) -> Result<()> {
     if frame.width == 0 || frame.height == 0 {
-        return Err(Error::param("cannot write an empty image"));
+        return Err(Error::data("cannot write an empty image"));
     }
     let mut seen = std::collections::HashSet::new();
     let qualified = |part: &PartChannels, c: &AnyChannel<FlatSamples>| match &part.name {
@@ -244,7 +244,7 @@ fn write_parts(path: &Path, frame: Frame, parts: Vec<PartChannels>, camera: Opti
     if let Some(dup) =
         parts.iter().flat_map(|p| p.channels.iter().map(move |c| qualified(p, c))).find(|n| !seen.insert(n.clone()))
     {
-        return Err(Error::param(format!("{dup} would be written twice (duplicate layer names?)")));
+        return Err(Error::data(format!("{dup} would be written twice (duplicate layer names?)")));
     }
     let encoding = Encoding {
         compression: Compression::ZIP16,

@@ -41,7 +41,7 @@ pub(crate) fn check_pixel_budget(path: &std::path::Path, width: u64, height: u64
         path,
         format!(
             "the header declares {width}x{height} pixels, which exceeds the limit of {max_pixels}; if the file is \
-             genuine, raise the limit with --max-pixels"
+             genuine, raise the limit (ReadOptions::max_pixels; --max-pixels on the command line)"
         ),
     ))
 }
@@ -124,7 +124,7 @@ impl std::str::FromStr for DepthKind {
             "z" => Ok(DepthKind::Z),
             "disparity" => Ok(DepthKind::Disparity),
             "inverse-z" | "inverse_z" | "1/z" => Ok(DepthKind::InverseZ),
-            other => Err(Error::param(format!(
+            other => Err(Error::data(format!(
                 "unknown depth kind '{other}' (expected z, disparity or inverse-z)"
             ))),
         }
@@ -156,7 +156,7 @@ impl LayerStack {
                 || layer.rgba.height != height
                 || layer.disparity.len() != width * height
             {
-                return Err(Error::param(format!(
+                return Err(Error::data(format!(
                     "layer '{}' is {}x{} but the stack is {width}x{height}",
                     layer.name, layer.rgba.width, layer.rgba.height
                 )));

@@ -164,7 +164,7 @@ impl Buffer {
             None => Some(Self::create(ctx, "staging upload", bytes, MemoryLocation::CpuToGpu)?),
         };
         let target = staging.as_ref().unwrap_or(&buffer);
-        let ptr = target.mapped().ok_or_else(|| Error::param("staging memory is not host-visible"))?;
+        let ptr = target.mapped().ok_or_else(|| Error::internal("staging memory is not host-visible"))?;
         let mut written = 0;
         for item in data.into_iter().take(len) {
             // SAFETY: the mapping holds `len` items of T (`bytes` bytes, checked by `take`), is
@@ -173,7 +173,7 @@ impl Buffer {
             written += 1;
         }
         if written != len {
-            return Err(Error::param(format!("buffer '{name}': {written} items given, {len} expected")));
+            return Err(Error::internal(format!("buffer '{name}': {written} items given, {len} expected")));
         }
         if let Some(staging) = &staging {
             batch.copy(staging, &buffer, bytes)?;
@@ -234,7 +234,7 @@ impl Buffer {
             return Ok(());
         }
         let staging = Self::create(ctx, "staging upload", bytes.len() as u64, MemoryLocation::CpuToGpu)?;
-        let ptr = staging.mapped().ok_or_else(|| Error::param("staging memory is not host-visible"))?;
+        let ptr = staging.mapped().ok_or_else(|| Error::internal("staging memory is not host-visible"))?;
         // SAFETY: the staging mapping holds `bytes.len()` bytes and is not in use.
         unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), ptr, bytes.len()) };
         let mut batch = CommandBatch::new(ctx)?;
@@ -257,7 +257,7 @@ impl Buffer {
         let mut batch = CommandBatch::new(ctx)?;
         batch.copy(self, &staging, bytes.len() as u64)?;
         batch.submit_and_wait()?;
-        let ptr = staging.mapped().ok_or_else(|| Error::param("staging memory is not host-visible"))?;
+        let ptr = staging.mapped().ok_or_else(|| Error::internal("staging memory is not host-visible"))?;
         // SAFETY: as above, for the staging buffer.
         unsafe { std::ptr::copy_nonoverlapping(ptr, bytes.as_mut_ptr(), bytes.len()) };
         Ok(out)
@@ -265,7 +265,7 @@ impl Buffer {
 
     fn check_len(&self, len: usize) -> Result<()> {
         if len as u64 > self.size() {
-            return Err(Error::param(format!(
+            return Err(Error::internal(format!(
                 "{} bytes do not fit buffer '{}' of {} bytes",
                 len,
                 self.name(),

@@ -188,10 +188,10 @@ impl CommandBatch {
         let name = pipeline.shader().name;
         let slots = &pipeline.0.slots;
         if bindings.len() != slots.len() || bindings.len() > BUFFERS_PER_SET as usize {
-            return Err(Error::param(format!("{name}: {} buffers bound, pipeline declares {}", bindings.len(), slots.len())));
+            return Err(Error::internal(format!("{name}: {} buffers bound, pipeline declares {}", bindings.len(), slots.len())));
         }
         if std::mem::size_of::<P>() != pipeline.0.push_size as usize {
-            return Err(Error::param(format!(
+            return Err(Error::internal(format!(
                 "{name}: push constants of {} bytes, pipeline declares {}",
                 std::mem::size_of::<P>(),
                 pipeline.0.push_size
@@ -203,14 +203,14 @@ impl CommandBatch {
         let mut texel_views = Vec::with_capacity(bindings.len());
         for (b, slot) in bindings.iter().zip(slots) {
             if b.offset + b.range > b.buffer.size() {
-                return Err(Error::param(format!(
+                return Err(Error::internal(format!(
                     "{name}: binding of '{}' ({} bytes at {}) exceeds the buffer ({} bytes)",
                     b.buffer.name(), b.range, b.offset, b.buffer.size()
                 )));
             }
             match slot {
                 Slot::Storage if b.range > max_range => {
-                    return Err(Error::param(format!(
+                    return Err(Error::internal(format!(
                         "{name}: binding of '{}' ({} bytes) exceeds the device's storage range of {max_range} bytes",
                         b.buffer.name(), b.range
                     )));
@@ -220,7 +220,7 @@ impl CommandBatch {
                     let texels = b.range / format.bytes();
                     let alignment = limits.min_texel_buffer_offset_alignment.max(1);
                     if texels > u64::from(limits.max_texel_buffer_elements) || b.offset % alignment != 0 {
-                        return Err(Error::param(format!(
+                        return Err(Error::internal(format!(
                             "{name}: texel binding of '{}' ({texels} texels at byte {}) exceeds the device's {} texels or its offset alignment of {alignment} bytes",
                             b.buffer.name(), b.offset, limits.max_texel_buffer_elements
                         )));
@@ -231,7 +231,7 @@ impl CommandBatch {
             }
         }
         if (0..3).any(|i| groups[i] > limits.max_workgroup_count[i]) {
-            return Err(Error::param(format!(
+            return Err(Error::internal(format!(
                 "{name}: {groups:?} workgroups exceed the device limit {:?}",
                 limits.max_workgroup_count
             )));
@@ -288,7 +288,7 @@ impl CommandBatch {
     /// Records a copy of the first `bytes` bytes of `src` into `dst`, followed by a barrier.
     pub fn copy(&mut self, src: &Buffer, dst: &Buffer, bytes: u64) -> Result<()> {
         if bytes > src.size() || bytes > dst.size() {
-            return Err(Error::param(format!(
+            return Err(Error::internal(format!(
                 "copy of {bytes} bytes from '{}' to '{}' out of bounds",
                 src.name(),
                 dst.name()

@@ -3,6 +3,7 @@
 //! Choice: discrete > integrated > virtual > CPU, overridable with `LENSBLUR_DEVICE=<index|name
 //! substring>`. One compute queue. The allocator lives inside the device and is dropped before
 //! `vkDestroyDevice`; the device waits idle first, so nothing dies under a running submission.
+use std::any::Any;
 use std::mem::ManuallyDrop;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -277,10 +278,11 @@ impl Drop for Device {
 #[derive(Clone)]
 pub struct Context {
     pub(crate) device: Arc<Device>,
-    /// Every compute pipeline made on this device, shared by all clones and kept while the
-    /// context lives: a renderer made again (each frame of a shot makes its own) gets them
-    /// without creating them anew. Pipelines are immutable, so sharing one is safe.
-    pub(crate) pipelines: Arc<Mutex<Vec<super::pipeline::MadePipeline>>>,
+    /// What the modules built on the device made and keep for reuse while the context lives,
+    /// shared by all clones (today: every compute pipeline, so a renderer made again, as each
+    /// frame of a shot makes its own, gets them without creating them anew). Held without
+    /// their types so this module needs none of the modules that build on it.
+    pub(crate) kept: Arc<Mutex<Vec<Arc<dyn Any + Send + Sync>>>>,
 }
 
 impl Context {
@@ -344,7 +346,7 @@ impl Context {
         };
         device.check_validation()?;
         log::info!("Vulkan device: {} ({})", device.info.name, device.info.driver);
-        Ok(Self { device: Arc::new(device), pipelines: Arc::default() })
+        Ok(Self { device: Arc::new(device), kept: Arc::default() })
     }
 
     /// Opens the device chosen by `LENSBLUR_DEVICE` / `LENSBLUR_VALIDATION`.

@@ -101,12 +101,13 @@ impl ComputePipeline {
             push_size,
             constants: constants.to_vec(),
         };
-        let mut made = ctx.pipelines.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-        if let Some(found) = made.iter().find(|m| m.key == key) {
+        let mut kept = ctx.kept.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        let made = kept.iter().filter_map(|object| object.downcast_ref::<MadePipeline>());
+        if let Some(found) = made.into_iter().find(|m| m.key == key) {
             return Ok(found.pipeline.clone());
         }
         let pipeline = Self::create(ctx, shader, slots, push_size, constants)?;
-        made.push(MadePipeline { key, pipeline: pipeline.clone() });
+        kept.push(Arc::new(MadePipeline { key, pipeline: pipeline.clone() }));
         Ok(pipeline)
     }
 
@@ -115,7 +116,7 @@ impl ComputePipeline {
         check_slots(shader, slots)?;
         let limit = device.info.max_push_constants_size.min(128) as usize;
         if push_size % 4 != 0 || push_size > limit {
-            return Err(Error::param(format!("{}: push constants of {push_size} bytes (must be a multiple of 4, <= {limit})", shader.name)));
+            return Err(Error::internal(format!("{}: push constants of {push_size} bytes (must be a multiple of 4, <= {limit})", shader.name)));
         }
         let bindings: Vec<_> = slots
             .iter()
@@ -263,7 +264,7 @@ fn check_slots(shader: &ShaderSource, slots: &[Slot]) -> Result<()> {
         };
         if !matches {
             let kind = if texels { "a texel buffer" } else { "a storage buffer" };
-            return Err(Error::param(format!("{}: binding {b} is {kind} in the shader, the pipeline declares {declared:?}", shader.name)));
+            return Err(Error::internal(format!("{}: binding {b} is {kind} in the shader, the pipeline declares {declared:?}", shader.name)));
         }
     }
     Ok(())

@@ -20,7 +20,7 @@ pub type Gradient = Vec<[f64; 4]>;
 
 pub(crate) fn check_sizes(rendered: &Image, target: &Image) -> Result<()> {
     if (rendered.width, rendered.height) != (target.width, target.height) {
-        return Err(Error::param(format!(
+        return Err(Error::data(format!(
             "render is {}x{} but the target is {}x{}",
             rendered.width, rendered.height, target.width, target.height
         )));
@@ -93,7 +93,7 @@ pub struct DepthLoss {
 /// Monodepth's mean-normalised smoothness does), so its weight means the same in any units.
 pub fn depth_loss(rendered: &Image, target: &Image, stack: &LayerStack, weights: &LossWeights, disparity_unit: f64) -> Result<DepthLoss> {
     if !(disparity_unit.is_finite() && disparity_unit > 0.0) {
-        return Err(Error::param(format!("disparity unit must be positive, got {disparity_unit}")));
+        return Err(Error::invalid("disparity unit", format!("disparity unit must be positive, got {disparity_unit}")));
     }
     let (l1_value, l1_grad) = l1(rendered, target)?;
     let windows: Vec<usize> = weights.ssim_windows.iter().copied().filter(|&w| w <= rendered.width.min(rendered.height)).collect();

@@ -71,10 +71,10 @@ fn fine_taps(fine_width: usize, x: usize, y: usize) -> [usize; 4] {
 /// and its gradient w.r.t. the disparity. Levels that would be smaller than 2x2 are skipped.
 pub fn edge_aware_smoothness(disparity: &[f32], guide: &Image, levels: usize, sharpness: f64) -> Result<(f64, Vec<f64>)> {
     if disparity.len() != guide.pixels.len() {
-        return Err(Error::param(format!("{} disparities for a {}x{} guide", disparity.len(), guide.width, guide.height)));
+        return Err(Error::data(format!("{} disparities for a {}x{} guide", disparity.len(), guide.width, guide.height)));
     }
     if levels == 0 {
-        return Err(Error::param("smoothness needs at least one pyramid level"));
+        return Err(Error::invalid("smoothness levels", "smoothness needs at least one pyramid level"));
     }
     let mut pyramid = vec![Level {
         width: guide.width,

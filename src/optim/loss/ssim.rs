@@ -58,7 +58,7 @@ pub fn ssim_box(rendered: &Image, target: &Image, window: usize) -> Result<(f64,
     check_sizes(rendered, target)?;
     let (w, h) = (rendered.width, rendered.height);
     if window % 2 == 0 || window > w || window > h {
-        return Err(Error::param(format!("SSIM window must be odd and fit the {w}x{h} image, got {window}")));
+        return Err(Error::invalid("ssim window", format!("SSIM window must be odd and fit the {w}x{h} image, got {window}")));
     }
     let half = window / 2;
     let (n, centres) = ((window * window) as f64, ((w - 2 * half) * (h - 2 * half)) as f64);
@@ -94,7 +94,7 @@ pub fn ssim_box(rendered: &Image, target: &Image, window: usize) -> Result<(f64,
 /// Hierarchical SSIM loss: mean over `windows` of `1 - SSIM`, and its gradient.
 pub fn hierarchical_ssim(rendered: &Image, target: &Image, windows: &[usize]) -> Result<(f64, Gradient)> {
     if windows.is_empty() {
-        return Err(Error::param("hierarchical SSIM needs at least one window size"));
+        return Err(Error::invalid("ssim window", "hierarchical SSIM needs at least one window size"));
     }
     let scale = 1.0 / windows.len() as f64;
     let mut grad = vec![[0.0f64; 4]; rendered.pixels.len()];

@@ -76,7 +76,7 @@ pub struct LayerAdjoint {
 /// The vector-Jacobian product of [`super::render_cpu`] with `grad_output`.
 pub fn backward_cpu(stack: &LayerStack, lens: &Lens, model: Model, options: BackwardOptions, grad_output: &Image) -> Result<CpuGradients> {
     if (grad_output.width, grad_output.height) != (stack.width, stack.height) {
-        return Err(Error::param(format!(
+        return Err(Error::data(format!(
             "output gradient is {}x{}, the stack {}x{}",
             grad_output.width, grad_output.height, stack.width, stack.height
         )));

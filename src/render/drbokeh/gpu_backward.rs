@@ -143,7 +143,7 @@ impl DrBokehGpuGrad {
         options: &RenderOptions,
     ) -> Result<(StackGradients, RenderStats)> {
         if (grad_output.width, grad_output.height) != (stack.width, stack.height) {
-            return Err(Error::param(format!(
+            return Err(Error::data(format!(
                 "output gradient is {}x{}, the stack {}x{}",
                 grad_output.width, grad_output.height, stack.width, stack.height
             )));

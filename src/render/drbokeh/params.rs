@@ -25,17 +25,17 @@ pub struct Params {
 impl Params {
     pub fn new(stack: &LayerStack, lens: &Lens, model: Model) -> Result<Self> {
         if stack.layers.is_empty() {
-            return Err(Error::param("Dr.Bokeh needs at least one layer"));
+            return Err(Error::data("Dr.Bokeh needs at least one layer"));
         }
         if stack.width == 0 || stack.height == 0 {
-            return Err(Error::param("Dr.Bokeh needs a non-empty image"));
+            return Err(Error::data("Dr.Bokeh needs a non-empty image"));
         }
         if stack.width > i32::MAX as usize / 2 || stack.height > i32::MAX as usize / 2 {
-            return Err(Error::param("image too large for 32-bit pixel indices"));
+            return Err(Error::data("image too large for 32-bit pixel indices"));
         }
         let (lo, hi) = stack.disparity_range();
         if !(lo.is_finite() && hi.is_finite()) {
-            return Err(Error::param("layer disparities must be finite"));
+            return Err(Error::data("layer disparities must be finite"));
         }
         lens.coc.check_renderable(lo, hi)?;
         let view = LensView::new(&lens.coc, &lens.aperture);

@@ -56,7 +56,7 @@ impl Gather {
 /// The checks the CPU reference leaves to its callers (it panics instead).
 pub(crate) fn check_input(image: &Image, disparity: &[f32]) -> Result<()> {
     if image.pixels.is_empty() || disparity.len() != image.pixels.len() {
-        return Err(Error::param(format!(
+        return Err(Error::data(format!(
             "need one disparity per pixel of a non-empty image: {} values for {}x{}",
             disparity.len(),
             image.width,
@@ -64,7 +64,7 @@ pub(crate) fn check_input(image: &Image, disparity: &[f32]) -> Result<()> {
         )));
     }
     if disparity.iter().any(|d| !d.is_finite()) {
-        return Err(Error::param("disparity must be finite"));
+        return Err(Error::data("disparity must be finite"));
     }
     Ok(())
 }

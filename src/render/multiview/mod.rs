@@ -72,10 +72,10 @@ impl Default for MultiviewParams {
 impl MultiviewParams {
     fn validate(&self) -> Result<()> {
         if self.steps > 32 {
-            return Err(Error::param(format!("multiview steps must be at most 32, got {}", self.steps)));
+            return Err(Error::invalid("multiview settings", format!("multiview steps must be at most 32, got {}", self.steps)));
         }
         if !(self.cone_scale.is_finite() && self.cone_scale >= 0.0) {
-            return Err(Error::param(format!("cone scale must be a non-negative number, got {}", self.cone_scale)));
+            return Err(Error::invalid("multiview settings", format!("cone scale must be a non-negative number, got {}", self.cone_scale)));
         }
         Ok(())
     }

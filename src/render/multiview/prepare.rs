@@ -39,7 +39,7 @@ impl Prepared {
         params.validate()?;
         let (width, height) = (stack.width, stack.height);
         if width == 0 || height == 0 || stack.layers.is_empty() {
-            return Err(Error::param("multiview needs a non-empty stack with at least one layer"));
+            return Err(Error::data("multiview needs a non-empty stack with at least one layer"));
         }
         let samples = LensSamples::new(&lens.aperture, params.samples, params.patterns, params.seed)?;
         let (k, focus) = (lens.coc.k_px, lens.coc.focus_disparity);
@@ -69,7 +69,7 @@ impl Prepared {
             let (lo, hi) = covered.iter().zip(&layer.disparity).filter(|(&c, _)| c).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), (_, &d)| (lo.min(d), hi.max(d)));
             let active = lo.is_finite() && hi.is_finite();
             if !active && covered.iter().any(|&c| c) {
-                return Err(Error::param(format!("layer '{}' has non-finite disparity", layer.name)));
+                return Err(Error::data(format!("layer '{}' has non-finite disparity", layer.name)));
             }
             let (lo, hi) = if active { (lo, hi) } else { (0.0, 0.0) };
             pr.bounds.push([lo, hi, if active { 1.0 } else { 0.0 }, 0.0]);

@@ -100,11 +100,11 @@ impl Default for VdslrParams {
 impl VdslrParams {
     fn validate(&self) -> Result<()> {
         if self.iterations > 64 {
-            return Err(Error::param(format!("vdslr iterations must be at most 64, got {}", self.iterations)));
+            return Err(Error::invalid("vdslr settings", format!("vdslr iterations must be at most 64, got {}", self.iterations)));
         }
         if let Some(h) = self.highlight {
             if !(h.sigma.is_finite() && h.sigma > 0.0 && h.white.is_finite() && h.white > 0.0) {
-                return Err(Error::param("highlight sigma and white must be positive numbers"));
+                return Err(Error::invalid("vdslr settings", "highlight sigma and white must be positive numbers"));
             }
         }
         Ok(())
@@ -115,7 +115,7 @@ impl VdslrParams {
 /// per pixel (positive = nearer than focus). Both paths trace on this map.
 pub fn relative_disparity(disparity: &[f32], width: usize, height: usize, lens: &Lens, focus: &FocusField) -> Result<Vec<f32>> {
     if disparity.len() != width * height {
-        return Err(Error::param(format!("disparity has {} values for a {width}x{height} image", disparity.len())));
+        return Err(Error::data(format!("disparity has {} values for a {width}x{height} image", disparity.len())));
     }
     let d_f = lens.coc.focus_disparity;
     let (cx, cy) = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
@@ -128,7 +128,7 @@ pub fn relative_disparity(disparity: &[f32], width: usize, height: usize, lens: 
             .collect()),
         FocusField::Planes(planes) => {
             if planes.is_empty() || planes.iter().any(|p| !p.is_finite()) {
-                return Err(Error::param("focal planes must be a non-empty list of finite disparities"));
+                return Err(Error::invalid("vdslr settings", "focal planes must be a non-empty list of finite disparities"));
             }
             Ok(disparity
                 .iter()
@@ -152,7 +152,7 @@ fn prepare(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) 
     let samples = LensSamples::new(&lens.aperture, params.samples, params.patterns, params.seed)?;
     let s_max = relative.iter().cloned().fold(f32::NEG_INFINITY, f32::max);
     if !s_max.is_finite() {
-        return Err(Error::param("disparity must be finite and the image non-empty"));
+        return Err(Error::data("disparity must be finite and the image non-empty"));
     }
     Ok(Prepared { relative, samples, s_max })
 }
