@@ -1,6 +1,9 @@
 //! The in-memory image: RGBA, 32-bit float, linear light, premultiplied alpha, row-major,
 //! origin top-left. Every renderer consumes and produces this type.
 
+/// Labels for contact sheets (a 5x7 bitmap font, no font dependency).
+pub(crate) mod font;
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
     pub width: usize,

@@ -6,7 +6,6 @@
 //! [`cpu_methods`] holds the CPU ones, [`gpu_methods`] the
 //! Vulkan renderers, [`all_methods`] both. [`run`] produces a [`BenchReport`] (JSON via serde, a
 //! text table via `Display`), [`contact_sheet`] a labelled PNG of all renders and errors.
-pub(crate) mod font;
 pub mod gt_cache;
 pub mod large;
 mod methods;

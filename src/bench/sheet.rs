@@ -6,7 +6,7 @@ use std::path::Path;
 
 use image::{Rgb, RgbImage};
 
-use super::font::{advance, draw_text, GLYPH_H};
+use crate::image::font::{advance, draw_text, GLYPH_H};
 use super::runner::BenchReport;
 use crate::image::Image;
 use crate::metrics::display_encode;

@@ -11,7 +11,6 @@ pub mod debug;
 pub mod focus;
 pub mod kernels;
 pub mod remap;
-#[cfg(feature = "bench")]
 pub mod sheet;
 pub mod vignette;
 

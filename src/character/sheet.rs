@@ -6,7 +6,7 @@ use image::{Rgb, RgbImage};
 
 use super::debug::{coc_image, coc_map, layers_image, peaking_overlay};
 use super::{Bloom, BlurRemap, CatsEye, Character};
-use crate::bench::font::{draw_text, GLYPH_H};
+use crate::image::font::{draw_text, GLYPH_H};
 use crate::camera::{Aperture, CocModel};
 use crate::image::Image;
 use crate::render::drbokeh::RenderOptions;

@@ -1,6 +1,6 @@
 //! A tiny 5x7 bitmap font for contact-sheet labels, so the PNG explains itself without a font
 //! dependency. Upper case, digits and a little punctuation; lower case draws as upper case.
-use image::{Rgb, RgbImage};
+use ::image::{Rgb, RgbImage};
 
 pub const GLYPH_W: u32 = 5;
 pub const GLYPH_H: u32 = 7;
