@@ -15,6 +15,7 @@ pub mod multiview;
 pub mod oracle;
 mod registry;
 pub mod scatter;
+pub mod tiling;
 pub mod vdslr;
 
 /// Everything about the lens a renderer needs, in pixels.
