@@ -28,6 +28,11 @@ pub const CPU_DEVICE_MEMORY_FACTOR: u64 = 3;
 /// cutting small frames or methods whose whole-frame data fills the bound (multiview keeps its
 /// mip pyramids whole) finer would only add submissions.
 const MIN_DEFAULT_TILE_BYTES: u64 = 256 << 20;
+/// Most work (taps or ray-march steps, as the method counts them) one tile's dispatch may do on
+/// a GPU: a few tenths of a second at the ~1e10 simple taps/s of a mid-range card, well inside
+/// the display watchdogs (Windows' TDR: 2 s) that kill longer dispatches. CPU devices have no
+/// watchdog and are not bounded.
+pub const MAX_WORK_PER_TILE: u64 = 2_000_000_000;
 /// Side of the smallest tile the out-of-memory retry goes down to, for methods aligned to 1.
 const MIN_TILE: usize = 16;
 
@@ -83,6 +88,9 @@ pub(crate) struct FrameTiling {
     /// Host bytes the render holds for the whole frame besides its tiles (input and output),
     /// counted against the memory cap.
     pub host_bytes: u64,
+    /// Upper bound of the work (taps, ray-march steps) per output pixel: tiles on a GPU keep
+    /// their dispatches within [`MAX_WORK_PER_TILE`]. 0: not declared.
+    pub work_per_pixel: u64,
 }
 
 impl FrameTiling {
@@ -91,7 +99,30 @@ impl FrameTiling {
     pub fn new(width: usize, height: usize, layers: usize, align: usize) -> Self {
         let pixels = (width * height) as u64;
         let input_bytes = pixels * layers as u64 * 20;
-        Self { width, height, align: align.max(1), input_bytes, host_bytes: input_bytes + pixels * 16 }
+        Self {
+            width,
+            height,
+            align: align.max(1),
+            input_bytes,
+            host_bytes: input_bytes + pixels * 16,
+            work_per_pixel: 0,
+        }
+    }
+
+    /// With [`Self::work_per_pixel`].
+    pub fn with_work(self, work_per_pixel: u64) -> Self {
+        Self { work_per_pixel, ..self }
+    }
+
+    /// Work of a `tile`-sided tile's dispatch.
+    fn work(&self, tile: usize) -> u64 {
+        (tile.min(self.width) * tile.min(self.height)) as u64 * self.work_per_pixel
+    }
+
+    /// The next side to try after `tile`: about 3/4, at least one alignment step smaller (3/4
+    /// of 32 rounds back up to 32 with 16 px), at least the smallest tile.
+    fn shrink(&self, tile: usize) -> usize {
+        self.round(tile * 3 / 4).min(tile - self.align).max(self.min_tile())
     }
 
     /// The side `pixels` rounds up to.
@@ -210,6 +241,7 @@ pub(crate) fn run_tiled<T>(
             .min(info.max_allocation_bytes)
             .min(u64::from(info.max_texel_buffer_elements) * 16),
         bytes: device_bytes(planning_bytes(ctx.memory_budget()), info.kind == "CPU", frame, options)?,
+        max_tile_work: if info.kind == "CPU" { u64::MAX } else { MAX_WORK_PER_TILE },
     };
     // Never more per batch than the frame has tiles: a retry then starts from what really ran.
     let tiles_per_batch = |tile: usize| {
@@ -267,6 +299,8 @@ struct Limits {
     largest_binding: u64,
     /// Bytes a batch may hold ([`device_bytes`]).
     bytes: u64,
+    /// Work one tile may do ([`MAX_WORK_PER_TILE`] on a GPU).
+    max_tile_work: u64,
 }
 
 impl Limits {
@@ -274,16 +308,19 @@ impl Limits {
         footprint.largest_binding <= self.largest_binding && footprint.total <= bytes
     }
 
-    /// The whole frame if it fits as one tile; else the largest tile (a multiple of the
-    /// alignment) of which [`MIN_TILES_PER_BATCH`] fit together, so batches hold several tiles.
+    /// The largest tile (a multiple of the alignment) within the work bound; of those, the
+    /// whole frame if it fits as one tile, else the largest of which [`MIN_TILES_PER_BATCH`]
+    /// fit together, so batches hold several tiles.
     fn tile_size(&self, frame: &FrameTiling, footprint: &impl Fn(usize) -> Footprint) -> usize {
         let mut tile = frame.round(frame.width.max(frame.height));
+        while tile > frame.min_tile() && frame.work(tile) > self.max_tile_work {
+            tile = frame.shrink(tile);
+        }
         if self.fits(footprint(tile), self.bytes) {
             return tile;
         }
         while tile > frame.min_tile() && !self.fits(footprint(tile), self.bytes / MIN_TILES_PER_BATCH) {
-            // At least one alignment step smaller: 3/4 of 32 rounds back up to 32 with 16 px.
-            tile = frame.round(tile * 3 / 4).min(tile - frame.align).max(frame.min_tile());
+            tile = frame.shrink(tile);
         }
         tile
     }
@@ -406,14 +443,14 @@ mod tests {
 
     #[test]
     fn a_frame_that_fits_is_one_tile() {
-        let limits = Limits { largest_binding: u64::MAX, bytes: 100 * 100 };
+        let limits = Limits { largest_binding: u64::MAX, bytes: 100 * 100, max_tile_work: u64::MAX };
         assert_eq!(limits.tile_size(&frame(90, 40), &per_pixel(1)), 96);
     }
 
     #[test]
     fn a_frame_that_does_not_fit_gets_tiles_of_which_two_fit_together() {
         // 1000x1000 at 1 byte a pixel in 300 kB: tiles must be at most 150 kB (387 px).
-        let limits = Limits { largest_binding: u64::MAX, bytes: 300_000 };
+        let limits = Limits { largest_binding: u64::MAX, bytes: 300_000, max_tile_work: u64::MAX };
         let tile = limits.tile_size(&frame(1000, 1000), &per_pixel(1));
         assert_eq!(tile % ALIGN, 0);
         assert!((tile * tile) as u64 <= 150_000, "tile {tile}");
@@ -427,7 +464,7 @@ mod tests {
     fn unaligned_methods_get_any_tile_side() {
         let odd = FrameTiling::new(1000, 1000, 1, 1);
         assert_eq!(odd.round(37), 37);
-        let limits = Limits { largest_binding: u64::MAX, bytes: 300_000 };
+        let limits = Limits { largest_binding: u64::MAX, bytes: 300_000, max_tile_work: u64::MAX };
         let tile = limits.tile_size(&odd, &per_pixel(1));
         assert!((tile * tile) as u64 <= 150_000 && tile * 4 / 3 + 1 > 387, "tile {tile}");
     }
@@ -436,21 +473,36 @@ mod tests {
     /// from sides where 3/4 rounds back up to the same multiple of the alignment.
     #[test]
     fn a_budget_no_tile_fits_ends_at_the_smallest_tile() {
-        let limits = Limits { largest_binding: u64::MAX, bytes: 1 };
+        let limits = Limits { largest_binding: u64::MAX, bytes: 1, max_tile_work: u64::MAX };
         assert_eq!(limits.tile_size(&frame(1000, 1000), &per_pixel(1)), ALIGN);
         assert_eq!(limits.tile_size(&FrameTiling::new(1000, 1000, 1, 1), &per_pixel(1)), MIN_TILE);
     }
 
+    /// On a GPU a tile's dispatch stays within the work bound (the display watchdog) whatever
+    /// the memory: 512 lens samples of 8 steps at 8K come in tiles of at most 2e9 steps.
+    #[test]
+    fn the_work_bound_cuts_heavy_frames_that_memory_would_leave_whole() {
+        let limits = Limits { largest_binding: u64::MAX, bytes: u64::MAX, max_tile_work: MAX_WORK_PER_TILE };
+        let heavy = FrameTiling::new(7680, 4320, 1, 1).with_work(512 * 8);
+        let tile = limits.tile_size(&heavy, &per_pixel(1));
+        assert!(
+            heavy.work(tile) <= MAX_WORK_PER_TILE && heavy.work(tile * 4 / 3 + 1) > MAX_WORK_PER_TILE,
+            "tile {tile}"
+        );
+        let light = FrameTiling::new(7680, 4320, 1, 1).with_work(1);
+        assert_eq!(limits.tile_size(&light, &per_pixel(1)), 7680, "light work stays one tile");
+    }
+
     #[test]
     fn the_storage_range_bounds_the_tile_whatever_the_memory() {
-        let limits = Limits { largest_binding: 64 * 64, bytes: u64::MAX };
+        let limits = Limits { largest_binding: 64 * 64, bytes: u64::MAX, max_tile_work: u64::MAX };
         let binding = |tile: usize| Footprint { largest_binding: (tile * tile) as u64, total: 0 };
         assert_eq!(limits.tile_size(&frame(1000, 1000), &binding), 64);
     }
 
     #[test]
     fn tiles_per_batch_stays_between_one_and_the_cap() {
-        let limits = Limits { largest_binding: u64::MAX, bytes: 1000 };
+        let limits = Limits { largest_binding: u64::MAX, bytes: 1000, max_tile_work: u64::MAX };
         let footprint = |total| Footprint { largest_binding: 1, total };
         assert_eq!(limits.tiles_per_batch(footprint(5000)), 1, "a tile over the budget still runs alone");
         assert_eq!(limits.tiles_per_batch(footprint(400)), 2);

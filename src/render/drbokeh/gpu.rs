@@ -167,7 +167,10 @@ impl DrBokehGpu {
         };
         let interior = self.kernel != LayerKernel::OptimisedNoInterior;
         let frame = ForwardFrame::new(&self.ctx, stack, &params, &lens.aperture, &windows, interior)?;
-        run_tiled(&self.ctx, &params.tiling(), options, footprint, |plan| self.render_tiles(&frame, plan, options))
+        // Work bound: every layer's square window of the largest search window (the span paths do less).
+        let work = params.layer_count as u64 * (2 * max_window.max(0) as u64 + 1).pow(2);
+        let tiling = params.tiling().with_work(work);
+        run_tiled(&self.ctx, &tiling, options, footprint, |plan| self.render_tiles(&frame, plan, options))
     }
 
     /// One attempt at the frame: its tiles in batches of `plan.tiles_per_batch`, each tile's

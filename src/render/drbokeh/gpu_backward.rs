@@ -164,7 +164,11 @@ impl DrBokehGpuGrad {
             windows.iter().copied().max().unwrap_or(0),
             reach.iter().copied().max().unwrap_or(0),
         );
-        run_tiled(ctx, &params.tiling(), options, footprint, |plan| self.backward_tiles(&frame, plan, options))
+        // Work bound: the forward's windows over the receivers, and the adjoint's over the reach.
+        let (max_window, max_reach) = (windows.iter().max(), reach.iter().max());
+        let side = |r: Option<&i32>| 2 * r.copied().unwrap_or(0).max(0) as u64 + 1;
+        let tiling = params.tiling().with_work(params.layer_count as u64 * (side(max_window).pow(2) + side(max_reach).pow(2)));
+        run_tiled(ctx, &tiling, options, footprint, |plan| self.backward_tiles(&frame, plan, options))
     }
 
     /// One attempt at the frame: its tiles in batches of `plan.tiles_per_batch`, each tile's

@@ -111,7 +111,8 @@ impl ImagePass<'_> {
         push: impl Fn(Rect, Rect) -> P,
     ) -> Result<(Image, RenderStats)> {
         let (ctx, name, width) = (self.ctx, self.name, self.image.width);
-        let frame = FrameTiling::new(width, self.image.height, 1, 1);
+        // Work bound: the square window of the largest halo per pixel.
+        let frame = FrameTiling::new(width, self.image.height, 1, 1).with_work((2 * max_halo as u64 + 1).pow(2));
         let kernel = Buffer::from_slice(ctx, &format!("{name} kernel"), self.kernel)?;
         // RGBA + disparity per read pixel, RGBA per core pixel; the RGBA is the largest binding.
         let footprint = |tile| Footprint::per_pixel(&frame, tile, max_halo, 20, 16, 16);

@@ -62,7 +62,9 @@ impl Multiview {
         let bounds = Buffer::from_slice(ctx, "multiview bounds", &pr.bounds)?;
         let levels = Buffer::from_slice(ctx, "multiview levels", &pr.levels)?;
         let samples = Buffer::from_slice(ctx, "multiview lens samples", &pr.samples.data)?;
-        let mut frame = FrameTiling::new(pr.width, pr.height, pr.layers, 1);
+        // Work bound: per lens sample and layer, the intersection's steps and one cone sample.
+        let work = (pr.samples.slots * pr.layers) as u64 * (u64::from(pr.steps) + 1);
+        let mut frame = FrameTiling::new(pr.width, pr.height, pr.layers, 1).with_work(work);
         // The frame's inputs are held on the device for the whole render, beside the tiles.
         frame.host_bytes += [&pyramid, &heights, &occupancy].iter().map(|b| b.size()).sum::<u64>();
         // A tile holds only its core's result.

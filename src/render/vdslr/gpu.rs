@@ -66,7 +66,9 @@ impl Vdslr {
         let s_reach = prepared.relative.iter().fold(prepared.s_max.abs(), |m, s| m.max(s.abs()));
         let u_reach = prepared.samples.data.iter().fold(0.0f32, |m, s| m.max(s[0].abs()).max(s[1].abs()));
         let halo = (lens.coc.k_px.abs() * u_reach * s_reach).ceil() as usize + 2;
-        let frame = FrameTiling::new(width, image.height, 1, 1);
+        // Work bound: two searches (the mirrored one) of iterations + 1 steps per lens sample.
+        let work = prepared.samples.slots as u64 * 2 * (u64::from(params.iterations) + 1);
+        let frame = FrameTiling::new(width, image.height, 1, 1).with_work(work);
         let samples = Buffer::from_slice(ctx, "vdslr lens samples", &prepared.samples.data)?;
         let (sigma, white) = params.highlight.map_or((1.0, 1.0), |h| (h.sigma, h.white));
         // RGBA + two disparities per read pixel, RGBA per core pixel; RGBA is the largest binding.
