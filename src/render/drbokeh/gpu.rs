@@ -1,8 +1,9 @@
 //! GPU host code of the Dr.Bokeh forward renderer. The frame is cut into tiles: each uploads
 //! its core plus the halo its search windows reach, records the layer passes and the composite
 //! of `glsl/drbokeh_*.comp`, and reads its core back; several tiles share one submission
-//! ([`crate::render::tiling`], the tiler every method uses). Every pixel reads the same sources in the same order whatever the
-//! tiling, so the output is bit-identical for every tile size and batch size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
+//! ([`crate::render::tiling`], the tiler every method uses). Every pixel reads the same sources
+//! in the same order whatever the tiling, so the output is bit-identical for every tile size and
+//! batch size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
 //! lens, area table, push constants) and the search windows are shared with it.
 use super::bounds::{search_tiles, search_windows, span_radii, NO_SPAN_RADII};
 use super::{AperturePath, Model, Params, TILE};
@@ -167,7 +168,7 @@ impl DrBokehGpu {
         };
         let interior = self.kernel != LayerKernel::OptimisedNoInterior;
         let frame = ForwardFrame::new(&self.ctx, stack, &params, &lens.aperture, &windows, interior)?;
-        // Work bound: every layer's square window of the largest search window (the span paths do less).
+        // Work bound: every layer's square of the largest search window (span paths do less).
         let work = params.layer_count as u64 * (2 * max_window.max(0) as u64 + 1).pow(2);
         let tiling = params.tiling().with_work(work);
         run_tiled(&self.ctx, &tiling, options, footprint, |plan| self.render_tiles(&frame, plan, options))

@@ -16,10 +16,10 @@ use super::backward::BackwardOptions;
 use super::backward_cpu::tile_reach_cpu;
 use super::bounds::{grow_windows, search_windows};
 use super::gpu::{halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
-use crate::render::tiling::{crop, run_batches, run_tiled, Footprint, TilePlan};
 use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
+use crate::render::tiling::{crop, run_batches, run_tiled, Footprint, TilePlan};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
@@ -167,7 +167,8 @@ impl DrBokehGpuGrad {
         // Work bound: the forward's windows over the receivers, and the adjoint's over the reach.
         let (max_window, max_reach) = (windows.iter().max(), reach.iter().max());
         let side = |r: Option<&i32>| 2 * r.copied().unwrap_or(0).max(0) as u64 + 1;
-        let tiling = params.tiling().with_work(params.layer_count as u64 * (side(max_window).pow(2) + side(max_reach).pow(2)));
+        let work = params.layer_count as u64 * (side(max_window).pow(2) + side(max_reach).pow(2));
+        let tiling = params.tiling().with_work(work);
         run_tiled(ctx, &tiling, options, footprint, |plan| self.backward_tiles(&frame, plan, options))
     }
 

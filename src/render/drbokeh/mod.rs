@@ -23,8 +23,8 @@
 //! since every pixel reads the same sources in the same order, the output is bit-identical
 //! whatever the tile size. Several tiles share one submission; the tiler every method uses
 //! ([`crate::render::tiling`]) plans tile side and batch size from the device's limits and
-//! memory budget and retries smaller when memory runs out. The backward ([`DrBokehGpuGrad`]) tiles the frame the same way, by
-//! the same policy, with the same guarantee.
+//! memory budget and retries smaller when memory runs out. The backward ([`DrBokehGpuGrad`])
+//! tiles the frame the same way, by the same policy, with the same guarantee.
 use crate::camera::{Aperture, CocModel};
 
 pub mod backward;

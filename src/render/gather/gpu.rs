@@ -37,7 +37,17 @@ pub struct Gather {
 
 impl Gather {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(ctx, &shaders::GATHER, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Texels(TexelFormat::Float)], std::mem::size_of::<GatherPush>())?;
+        let pipeline = ComputePipeline::with_slots(
+            ctx,
+            &shaders::GATHER,
+            &[
+                Slot::Texels(TexelFormat::Vec4),
+                Slot::Texels(TexelFormat::Float),
+                Slot::Storage,
+                Slot::Texels(TexelFormat::Float),
+            ],
+            std::mem::size_of::<GatherPush>(),
+        )?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
@@ -47,7 +57,13 @@ impl Gather {
     }
 
     /// [`Self::run`] on frame tiles cut as `options` says; the same pixels for every tile size.
-    pub fn run_with(&self, image: &Image, disparity: &[f32], lens: &Lens, options: &RenderOptions) -> Result<(Image, RenderStats)> {
+    pub fn run_with(
+        &self,
+        image: &Image,
+        disparity: &[f32],
+        lens: &Lens,
+        options: &RenderOptions,
+    ) -> Result<(Image, RenderStats)> {
         check_input(image, disparity)?;
         let (kernel_size, kernel) = lens.aperture.kernel_texels();
         // A pixel's taps reach ceil(r + edge / 2) of its own radius, so a core's halo is its
@@ -56,19 +72,25 @@ impl Gather {
         let pyramid = MaxPyramid::new(image.width, image.height, &radius);
         let reach = |r: f32| (r + 0.5 * EDGE_WIDTH).ceil() as usize + 1;
         let whole = Rect { x0: 0, y0: 0, x1: image.width, y1: image.height };
-        let pass = ImagePass { ctx: &self.ctx, pipeline: &self.pipeline, name: "gather", image, disparity, kernel: &kernel };
-        pass.run(options, reach(pyramid.max_in(whole)), |core| reach(pyramid.max_in(core)), |core, read| GatherPush {
-            width: image.width as i32,
-            height: image.height as i32,
-            k: lens.coc.k_px,
-            focus: lens.coc.focus_disparity,
-            edge_width: EDGE_WIDTH,
-            kernel_size: kernel_size as i32,
-            pad: [0.0; 2],
-            aperture: lens.aperture.gpu_params(),
-            core: rect_push(core),
-            read: rect_push(read),
-        })
+        let pass =
+            ImagePass { ctx: &self.ctx, pipeline: &self.pipeline, name: "gather", image, disparity, kernel: &kernel };
+        pass.run(
+            options,
+            reach(pyramid.max_in(whole)),
+            |core| reach(pyramid.max_in(core)),
+            |core, read| GatherPush {
+                width: image.width as i32,
+                height: image.height as i32,
+                k: lens.coc.k_px,
+                focus: lens.coc.focus_disparity,
+                edge_width: EDGE_WIDTH,
+                kernel_size: kernel_size as i32,
+                pad: [0.0; 2],
+                aperture: lens.aperture.gpu_params(),
+                core: rect_push(core),
+                read: rect_push(read),
+            },
+        )
     }
 }
 
@@ -124,7 +146,12 @@ impl ImagePass<'_> {
             // The shader writes every core pixel.
             let result = Buffer::uninitialised(ctx, &format!("{name} result"), core.area() as u64 * 16)?;
             let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
-            batch.dispatch(self.pipeline, &[source.all(), depth.all(), result.all(), kernel.all()], &push(core, read), groups)?;
+            batch.dispatch(
+                self.pipeline,
+                &[source.all(), depth.all(), result.all(), kernel.all()],
+                &push(core, read),
+                groups,
+            )?;
             result.readable_in(ctx, batch)
         })
     }

@@ -44,7 +44,20 @@ pub struct Multiview {
 
 impl Multiview {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(ctx, &shaders::MULTIVIEW_TRACE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Storage, Slot::Storage, Slot::Storage, Slot::Storage], std::mem::size_of::<MultiviewPush>())?;
+        let pipeline = ComputePipeline::with_slots(
+            ctx,
+            &shaders::MULTIVIEW_TRACE,
+            &[
+                Slot::Texels(TexelFormat::Vec4),
+                Slot::Texels(TexelFormat::Float),
+                Slot::Storage,
+                Slot::Storage,
+                Slot::Storage,
+                Slot::Storage,
+                Slot::Storage,
+            ],
+            std::mem::size_of::<MultiviewPush>(),
+        )?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
@@ -53,7 +66,13 @@ impl Multiview {
     }
 
     /// [`Self::run`] on frame tiles cut as `options` says; the same pixels for every tile size.
-    pub fn run_with(&self, stack: &LayerStack, lens: &Lens, params: &MultiviewParams, options: &RenderOptions) -> Result<(Image, RenderStats)> {
+    pub fn run_with(
+        &self,
+        stack: &LayerStack,
+        lens: &Lens,
+        params: &MultiviewParams,
+        options: &RenderOptions,
+    ) -> Result<(Image, RenderStats)> {
         let ctx = &self.ctx;
         let pr = Prepared::new(stack, lens, params)?;
         let pyramid = Buffer::from_slice(ctx, "multiview pyramid", &pr.pyramid)?;
@@ -86,13 +105,28 @@ impl Multiview {
             pad3: 0.0,
             core: rect_push(core),
         };
-        render_image_tiles(ctx, &frame, options, footprint, |_| 0, |batch, core, _| {
-            // The shader writes every core pixel.
-            let result = Buffer::uninitialised(ctx, "multiview result", core.area() as u64 * 16)?;
-            let bindings = [pyramid.all(), heights.all(), occupancy.all(), bounds.all(), levels.all(), samples.all(), result.all()];
-            let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
-            batch.dispatch(&self.pipeline, &bindings, &push(core), groups)?;
-            result.readable_in(ctx, batch)
-        })
+        render_image_tiles(
+            ctx,
+            &frame,
+            options,
+            footprint,
+            |_| 0,
+            |batch, core, _| {
+                // The shader writes every core pixel.
+                let result = Buffer::uninitialised(ctx, "multiview result", core.area() as u64 * 16)?;
+                let bindings = [
+                    pyramid.all(),
+                    heights.all(),
+                    occupancy.all(),
+                    bounds.all(),
+                    levels.all(),
+                    samples.all(),
+                    result.all(),
+                ];
+                let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
+                batch.dispatch(&self.pipeline, &bindings, &push(core), groups)?;
+                result.readable_in(ctx, batch)
+            },
+        )
     }
 }

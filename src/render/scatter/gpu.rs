@@ -39,7 +39,17 @@ pub struct Scatter {
 
 impl Scatter {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(ctx, &shaders::SCATTER, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Texels(TexelFormat::Float)], std::mem::size_of::<ScatterPush>())?;
+        let pipeline = ComputePipeline::with_slots(
+            ctx,
+            &shaders::SCATTER,
+            &[
+                Slot::Texels(TexelFormat::Vec4),
+                Slot::Texels(TexelFormat::Float),
+                Slot::Storage,
+                Slot::Texels(TexelFormat::Float),
+            ],
+            std::mem::size_of::<ScatterPush>(),
+        )?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
@@ -49,25 +59,37 @@ impl Scatter {
     }
 
     /// [`Self::run`] on frame tiles cut as `options` says; the same pixels for every tile size.
-    pub fn run_with(&self, image: &Image, disparity: &[f32], lens: &Lens, options: &RenderOptions) -> Result<(Image, RenderStats)> {
+    pub fn run_with(
+        &self,
+        image: &Image,
+        disparity: &[f32],
+        lens: &Lens,
+        options: &RenderOptions,
+    ) -> Result<(Image, RenderStats)> {
         check_input(image, disparity)?;
         let (kernel_size, kernel) = lens.aperture.kernel_texels();
         let largest = disparity.iter().map(|&d| lens.coc.radius(d)).fold(0.0f32, f32::max);
         // Every pixel sums the whole window of the largest CoC: that window is the halo.
         let reach = largest.ceil() as usize + WINDOW_MARGIN as usize;
-        let pass = ImagePass { ctx: &self.ctx, pipeline: &self.pipeline, name: "scatter", image, disparity, kernel: &kernel };
-        pass.run(options, reach, |_| reach, |core, read| ScatterPush {
-            width: image.width as i32,
-            height: image.height as i32,
-            reach: reach as i32,
-            kernel_size: kernel_size as i32,
-            k: lens.coc.k_px,
-            focus: lens.coc.focus_disparity,
-            edge_sharpness: EDGE_SHARPNESS,
-            area_epsilon: AREA_EPSILON,
-            aperture: lens.aperture.gpu_params(),
-            core: rect_push(core),
-            read: rect_push(read),
-        })
+        let pass =
+            ImagePass { ctx: &self.ctx, pipeline: &self.pipeline, name: "scatter", image, disparity, kernel: &kernel };
+        pass.run(
+            options,
+            reach,
+            |_| reach,
+            |core, read| ScatterPush {
+                width: image.width as i32,
+                height: image.height as i32,
+                reach: reach as i32,
+                kernel_size: kernel_size as i32,
+                k: lens.coc.k_px,
+                focus: lens.coc.focus_disparity,
+                edge_sharpness: EDGE_SHARPNESS,
+                area_epsilon: AREA_EPSILON,
+                aperture: lens.aperture.gpu_params(),
+                core: rect_push(core),
+                read: rect_push(read),
+            },
+        )
     }
 }

@@ -40,7 +40,18 @@ pub struct Vdslr {
 
 impl Vdslr {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(ctx, &shaders::VDSLR_TRACE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Storage], std::mem::size_of::<VdslrPush>())?;
+        let pipeline = ComputePipeline::with_slots(
+            ctx,
+            &shaders::VDSLR_TRACE,
+            &[
+                Slot::Texels(TexelFormat::Vec4),
+                Slot::Texels(TexelFormat::Float),
+                Slot::Texels(TexelFormat::Float),
+                Slot::Storage,
+                Slot::Storage,
+            ],
+            std::mem::size_of::<VdslrPush>(),
+        )?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
@@ -73,33 +84,42 @@ impl Vdslr {
         let (sigma, white) = params.highlight.map_or((1.0, 1.0), |h| (h.sigma, h.white));
         // RGBA + two disparities per read pixel, RGBA per core pixel; RGBA is the largest binding.
         let footprint = |tile| Footprint::per_pixel(&frame, tile, halo, 24, 16, 16);
-        render_image_tiles(ctx, &frame, options, footprint, |_| halo, |batch, core, read| {
-            let source = Buffer::from_iter_in(ctx, batch, "vdslr image", read.area(), crop(&image.pixels, width, read))?;
-            let relative = crop(&prepared.relative, width, read);
-            let relative = Buffer::from_iter_in(ctx, batch, "vdslr relative disparity", read.area(), relative)?;
-            let true_disparity = Buffer::from_iter_in(ctx, batch, "vdslr disparity", read.area(), crop(disparity, width, read))?;
-            // The shader writes every core pixel.
-            let result = Buffer::uninitialised(ctx, "vdslr result", core.area() as u64 * 16)?;
-            let push = VdslrPush {
-                width: width as i32,
-                height: image.height as i32,
-                iterations: params.iterations as i32,
-                slots: prepared.samples.slots as i32,
-                patterns: prepared.samples.patterns as i32,
-                bleeding_guard: i32::from(params.bleeding_guard),
-                highlight: i32::from(params.highlight.is_some()),
-                pad: 0,
-                k: lens.coc.k_px,
-                s_max: prepared.s_max,
-                sigma,
-                white,
-                core: rect_push(core),
-                read: rect_push(read),
-            };
-            let bindings = [source.all(), relative.all(), true_disparity.all(), samples.all(), result.all()];
-            let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
-            batch.dispatch(&self.pipeline, &bindings, &push, groups)?;
-            result.readable_in(ctx, batch)
-        })
+        render_image_tiles(
+            ctx,
+            &frame,
+            options,
+            footprint,
+            |_| halo,
+            |batch, core, read| {
+                let source =
+                    Buffer::from_iter_in(ctx, batch, "vdslr image", read.area(), crop(&image.pixels, width, read))?;
+                let relative = crop(&prepared.relative, width, read);
+                let relative = Buffer::from_iter_in(ctx, batch, "vdslr relative disparity", read.area(), relative)?;
+                let true_disparity =
+                    Buffer::from_iter_in(ctx, batch, "vdslr disparity", read.area(), crop(disparity, width, read))?;
+                // The shader writes every core pixel.
+                let result = Buffer::uninitialised(ctx, "vdslr result", core.area() as u64 * 16)?;
+                let push = VdslrPush {
+                    width: width as i32,
+                    height: image.height as i32,
+                    iterations: params.iterations as i32,
+                    slots: prepared.samples.slots as i32,
+                    patterns: prepared.samples.patterns as i32,
+                    bleeding_guard: i32::from(params.bleeding_guard),
+                    highlight: i32::from(params.highlight.is_some()),
+                    pad: 0,
+                    k: lens.coc.k_px,
+                    s_max: prepared.s_max,
+                    sigma,
+                    white,
+                    core: rect_push(core),
+                    read: rect_push(read),
+                };
+                let bindings = [source.all(), relative.all(), true_disparity.all(), samples.all(), result.all()];
+                let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
+                batch.dispatch(&self.pipeline, &bindings, &push, groups)?;
+                result.readable_in(ctx, batch)
+            },
+        )
     }
 }
