@@ -37,17 +37,8 @@ pub struct Gather {
 
 impl Gather {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(
-            ctx,
-            &shaders::GATHER,
-            &[
-                Slot::Texels(TexelFormat::Vec4),
-                Slot::Texels(TexelFormat::Float),
-                Slot::Storage,
-                Slot::Texels(TexelFormat::Float),
-            ],
-            std::mem::size_of::<GatherPush>(),
-        )?;
+        let pipeline =
+            ComputePipeline::with_slots(ctx, &shaders::GATHER, &IMAGE_PASS_SLOTS, std::mem::size_of::<GatherPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
@@ -109,6 +100,15 @@ pub(crate) fn check_input(image: &Image, disparity: &[f32]) -> Result<()> {
     }
     Ok(())
 }
+
+/// Bindings of an [`ImagePass`]: image, disparity (texels, read at lane-varying addresses),
+/// result, kernel.
+pub(crate) const IMAGE_PASS_SLOTS: [Slot; 4] = [
+    Slot::Texels(TexelFormat::Vec4),
+    Slot::Texels(TexelFormat::Float),
+    Slot::Storage,
+    Slot::Texels(TexelFormat::Float),
+];
 
 /// A tiled pass reading (image, disparity, aperture kernel texels) and writing an image: the
 /// shape both single-image baselines share. Bindings: the read rect's RGBA and disparity, the

@@ -44,20 +44,17 @@ pub struct Multiview {
 
 impl Multiview {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(
-            ctx,
-            &shaders::MULTIVIEW_TRACE,
-            &[
-                Slot::Texels(TexelFormat::Vec4),
-                Slot::Texels(TexelFormat::Float),
-                Slot::Storage,
-                Slot::Storage,
-                Slot::Storage,
-                Slot::Storage,
-                Slot::Storage,
-            ],
-            std::mem::size_of::<MultiviewPush>(),
-        )?;
+        let slots = [
+            Slot::Texels(TexelFormat::Vec4),
+            Slot::Texels(TexelFormat::Float),
+            Slot::Storage,
+            Slot::Storage,
+            Slot::Storage,
+            Slot::Storage,
+            Slot::Storage,
+        ];
+        let pipeline =
+            ComputePipeline::with_slots(ctx, &shaders::MULTIVIEW_TRACE, &slots, std::mem::size_of::<MultiviewPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 

@@ -3,11 +3,11 @@
 //! scatter written as a gather, no atomics) over its core, reads back.
 use super::{AREA_EPSILON, EDGE_SHARPNESS, WINDOW_MARGIN};
 use crate::image::Image;
-use crate::render::gather::gpu::{check_input, ImagePass};
+use crate::render::gather::gpu::{check_input, ImagePass, IMAGE_PASS_SLOTS};
 use crate::render::tiling::{rect_push, RenderOptions, RenderStats};
 use crate::render::Lens;
 use crate::shaders;
-use crate::vk::{ComputePipeline, Context, Slot, TexelFormat};
+use crate::vk::{ComputePipeline, Context};
 use crate::Result;
 
 /// Push constants of `glsl/scatter.comp`.
@@ -39,17 +39,8 @@ pub struct Scatter {
 
 impl Scatter {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(
-            ctx,
-            &shaders::SCATTER,
-            &[
-                Slot::Texels(TexelFormat::Vec4),
-                Slot::Texels(TexelFormat::Float),
-                Slot::Storage,
-                Slot::Texels(TexelFormat::Float),
-            ],
-            std::mem::size_of::<ScatterPush>(),
-        )?;
+        let pipeline =
+            ComputePipeline::with_slots(ctx, &shaders::SCATTER, &IMAGE_PASS_SLOTS, std::mem::size_of::<ScatterPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
