@@ -10,14 +10,18 @@
 //   3: bounds    vec4[layers]                (far disparity, near disparity, active, 0)
 //   4: levels    uvec4[levels]               (offset in a layer's pyramid, width, height, 0)
 //   5: samples   vec4[patterns * slots]      (u, v, weight, 0), unit disk, aperture coords
-//   6: result    vec4[w * h]
+//   6: result    vec4[core.z * core.w]
 // Push constants: MultiviewPush (src/render/multiview/gpu.rs).
-// Dispatch: (ceil(width / 8), ceil(height / 8), 1).
+// Dispatch: (ceil(core.z / 8), ceil(core.w / 8), 1).
+// Tiled (src/render/tiling.rs): the dispatch covers `core` (x, y, width, height) and stores
+// its results core-local; the inputs are the whole frame's (cone tracing reads mip levels of
+// any extent), shared by every tile.
 //
 // `precise` keeps ray positions unfused so the texel each height lookup reads matches the CPU.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "image.glsl"
+#include "tile.glsl"
 #include "sampling.glsl"
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
@@ -50,6 +54,7 @@ layout(push_constant) uniform Push {
     float focus;
     float cone;
     float pad3;
+    ivec4 core;
 } pc;
 
 // Transmittance below which a ray stops (OPAQUE_TRANSMITTANCE).
@@ -155,10 +160,11 @@ vec4 trace(vec2 p, vec2 u, int pixel) {
 }
 
 void main() {
-    ivec2 x = ivec2(spread_global_invocation_id().xy);
-    if (!inside(x, ivec2(pc.width, pc.height))) {
+    ivec2 local = ivec2(spread_global_invocation_id().xy);
+    if (!inside(local, pc.core.zw)) {
         return;
     }
+    ivec2 x = pc.core.xy + local;
     int pixel = x.y * pc.width + x.x;
     vec2 p = vec2(x);
     int base = int(pattern_index(uvec2(x), uint(pc.patterns))) * pc.slots;
@@ -173,5 +179,5 @@ void main() {
         sum += s.z * trace(p, u, pixel);
         weight += s.z;
     }
-    result[pixel] = weight > 0.0 ? sum / weight : vec4(0.0);
+    result[rect_index(x, pc.core)] = weight > 0.0 ? sum / weight : vec4(0.0);
 }

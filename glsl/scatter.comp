@@ -6,15 +6,18 @@
 // CPU reference: src/render/scatter/mod.rs `scatter_pixel` (same taps, same order).
 //
 // Bindings (set 0):
-//   0: source    vec4[width * height]   premultiplied linear RGBA
-//   1: disparity float[width * height]
-//   2: result    vec4[width * height]
+//   0: source    vec4[read.z * read.w]   premultiplied linear RGBA of the read rect
+//   1: disparity float[read.z * read.w]
+//   2: result    vec4[core.z * core.w]
 //   3: kernel    float[max(1, kernel_size^2)]   aperture kernel image (Aperture::kernel_texels)
 // Push constants: ScatterPush (src/render/scatter/gpu.rs).
-// Dispatch: (ceil(width / 8), ceil(height / 8), 1).
+// Dispatch: (ceil(core.z / 8), ceil(core.w / 8), 1).
+// Tiled (src/render/tiling.rs, glsl/common/tile.glsl): the dispatch covers `core`, sources
+// are the `read` rect, results core-local; width and height are the full frame's.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "image.glsl"
+#include "tile.glsl"
 #include "aperture.glsl"
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
@@ -37,6 +40,8 @@ layout(push_constant) uniform Push {
     float edge_sharpness;
     float area_epsilon;
     vec4 aperture;
+    ivec4 core;
+    ivec4 read;
 } pc;
 
 float aperture_kernel_texel(int index) {
@@ -51,15 +56,16 @@ float scatter_weight(float r_y, float distance) {
 }
 
 void main() {
-    ivec2 x = ivec2(spread_global_invocation_id().xy);
-    if (!inside(x, ivec2(pc.width, pc.height))) {
+    ivec2 local = ivec2(spread_global_invocation_id().xy);
+    if (!inside(local, pc.core.zw)) {
         return;
     }
+    ivec2 x = pc.core.xy + local;
     vec4 sum = vec4(0.0);
     float weight = 0.0;
     for (int sy = max(x.y - pc.reach, 0); sy <= min(x.y + pc.reach, pc.height - 1); ++sy) {
         for (int sx = max(x.x - pc.reach, 0); sx <= min(x.x + pc.reach, pc.width - 1); ++sx) {
-            int s = sy * pc.width + sx;
+            int s = rect_index(ivec2(sx, sy), pc.read);
             float rel_y = texelFetch(disparity, s).x - pc.focus;
             vec2 offset = aperture_coords(vec2(float(x.x - sx), float(x.y - sy)), rel_y);
             float r_y = abs(pc.k * rel_y);
@@ -71,6 +77,5 @@ void main() {
     }
     // The pixel's own tap weighs at least 0.5 / (r^2 + 0.2) > 0 unless a kernel image blocks
     // it (a ring's obstruction): a pixel no source reaches keeps its own colour.
-    int centre = x.y * pc.width + x.x;
-    result[centre] = weight > 0.0 ? sum / weight : texelFetch(source, centre);
+    result[rect_index(x, pc.core)] = weight > 0.0 ? sum / weight : texelFetch(source, rect_index(x, pc.read));
 }

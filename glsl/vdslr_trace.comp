@@ -3,19 +3,24 @@
 // Eq. 5 highlight weighting. CPU reference: src/render/vdslr/mod.rs `Tracer` (same order).
 //
 // Bindings (set 0):
-//   0: image     vec4[width * height]   premultiplied linear RGBA
-//   1: relative  float[width * height]  d - d_f(x, y), the edited disparity map
-//   2: disparity float[width * height]  true disparity (bleeding guard: which pixel is farther)
+//   0: image     vec4[read.z * read.w]   premultiplied linear RGBA of the read rect
+//   1: relative  float[read.z * read.w]  d - d_f(x, y), the edited disparity map
+//   2: disparity float[read.z * read.w]  true disparity (bleeding guard: which pixel is farther)
 //   3: samples   vec4[patterns * slots] (u, v, weight, 0), unit disk, aperture coordinates
-//   4: result    vec4[width * height]
+//   4: result    vec4[core.z * core.w]
 // Push constants: VdslrPush (src/render/vdslr/gpu.rs).
-// Dispatch: (ceil(width / 8), ceil(height / 8), 1).
+// Dispatch: (ceil(core.z / 8), ceil(core.w / 8), 1).
+// Tiled (src/render/tiling.rs, glsl/common/tile.glsl): the dispatch covers `core`, sources
+// are the `read` rect, results core-local; width and height are the full frame's.
+// Sample sets are picked by frame position, and every search step's pixel lies within the
+// halo (the ray's reach, VdslrTiling in src/render/vdslr/gpu.rs).
 //
 // `precise` keeps every position computation unfused (no FMA contraction), so the pixel each
 // search reads is the one the CPU reference reads.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "image.glsl"
+#include "tile.glsl"
 #include "sampling.glsl"
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
@@ -42,6 +47,8 @@ layout(push_constant) uniform Push {
     float s_max;
     float sigma;
     float white;
+    ivec4 core;
+    ivec4 read;
 } pc;
 
 struct Hit {
@@ -70,7 +77,7 @@ Hit search(vec2 p, vec2 u, int centre) {
         precise float py = p.y + u.y * s_t;
         int qx = nearest_pixel(px, pc.width);
         int qy = nearest_pixel(py, pc.height);
-        int index = qy * pc.width + qx;
+        int index = rect_index(ivec2(qx, qy), pc.read);
         float s_q = texelFetch(relative, index).x;
         if (hits(p, u, ivec2(qx, qy), s_q)) {
             return Hit(index, true);
@@ -93,11 +100,12 @@ float highlight_weight(vec4 c) {
 }
 
 void main() {
-    ivec2 x = ivec2(spread_global_invocation_id().xy);
-    if (!inside(x, ivec2(pc.width, pc.height))) {
+    ivec2 local = ivec2(spread_global_invocation_id().xy);
+    if (!inside(local, pc.core.zw)) {
         return;
     }
-    int centre = x.y * pc.width + x.x;
+    ivec2 x = pc.core.xy + local;
+    int centre = rect_index(x, pc.read);
     vec2 p = vec2(x);
     int base = int(pattern_index(uvec2(x), uint(pc.patterns))) * pc.slots;
     vec4 sum = vec4(0.0);
@@ -128,5 +136,5 @@ void main() {
         sum += w * colour;
         weight += w;
     }
-    result[centre] = weight > 0.0 ? sum / weight : texelFetch(source, centre);
+    result[rect_index(x, pc.core)] = weight > 0.0 ? sum / weight : texelFetch(source, centre);
 }

@@ -248,6 +248,32 @@ fn method_flags_are_refused_by_methods_that_do_not_read_them() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `--tile` and `--max-memory` cut every Vulkan method's frame without changing its output,
+/// and are refused, saying why, where the render runs whole on the CPU; a cap below what the
+/// frame's input and output take is refused with the numbers.
+#[test]
+fn tiling_flags_are_honoured_by_every_vulkan_method_and_refused_where_nothing_is_tiled() {
+    let dir = temp_dir("cli-methods", "tiling");
+    let (w, h) = (40, 28);
+    let input = write_single(&dir, checker(w, h), (0..w * h).map(|i| (i % w) as f32 / w as f32).collect());
+    let camera = ["--blur", "10", "--focus-disparity", "0.5", "--samples", "16"];
+    for method in ["multiview", "vdslr", "gather", "scatter"] {
+        let flags: &[&str] = if method == "multiview" || method == "vdslr" { &camera } else { &camera[..4] };
+        let whole = render(&input, "whole.exr", &[flags, &["--method", method]].concat());
+        let tiled = render(&input, "tiled.exr", &[flags, &["--method", method, "--tile", "7", "--max-memory", "1G"]].concat());
+        assert!(whole == tiled, "{method}: --tile 7 changed the output");
+    }
+    let message = refused(&input, &[&camera[..4], &["--method", "oracle", "--tile", "16"]].concat());
+    assert!(message.contains("--tile") && message.contains("oracle runs on the CPU"), "{message}");
+    let message = refused(&input, &[&camera[..4], &["--device", "cpu", "--max-memory", "1G"]].concat());
+    assert!(message.contains("--max-memory") && message.contains("--device cpu"), "{message}");
+    let message = refused(&input, &[&camera[..4], &["--max-memory", "1K"]].concat());
+    assert!(message.contains("--max-memory 1024 bytes is less than"), "{message}");
+    let message = refused(&input, &[&camera[..4], &["--max-memory", "lots"]].concat());
+    assert!(message.contains("expected a size such as 512M"), "{message}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The flag check reads the registry: every method accepts exactly the method flags it declares
 /// (`lensblur methods --json`), and any other is refused naming the methods that read it.
 #[test]

@@ -99,9 +99,15 @@ pub struct Args {
     /// Also write an 8-bit sRGB preview: .png (with alpha) or .jpg/.jpeg (over black).
     #[arg(long, value_name = "FILE.png", help_heading = "Output")]
     pub preview: Option<PathBuf>,
-    /// Frame tile side in pixels (default: the largest the device's limits and memory allow).
+    /// Frame tile side in pixels, for every method on the Vulkan device (default: the largest
+    /// the device's limits and the memory cap allow). The output is the same for every tile size.
     #[arg(long, value_name = "N", help_heading = "Output")]
     pub tile: Option<usize>,
+    /// Most memory the render may hold, host and device together (inputs, output and tiles):
+    /// SIZE in bytes or with K, M, G (e.g. 512M, 2G). Default: on a CPU Vulkan device (lavapipe)
+    /// 3x the stack's float32 size, on a GPU what its driver's budget leaves.
+    #[arg(long, value_name = "SIZE", value_parser = parse_size, help_heading = "Output")]
+    pub max_memory: Option<u64>,
     /// Where Vulkan methods run: auto (the Vulkan device; the CPU, with a warning, if none can
     /// be opened), gpu (fail without one), cpu (the CPU references: slow, for checking).
     #[arg(long, value_enum, default_value = "auto", help_heading = "Output")]
@@ -240,9 +246,48 @@ pub(super) fn check_flags(args: &Args) -> anyhow::Result<(OutputFormat, CameraAr
         );
     }
     args.method_args.check(args.method)?;
+    check_tiling_flags(args)?;
     let mut camera = args.camera.clone();
     args.method_args.apply_to_camera(&mut camera)?;
     Ok((format, camera))
+}
+
+/// `--tile` and `--max-memory` cut the Vulkan renderers' frames: refused where the render runs
+/// whole on the CPU, where nothing would read them.
+fn check_tiling_flags(args: &Args) -> anyhow::Result<()> {
+    let flag = match (args.tile, args.max_memory) {
+        (Some(_), _) => "--tile",
+        (None, Some(_)) => "--max-memory",
+        (None, None) => return Ok(()),
+    };
+    if !args.method.uses_gpu() {
+        anyhow::bail!(
+            "{flag} cuts the frames of the Vulkan methods; {} runs on the CPU over whole layers, untiled (drop it)",
+            args.method
+        );
+    }
+    if args.device == DeviceChoice::Cpu {
+        anyhow::bail!("{flag} cuts the frames of the Vulkan renderers; --device cpu runs the CPU reference over the whole frame (drop one)");
+    }
+    Ok(())
+}
+
+/// `--max-memory SIZE`: bytes, or a number with K, M, G or T (binary units, an optional B or
+/// iB after it).
+pub(super) fn parse_size(text: &str) -> Result<u64, String> {
+    let upper = text.trim().to_ascii_uppercase();
+    let number = upper.trim_end_matches("IB").trim_end_matches('B');
+    let (digits, shift) = match number.chars().last() {
+        Some('K') => (&number[..number.len() - 1], 10),
+        Some('M') => (&number[..number.len() - 1], 20),
+        Some('G') => (&number[..number.len() - 1], 30),
+        Some('T') => (&number[..number.len() - 1], 40),
+        _ => (number, 0),
+    };
+    match digits.trim().parse::<f64>() {
+        Ok(value) if value.is_finite() && value > 0.0 => Ok((value * (1u64 << shift) as f64) as u64),
+        _ => Err(format!("expected a size such as 512M or 2G, got '{text}'")),
+    }
 }
 
 /// The method's settings for a loaded input (they depend on its lens and size).
@@ -270,7 +315,12 @@ pub(super) fn render_loaded<'a>(
     let what = format!("{what_prefix}rendering {layer_count} layer(s) with {}", args.method);
     let passes = args.character.resolve()?.render_count(&loaded.stack, &loaded.camera.lens);
     let tile_progress = progress::tiles(spinner, what, passes);
-    let options = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
+    let options = RenderOptions {
+        tile: args.tile,
+        max_memory: args.max_memory,
+        progress: Some(&tile_progress),
+        ..RenderOptions::default()
+    };
     let rendered = args
         .character
         .render(args.method, ctx, &loaded.stack, &loaded.camera.lens, &options, settings)

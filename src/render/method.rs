@@ -4,7 +4,7 @@
 use std::str::FromStr;
 
 use crate::image::Image;
-use crate::render::drbokeh::RenderOptions;
+use crate::render::tiling::RenderOptions;
 use crate::render::multiview::MultiviewParams;
 use crate::render::vdslr::{FocusField, VdslrParams};
 use crate::render::Lens;
@@ -170,8 +170,9 @@ impl Method {
         self.render_with(ctx, stack, lens, &RenderOptions::default(), &MethodSettings::default())
     }
 
-    /// [`Self::render`] with frame tiling and progress (honoured by the tiled methods: drbokeh)
-    /// and the settings of the methods that have any.
+    /// [`Self::render`] with frame tiling, memory cap and progress (honoured by every method on
+    /// a Vulkan device, through [`crate::render::tiling`]; the CPU references render the whole
+    /// frame at once) and the settings of the methods that have any.
     pub fn render_with(
         self,
         ctx: Option<&Context>,

@@ -4,12 +4,13 @@
 //! `lensblur methods`, the benchmark and the tests' method loops follow. The Blender add-on's
 //! list and the README's method table are checked against it by tests.
 use crate::image::Image;
-use crate::render::drbokeh::{render_cpu, DrBokehGpu, Model, RenderOptions};
+use crate::render::drbokeh::{render_cpu, DrBokehGpu, Model};
 use crate::render::gather::{render_gather_cpu, Gather};
 use crate::render::method::{InputKind, Method, MethodInput, MethodSpec, Renderer, Setting};
 use crate::render::multiview::{render_multiview_cpu, Multiview};
 use crate::render::oracle::render_oracle;
 use crate::render::scatter::{render_scatter_cpu, Scatter};
+use crate::render::tiling::{RenderOptions, RenderStats};
 use crate::render::vdslr::{render_vdslr_cpu, Vdslr};
 use crate::render::{Lens, MethodSettings};
 use crate::vk::Context;
@@ -96,7 +97,7 @@ const GATHER: MethodSpec = MethodSpec {
     input: InputKind::SingleImage,
     uses_gpu: true,
     settings: &[],
-    prepare: |ctx| Ok(baseline(ctx.map(Gather::new).transpose()?, Gather::run, render_gather_cpu)),
+    prepare: |ctx| Ok(baseline(ctx.map(Gather::new).transpose()?, Gather::run_with, render_gather_cpu)),
 };
 
 const SCATTER: MethodSpec = MethodSpec {
@@ -106,7 +107,7 @@ const SCATTER: MethodSpec = MethodSpec {
     input: InputKind::SingleImage,
     uses_gpu: true,
     settings: &[],
-    prepare: |ctx| Ok(baseline(ctx.map(Scatter::new).transpose()?, Scatter::run, render_scatter_cpu)),
+    prepare: |ctx| Ok(baseline(ctx.map(Scatter::new).transpose()?, Scatter::run_with, render_scatter_cpu)),
 };
 
 fn drbokeh(ctx: Option<&Context>, model: Model) -> Result<Box<dyn Renderer>> {
@@ -122,10 +123,10 @@ fn drbokeh(ctx: Option<&Context>, model: Model) -> Result<Box<dyn Renderer>> {
 
 fn multiview(ctx: Option<&Context>) -> Result<Box<dyn Renderer>> {
     let gpu = ctx.map(Multiview::new).transpose()?;
-    Ok(Box::new(move |input: MethodInput<'_>, lens: &Lens, _: &RenderOptions, settings: &MethodSettings| {
+    Ok(Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, settings: &MethodSettings| {
         let stack = input.layers()?;
         match &gpu {
-            Some(gpu) => gpu.run(stack, lens, &settings.multiview),
+            Some(gpu) => Ok(gpu.run_with(stack, lens, &settings.multiview, options)?.0),
             None => render_multiview_cpu(stack, lens, &settings.multiview),
         }
     }))
@@ -133,25 +134,25 @@ fn multiview(ctx: Option<&Context>) -> Result<Box<dyn Renderer>> {
 
 fn vdslr(ctx: Option<&Context>) -> Result<Box<dyn Renderer>> {
     let gpu = ctx.map(Vdslr::new).transpose()?;
-    Ok(Box::new(move |input: MethodInput<'_>, lens: &Lens, _: &RenderOptions, settings: &MethodSettings| {
+    Ok(Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, settings: &MethodSettings| {
         let (image, disparity) = input.single_image()?;
         match &gpu {
-            Some(gpu) => gpu.run(image, disparity, lens, &settings.vdslr),
+            Some(gpu) => Ok(gpu.run_with(image, disparity, lens, &settings.vdslr, options)?.0),
             None => render_vdslr_cpu(image, disparity, lens, &settings.vdslr),
         }
     }))
 }
 
-/// The single-image baselines: one GPU pass, or its CPU reference.
+/// The single-image baselines: one tiled GPU pass, or its CPU reference.
 fn baseline<G: Send + Sync + 'static>(
     gpu: Option<G>,
-    run: fn(&G, &Image, &[f32], &Lens) -> Result<Image>,
+    run: fn(&G, &Image, &[f32], &Lens, &RenderOptions) -> Result<(Image, RenderStats)>,
     cpu: fn(&Image, &[f32], &Lens) -> Image,
 ) -> Box<dyn Renderer> {
-    Box::new(move |input: MethodInput<'_>, lens: &Lens, _: &RenderOptions, _: &MethodSettings| {
+    Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, _: &MethodSettings| {
         let (image, disparity) = input.single_image()?;
         match &gpu {
-            Some(gpu) => run(gpu, image, disparity, lens),
+            Some(gpu) => Ok(run(gpu, image, disparity, lens, options)?.0),
             None => Ok(cpu(image, disparity, lens)),
         }
     })

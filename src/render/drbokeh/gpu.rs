@@ -1,14 +1,15 @@
 //! GPU host code of the Dr.Bokeh forward renderer. The frame is cut into tiles: each uploads
 //! its core plus the halo its search windows reach, records the layer passes and the composite
 //! of `glsl/drbokeh_*.comp`, and reads its core back; several tiles share one submission
-//! ([`super::tiled`]). Every pixel reads the same sources in the same order whatever the
-//! tiling, so the output is bit-identical for every tile size and batch size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
+//! ([`crate::render::tiling`], the tiler every method uses). Every pixel reads the same sources
+//! in the same order whatever the tiling, so the output is bit-identical for every tile size and
+//! batch size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
 //! lens, area table, push constants) and the search windows are shared with it.
 use super::bounds::{search_tiles, search_windows, span_radii, NO_SPAN_RADII};
-use super::tiled::{frame_cores, run_batches, run_tiled, Footprint, TilePlan};
 use super::{AperturePath, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
+use crate::render::tiling::{crop, run_batches, run_tiled, store_core, Footprint, TilePlan};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
@@ -57,40 +58,7 @@ pub enum LayerKernel {
     OptimisedNoInterior,
 }
 
-/// How to cut and report a render.
-#[derive(Clone, Copy, Default)]
-pub struct RenderOptions<'a> {
-    /// Frame tile side in pixels (rounded up to a multiple of 16); `None`: the whole frame if
-    /// it fits the device's buffer range and memory budget, else the largest tile of which two
-    /// fit together (`tiled.rs`).
-    pub tile: Option<usize>,
-    /// Tiles recorded into one submission; `None`: as many as fit the memory budget together
-    /// (at most 8).
-    pub tiles_per_batch: Option<usize>,
-    /// Called after each finished tile with (tiles done, tiles in all).
-    pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
-    /// Testing aid, not a user setting: device memory (bytes over what the device held when
-    /// the frame began) past which a tile's allocations count as out of device memory, so the
-    /// smaller-tile retry runs on any device. `None` in every real render.
-    #[doc(hidden)]
-    pub device_memory_limit: Option<u64>,
-}
-
-/// What one render measured.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct RenderStats {
-    /// Device time of all passes (timestamp queries), if the queue supports them.
-    pub device_ns: Option<f64>,
-    /// Frame tiles rendered and their side (after any out-of-memory retries).
-    pub tiles: usize,
-    pub tile_size: usize,
-    /// Tiles recorded into one submission.
-    pub tiles_per_batch: usize,
-    /// Most device memory this renderer's buffers held at once.
-    pub peak_device_bytes: u64,
-    /// Source pixels gathered (sum over layers and pixels of the window area): the work.
-    pub taps: u64,
-}
+pub use crate::render::tiling::{RenderOptions, RenderStats};
 
 /// Bindings of `drbokeh_layer.comp` (and its disk path): the sources, the lens tables, the
 /// prepass's per-source terms and block sums, read at lane-varying addresses in the tap
@@ -200,7 +168,10 @@ impl DrBokehGpu {
         };
         let interior = self.kernel != LayerKernel::OptimisedNoInterior;
         let frame = ForwardFrame::new(&self.ctx, stack, &params, &lens.aperture, &windows, interior)?;
-        run_tiled(&self.ctx, &params, options, footprint, |plan| self.render_tiles(&frame, plan, options))
+        // Work bound: every layer's square of the largest search window (span paths do less).
+        let work = params.layer_count as u64 * (2 * max_window.max(0) as u64 + 1).pow(2);
+        let tiling = params.tiling().with_work(work);
+        run_tiled(&self.ctx, &tiling, options, footprint, |plan| self.render_tiles(&frame, plan, options))
     }
 
     /// One attempt at the frame: its tiles in batches of `plan.tiles_per_batch`, each tile's
@@ -212,7 +183,7 @@ impl DrBokehGpu {
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
         let (ctx, params) = (&self.ctx, frame.params);
-        let cores = frame_cores(params.width, params.height, plan.tile);
+        let cores = params.tiling().cores(plan.tile);
         let mut image = Image::new(params.width, params.height);
         let record = |batch: &mut CommandBatch, core: Rect| {
             let read = core.grown(halo(params, frame.windows, core), params.width, params.height);
@@ -220,14 +191,7 @@ impl DrBokehGpu {
             self.record(batch, params, &buffers)?;
             buffers.result.readable_in(ctx, batch)
         };
-        let collect = |core: Rect, result: Buffer| {
-            let result: Vec<[f32; 4]> = result.read(ctx)?;
-            for (y, row) in result.chunks_exact(core.width()).take(core.height()).enumerate() {
-                let start = (core.y0 + y) * params.width + core.x0;
-                image.pixels[start..start + core.width()].copy_from_slice(row);
-            }
-            Ok(())
-        };
+        let collect = |core: Rect, result: Buffer| store_core(ctx, &mut image, core, &result);
         let mut stats = run_batches(ctx, &cores, plan, options, record, collect)?;
         stats.taps = cores.iter().map(|&core| taps(params, frame.windows, core)).sum();
         Ok((image, stats))
@@ -450,9 +414,4 @@ pub(crate) fn taps(params: &Params, windows: &[i32], core: Rect) -> u64 {
         }
     }
     taps
-}
-
-/// The pixels of `rect` from a row-major image `width` wide.
-pub(crate) fn crop<T: Copy>(pixels: &[T], width: usize, rect: Rect) -> impl Iterator<Item = T> + '_ {
-    (rect.y0..rect.y1).flat_map(move |y| pixels[y * width + rect.x0..y * width + rect.x1].iter().copied())
 }

@@ -15,11 +15,11 @@
 use super::backward::BackwardOptions;
 use super::backward_cpu::tile_reach_cpu;
 use super::bounds::{grow_windows, search_windows};
-use super::gpu::{crop, halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
-use super::tiled::{frame_cores, round_to_tile, run_batches, run_tiled, Footprint, TilePlan};
+use super::gpu::{halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
 use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
+use crate::render::tiling::{crop, run_batches, run_tiled, Footprint, TilePlan};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
@@ -164,7 +164,12 @@ impl DrBokehGpuGrad {
             windows.iter().copied().max().unwrap_or(0),
             reach.iter().copied().max().unwrap_or(0),
         );
-        run_tiled(ctx, &params, options, footprint, |plan| self.backward_tiles(&frame, plan, options))
+        // Work bound: the forward's windows over the receivers, and the adjoint's over the reach.
+        let (max_window, max_reach) = (windows.iter().max(), reach.iter().max());
+        let side = |r: Option<&i32>| 2 * r.copied().unwrap_or(0).max(0) as u64 + 1;
+        let work = params.layer_count as u64 * (side(max_window).pow(2) + side(max_reach).pow(2));
+        let tiling = params.tiling().with_work(work);
+        run_tiled(ctx, &tiling, options, footprint, |plan| self.backward_tiles(&frame, plan, options))
     }
 
     /// One attempt at the frame: its tiles in batches of `plan.tiles_per_batch`, each tile's
@@ -177,7 +182,7 @@ impl DrBokehGpuGrad {
     ) -> Result<(StackGradients, RenderStats)> {
         let ctx = self.context();
         let params = frame.forward.params;
-        let cores = frame_cores(params.width, params.height, plan.tile);
+        let cores = params.tiling().cores(plan.tile);
         let mut grads = FrameGradients::new(params);
         let record = |batch: &mut CommandBatch, core: Rect| {
             let receivers = frame.receivers(core);
@@ -307,8 +312,8 @@ impl Frame<'_> {
         Rect {
             x0: grown.x0 / TILE * TILE,
             y0: grown.y0 / TILE * TILE,
-            x1: round_to_tile(grown.x1).min(p.width),
-            y1: round_to_tile(grown.y1).min(p.height),
+            x1: p.tiling().round(grown.x1).min(p.width),
+            y1: p.tiling().round(grown.y1).min(p.height),
         }
     }
 }

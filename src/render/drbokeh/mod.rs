@@ -21,9 +21,10 @@
 //!
 //! Large frames are rendered in frame tiles (`gpu.rs`): each uploads its core plus halo, and
 //! since every pixel reads the same sources in the same order, the output is bit-identical
-//! whatever the tile size. Several tiles share one submission; `tiled.rs` plans tile side and
-//! batch size from the device's memory budget and retries smaller when memory runs out. The backward ([`DrBokehGpuGrad`]) tiles the frame the same way, by
-//! the same policy, with the same guarantee.
+//! whatever the tile size. Several tiles share one submission; the tiler every method uses
+//! ([`crate::render::tiling`]) plans tile side and batch size from the device's limits and
+//! memory budget and retries smaller when memory runs out. The backward ([`DrBokehGpuGrad`])
+//! tiles the frame the same way, by the same policy, with the same guarantee.
 use crate::camera::{Aperture, CocModel};
 
 pub mod backward;
@@ -34,7 +35,6 @@ mod gpu;
 mod gpu_backward;
 pub mod math;
 mod params;
-mod tiled;
 
 #[cfg(test)]
 mod compat_direct;

@@ -2,6 +2,7 @@
 //! the dilation loop, and the area table — everything both the CPU reference and the GPU
 //! host code derive from a stack and a lens, computed in one place.
 use super::{math, DrBokehPush, LensView, Model, AREA_STEP_PX, AREA_TABLE_RADIUS_PX, TILE};
+use crate::render::tiling::{rect_push as rect, FrameTiling};
 use crate::render::Lens;
 use crate::tiling::Rect;
 use crate::stack::LayerStack;
@@ -67,6 +68,11 @@ impl Params {
         }
     }
 
+    /// What the tiler needs of the frame: tiles are whole 16x16 search tiles.
+    pub(crate) fn tiling(&self) -> FrameTiling {
+        FrameTiling::new(self.width, self.height, self.layer_count, TILE)
+    }
+
     /// Push constants for a dispatch on `layer` over the whole image (one frame tile).
     pub fn push(&self, layer: usize) -> DrBokehPush {
         let whole = Rect { x0: 0, y0: 0, x1: self.width, y1: self.height };
@@ -75,7 +81,6 @@ impl Params {
 
     /// Push constants for a dispatch on `layer` writing `core` from the uploaded `read` rect.
     pub fn push_tile(&self, layer: usize, core: Rect, read: Rect) -> DrBokehPush {
-        let rect = |r: Rect| [r.x0 as i32, r.y0 as i32, r.width() as i32, r.height() as i32];
         DrBokehPush {
             width: self.width as i32,
             height: self.height as i32,

@@ -1,10 +1,13 @@
-//! GPU host code of the gather baseline: uploads the image and its disparity, dispatches
-//! `glsl/gather.comp` once, reads back.
+//! GPU host code of the gather baseline: on frame tiles ([`crate::render::tiling`]), uploads
+//! each tile's read rect of the image and its disparity, dispatches `glsl/gather.comp` over
+//! its core, reads back.
 use super::EDGE_WIDTH;
 use crate::image::Image;
+use crate::render::tiling::{crop, rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats};
 use crate::render::Lens;
 use crate::shaders;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
+use crate::tiling::{MaxPyramid, Rect};
+use crate::vk::{Buffer, ComputePipeline, Context, Slot, TexelFormat};
 use crate::{Error, Result};
 
 /// Push constants of `glsl/gather.comp`.
@@ -20,8 +23,11 @@ struct GatherPush {
     kernel_size: i32,
     pad: [f32; 2],
     aperture: [f32; 4],
+    /// The tile's core and read rects ([`rect_push`]).
+    core: [i32; 4],
+    read: [i32; 4],
 }
-const _: () = assert!(std::mem::size_of::<GatherPush>() == 48);
+const _: () = assert!(std::mem::size_of::<GatherPush>() == 80);
 
 /// The gather baseline on the GPU.
 pub struct Gather {
@@ -31,25 +37,51 @@ pub struct Gather {
 
 impl Gather {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(ctx, &shaders::GATHER, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Texels(TexelFormat::Float)], std::mem::size_of::<GatherPush>())?;
+        let pipeline =
+            ComputePipeline::with_slots(ctx, &shaders::GATHER, &IMAGE_PASS_SLOTS, std::mem::size_of::<GatherPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
     /// Renders `image` (linear, premultiplied) with per-pixel `disparity` through `lens`.
     pub fn run(&self, image: &Image, disparity: &[f32], lens: &Lens) -> Result<Image> {
+        Ok(self.run_with(image, disparity, lens, &RenderOptions::default())?.0)
+    }
+
+    /// [`Self::run`] on frame tiles cut as `options` says; the same pixels for every tile size.
+    pub fn run_with(
+        &self,
+        image: &Image,
+        disparity: &[f32],
+        lens: &Lens,
+        options: &RenderOptions,
+    ) -> Result<(Image, RenderStats)> {
         check_input(image, disparity)?;
         let (kernel_size, kernel) = lens.aperture.kernel_texels();
-        let push = GatherPush {
-            width: image.width as i32,
-            height: image.height as i32,
-            k: lens.coc.k_px,
-            focus: lens.coc.focus_disparity,
-            edge_width: EDGE_WIDTH,
-            kernel_size: kernel_size as i32,
-            pad: [0.0; 2],
-            aperture: lens.aperture.gpu_params(),
-        };
-        dispatch_image_pass(&self.ctx, &self.pipeline, "gather", image, disparity, &kernel, &push)
+        // A pixel's taps reach ceil(r + edge / 2) of its own radius, so a core's halo is its
+        // largest radius's reach; + 1 covers the shader's f32 radius rounding the other way.
+        let radius: Vec<f32> = disparity.iter().map(|&d| lens.coc.radius(d)).collect();
+        let pyramid = MaxPyramid::new(image.width, image.height, &radius);
+        let reach = |r: f32| (r + 0.5 * EDGE_WIDTH).ceil() as usize + 1;
+        let whole = Rect { x0: 0, y0: 0, x1: image.width, y1: image.height };
+        let pass =
+            ImagePass { ctx: &self.ctx, pipeline: &self.pipeline, name: "gather", image, disparity, kernel: &kernel };
+        pass.run(
+            options,
+            reach(pyramid.max_in(whole)),
+            |core| reach(pyramid.max_in(core)),
+            |core, read| GatherPush {
+                width: image.width as i32,
+                height: image.height as i32,
+                k: lens.coc.k_px,
+                focus: lens.coc.focus_disparity,
+                edge_width: EDGE_WIDTH,
+                kernel_size: kernel_size as i32,
+                pad: [0.0; 2],
+                aperture: lens.aperture.gpu_params(),
+                core: rect_push(core),
+                read: rect_push(read),
+            },
+        )
     }
 }
 
@@ -69,25 +101,58 @@ pub(crate) fn check_input(image: &Image, disparity: &[f32]) -> Result<()> {
     Ok(())
 }
 
-/// One dispatch over the image of a pass reading (image, disparity, aperture kernel texels) and
-/// writing an image: the shape both single-image baselines share.
-pub(crate) fn dispatch_image_pass<P: bytemuck::Pod>(
-    ctx: &Context,
-    pipeline: &ComputePipeline,
-    name: &str,
-    image: &Image,
-    disparity: &[f32],
-    kernel: &[f32],
-    push: &P,
-) -> Result<Image> {
-    let source = Buffer::from_slice(ctx, &format!("{name} image"), &image.pixels)?;
-    let depth = Buffer::from_slice(ctx, &format!("{name} disparity"), disparity)?;
-    let kernel = Buffer::from_slice(ctx, &format!("{name} kernel"), kernel)?;
-    let result = Buffer::zeroed(ctx, &format!("{name} result"), std::mem::size_of_val(image.pixels.as_slice()) as u64)?;
-    let groups = pipeline.groups_for([image.width as u32, image.height as u32, 1]);
-    let mut batch = CommandBatch::new(ctx)?;
-    batch.dispatch(pipeline, &[source.all(), depth.all(), result.all(), kernel.all()], push, groups)?;
-    batch.submit_and_wait()?;
-    let pixels: Vec<[f32; 4]> = result.read(ctx)?;
-    Ok(Image { width: image.width, height: image.height, pixels })
+/// Bindings of an [`ImagePass`]: image, disparity (texels, read at lane-varying addresses),
+/// result, kernel.
+pub(crate) const IMAGE_PASS_SLOTS: [Slot; 4] = [
+    Slot::Texels(TexelFormat::Vec4),
+    Slot::Texels(TexelFormat::Float),
+    Slot::Storage,
+    Slot::Texels(TexelFormat::Float),
+];
+
+/// A tiled pass reading (image, disparity, aperture kernel texels) and writing an image: the
+/// shape both single-image baselines share. Bindings: the read rect's RGBA and disparity, the
+/// core's result, the kernel (shared by every tile).
+pub(crate) struct ImagePass<'a> {
+    pub ctx: &'a Context,
+    pub pipeline: &'a ComputePipeline,
+    pub name: &'a str,
+    pub image: &'a Image,
+    pub disparity: &'a [f32],
+    pub kernel: &'a [f32],
+}
+
+impl ImagePass<'_> {
+    /// Renders on tiles whose halo is `halo(core)` (at most `max_halo`), each dispatched with
+    /// `push(core, read)`.
+    pub fn run<P: bytemuck::Pod>(
+        &self,
+        options: &RenderOptions,
+        max_halo: usize,
+        halo: impl Fn(Rect) -> usize,
+        push: impl Fn(Rect, Rect) -> P,
+    ) -> Result<(Image, RenderStats)> {
+        let (ctx, name, width) = (self.ctx, self.name, self.image.width);
+        // Work bound: the square window of the largest halo per pixel.
+        let frame = FrameTiling::new(width, self.image.height, 1, 1).with_work((2 * max_halo as u64 + 1).pow(2));
+        let kernel = Buffer::from_slice(ctx, &format!("{name} kernel"), self.kernel)?;
+        // RGBA + disparity per read pixel, RGBA per core pixel; the RGBA is the largest binding.
+        let footprint = |tile| Footprint::per_pixel(&frame, tile, max_halo, 20, 16, 16);
+        render_image_tiles(ctx, &frame, options, footprint, halo, |batch, core, read| {
+            let rgba = crop(&self.image.pixels, width, read);
+            let source = Buffer::from_iter_in(ctx, batch, &format!("{name} image"), read.area(), rgba)?;
+            let disparity = crop(self.disparity, width, read);
+            let depth = Buffer::from_iter_in(ctx, batch, &format!("{name} disparity"), read.area(), disparity)?;
+            // The shader writes every core pixel.
+            let result = Buffer::uninitialised(ctx, &format!("{name} result"), core.area() as u64 * 16)?;
+            let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
+            batch.dispatch(
+                self.pipeline,
+                &[source.all(), depth.all(), result.all(), kernel.all()],
+                &push(core, read),
+                groups,
+            )?;
+            result.readable_in(ctx, batch)
+        })
+    }
 }

@@ -1,13 +1,16 @@
 //! GPU host code of multiview synthesis: uploads what [`super::prepare`] built (pyramids,
-//! height fields, culling masks, lens samples), dispatches `glsl/multiview_trace.comp` once,
-//! reads back.
+//! height fields, culling masks, lens samples) once for the frame, dispatches
+//! `glsl/multiview_trace.comp` over frame tiles ([`crate::render::tiling`]), reads each back.
+//! The inputs stay whole: cone tracing reads mip levels whose texels span any extent, so a
+//! tile's reach is the frame; tiling bounds each dispatch's time and the output's memory.
 use super::prepare::Prepared;
 use super::MultiviewParams;
 use crate::image::Image;
+use crate::render::tiling::{rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
+use crate::vk::{Buffer, ComputePipeline, Context, Slot, TexelFormat};
 use crate::Result;
 
 /// Push constants of `glsl/multiview_trace.comp`.
@@ -28,8 +31,10 @@ struct MultiviewPush {
     focus: f32,
     cone: f32,
     pad3: f32,
+    /// The tile's core ([`rect_push`]); inputs are the whole frame's.
+    core: [i32; 4],
 }
-const _: () = assert!(std::mem::size_of::<MultiviewPush>() == 64);
+const _: () = assert!(std::mem::size_of::<MultiviewPush>() == 80);
 
 /// Multiview synthesis on the GPU.
 pub struct Multiview {
@@ -39,11 +44,32 @@ pub struct Multiview {
 
 impl Multiview {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(ctx, &shaders::MULTIVIEW_TRACE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Storage, Slot::Storage, Slot::Storage, Slot::Storage], std::mem::size_of::<MultiviewPush>())?;
+        let slots = [
+            Slot::Texels(TexelFormat::Vec4),
+            Slot::Texels(TexelFormat::Float),
+            Slot::Storage,
+            Slot::Storage,
+            Slot::Storage,
+            Slot::Storage,
+            Slot::Storage,
+        ];
+        let pipeline =
+            ComputePipeline::with_slots(ctx, &shaders::MULTIVIEW_TRACE, &slots, std::mem::size_of::<MultiviewPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
     pub fn run(&self, stack: &LayerStack, lens: &Lens, params: &MultiviewParams) -> Result<Image> {
+        Ok(self.run_with(stack, lens, params, &RenderOptions::default())?.0)
+    }
+
+    /// [`Self::run`] on frame tiles cut as `options` says; the same pixels for every tile size.
+    pub fn run_with(
+        &self,
+        stack: &LayerStack,
+        lens: &Lens,
+        params: &MultiviewParams,
+        options: &RenderOptions,
+    ) -> Result<(Image, RenderStats)> {
         let ctx = &self.ctx;
         let pr = Prepared::new(stack, lens, params)?;
         let pyramid = Buffer::from_slice(ctx, "multiview pyramid", &pr.pyramid)?;
@@ -52,8 +78,14 @@ impl Multiview {
         let bounds = Buffer::from_slice(ctx, "multiview bounds", &pr.bounds)?;
         let levels = Buffer::from_slice(ctx, "multiview levels", &pr.levels)?;
         let samples = Buffer::from_slice(ctx, "multiview lens samples", &pr.samples.data)?;
-        let result = Buffer::zeroed(ctx, "multiview result", (pr.plane * std::mem::size_of::<[f32; 4]>()) as u64)?;
-        let push = MultiviewPush {
+        // Work bound: per lens sample and layer, the intersection's steps and one cone sample.
+        let work = (pr.samples.slots * pr.layers) as u64 * (u64::from(pr.steps) + 1);
+        let mut frame = FrameTiling::new(pr.width, pr.height, pr.layers, 1).with_work(work);
+        // The frame's inputs are held on the device for the whole render, beside the tiles.
+        frame.host_bytes += [&pyramid, &heights, &occupancy].iter().map(|b| b.size()).sum::<u64>();
+        // A tile holds only its core's result.
+        let footprint = |tile| Footprint::per_pixel(&frame, tile, 0, 0, 16, 16);
+        let push = |core| MultiviewPush {
             width: pr.width as i32,
             height: pr.height as i32,
             layers: pr.layers as i32,
@@ -68,13 +100,30 @@ impl Multiview {
             focus: pr.focus,
             cone: pr.cone,
             pad3: 0.0,
+            core: rect_push(core),
         };
-        let bindings = [pyramid.all(), heights.all(), occupancy.all(), bounds.all(), levels.all(), samples.all(), result.all()];
-        let groups = self.pipeline.groups_for([pr.width as u32, pr.height as u32, 1]);
-        let mut batch = CommandBatch::new(ctx)?;
-        batch.dispatch(&self.pipeline, &bindings, &push, groups)?;
-        batch.submit_and_wait()?;
-        let pixels: Vec<[f32; 4]> = result.read(ctx)?;
-        Ok(Image { width: pr.width, height: pr.height, pixels })
+        render_image_tiles(
+            ctx,
+            &frame,
+            options,
+            footprint,
+            |_| 0,
+            |batch, core, _| {
+                // The shader writes every core pixel.
+                let result = Buffer::uninitialised(ctx, "multiview result", core.area() as u64 * 16)?;
+                let bindings = [
+                    pyramid.all(),
+                    heights.all(),
+                    occupancy.all(),
+                    bounds.all(),
+                    levels.all(),
+                    samples.all(),
+                    result.all(),
+                ];
+                let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
+                batch.dispatch(&self.pipeline, &bindings, &push(core), groups)?;
+                result.readable_in(ctx, batch)
+            },
+        )
     }
 }

@@ -1,11 +1,13 @@
-//! GPU host code of the scatter baseline: uploads the image and its disparity, dispatches
-//! `glsl/scatter.comp` (the scatter written as a gather, no atomics) once, reads back.
+//! GPU host code of the scatter baseline: on frame tiles ([`crate::render::tiling`]), uploads
+//! each tile's read rect of the image and its disparity, dispatches `glsl/scatter.comp` (the
+//! scatter written as a gather, no atomics) over its core, reads back.
 use super::{AREA_EPSILON, EDGE_SHARPNESS, WINDOW_MARGIN};
 use crate::image::Image;
-use crate::render::gather::gpu::{check_input, dispatch_image_pass};
+use crate::render::gather::gpu::{check_input, ImagePass, IMAGE_PASS_SLOTS};
+use crate::render::tiling::{rect_push, RenderOptions, RenderStats};
 use crate::render::Lens;
 use crate::shaders;
-use crate::vk::{ComputePipeline, Context, Slot, TexelFormat};
+use crate::vk::{ComputePipeline, Context};
 use crate::Result;
 
 /// Push constants of `glsl/scatter.comp`.
@@ -23,8 +25,11 @@ struct ScatterPush {
     edge_sharpness: f32,
     area_epsilon: f32,
     aperture: [f32; 4],
+    /// The tile's core and read rects ([`rect_push`]).
+    core: [i32; 4],
+    read: [i32; 4],
 }
-const _: () = assert!(std::mem::size_of::<ScatterPush>() == 48);
+const _: () = assert!(std::mem::size_of::<ScatterPush>() == 80);
 
 /// The scatter baseline on the GPU.
 pub struct Scatter {
@@ -34,26 +39,48 @@ pub struct Scatter {
 
 impl Scatter {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(ctx, &shaders::SCATTER, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Texels(TexelFormat::Float)], std::mem::size_of::<ScatterPush>())?;
+        let pipeline =
+            ComputePipeline::with_slots(ctx, &shaders::SCATTER, &IMAGE_PASS_SLOTS, std::mem::size_of::<ScatterPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
     /// Renders `image` (linear, premultiplied) with per-pixel `disparity` through `lens`.
     pub fn run(&self, image: &Image, disparity: &[f32], lens: &Lens) -> Result<Image> {
+        Ok(self.run_with(image, disparity, lens, &RenderOptions::default())?.0)
+    }
+
+    /// [`Self::run`] on frame tiles cut as `options` says; the same pixels for every tile size.
+    pub fn run_with(
+        &self,
+        image: &Image,
+        disparity: &[f32],
+        lens: &Lens,
+        options: &RenderOptions,
+    ) -> Result<(Image, RenderStats)> {
         check_input(image, disparity)?;
         let (kernel_size, kernel) = lens.aperture.kernel_texels();
         let largest = disparity.iter().map(|&d| lens.coc.radius(d)).fold(0.0f32, f32::max);
-        let push = ScatterPush {
-            width: image.width as i32,
-            height: image.height as i32,
-            reach: largest.ceil() as i32 + WINDOW_MARGIN as i32,
-            kernel_size: kernel_size as i32,
-            k: lens.coc.k_px,
-            focus: lens.coc.focus_disparity,
-            edge_sharpness: EDGE_SHARPNESS,
-            area_epsilon: AREA_EPSILON,
-            aperture: lens.aperture.gpu_params(),
-        };
-        dispatch_image_pass(&self.ctx, &self.pipeline, "scatter", image, disparity, &kernel, &push)
+        // Every pixel sums the whole window of the largest CoC: that window is the halo.
+        let reach = largest.ceil() as usize + WINDOW_MARGIN as usize;
+        let pass =
+            ImagePass { ctx: &self.ctx, pipeline: &self.pipeline, name: "scatter", image, disparity, kernel: &kernel };
+        pass.run(
+            options,
+            reach,
+            |_| reach,
+            |core, read| ScatterPush {
+                width: image.width as i32,
+                height: image.height as i32,
+                reach: reach as i32,
+                kernel_size: kernel_size as i32,
+                k: lens.coc.k_px,
+                focus: lens.coc.focus_disparity,
+                edge_sharpness: EDGE_SHARPNESS,
+                area_epsilon: AREA_EPSILON,
+                aperture: lens.aperture.gpu_params(),
+                core: rect_push(core),
+                read: rect_push(read),
+            },
+        )
     }
 }
