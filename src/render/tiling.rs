@@ -200,8 +200,8 @@ pub(crate) fn planning_bytes(budget: MemoryBudget) -> u64 {
 fn device_bytes(driver: u64, cpu_device: bool, frame: &FrameTiling, options: &RenderOptions) -> Result<u64> {
     let tiles = match options.max_memory {
         Some(cap) if cap <= frame.host_bytes => {
-            return Err(Error::param(format!(
-                "--max-memory {} is less than the {} the frame's input and output take (host and device)",
+            return Err(Error::invalid("max memory", format!(
+                "the memory cap (RenderOptions::max_memory; --max-memory on the command line) of {} is less than the {} the frame's input and output take (host and device)",
                 size(cap),
                 size(frame.host_bytes)
             )))
@@ -554,7 +554,7 @@ mod tests {
         );
         let too_small = RenderOptions { max_memory: Some(f.host_bytes / 2), ..RenderOptions::default() };
         let error = device_bytes(plenty, true, &f, &too_small).unwrap_err().to_string();
-        assert!(error.contains("--max-memory 252.0 MiB is less than the 504.0 MiB"), "{error}");
+        assert!(error.contains("--max-memory") && error.contains("of 252.0 MiB is less than the 504.0 MiB"), "{error}");
     }
 
     #[test]
