@@ -1,13 +1,15 @@
 // Virtual DSLR (Yang et al. 2016): per pixel, jittered lens samples traced in image space on
 // the (focus-edited) relative disparity map; randomized search, symmetric fill, bleeding guard,
-// Eq. 5 highlight weighting. CPU reference: src/render/vdslr/mod.rs `Tracer` (same order).
+// Eq. 5 highlight weighting; mixed pixels on an in-focus outline blend their own colour with
+// the trace at the farther surface's depth. CPU reference: src/render/vdslr/mod.rs `Tracer` (same order).
 //
 // Bindings (set 0):
 //   0: image     vec4[width * height]   premultiplied linear RGBA
 //   1: relative  float[width * height]  d - d_f(x, y), the edited disparity map
 //   2: disparity float[width * height]  true disparity (bleeding guard: which pixel is farther)
 //   3: samples   vec4[patterns * slots] (u, v, weight, 0), unit disk, aperture coordinates
-//   4: result    vec4[width * height]
+//   4: edges     vec4[width * height]   (coverage, s_far, d_far, 0) of mixed edge pixels, else 0
+//   5: result    vec4[width * height]
 // Push constants: VdslrPush (src/render/vdslr/gpu.rs).
 // Dispatch: (ceil(width / 8), ceil(height / 8), 1).
 //
@@ -27,7 +29,8 @@ layout(set = 0, binding = 0) uniform samplerBuffer source;
 layout(set = 0, binding = 1) uniform samplerBuffer relative;
 layout(set = 0, binding = 2) uniform samplerBuffer disparity;
 layout(std430, set = 0, binding = 3) readonly buffer Samples { vec4 samples[]; };
-layout(std430, set = 0, binding = 4) writeonly buffer Result { vec4 result[]; };
+layout(set = 0, binding = 4) uniform samplerBuffer edges;
+layout(std430, set = 0, binding = 5) writeonly buffer Result { vec4 result[]; };
 
 layout(push_constant) uniform Push {
     int width;
@@ -49,6 +52,18 @@ struct Hit {
     bool valid;
 };
 
+// The pixel being shaded and the depth it is traced at: its own relative (s) and true (d)
+// disparity, or the farther surface's for a mixed edge pixel (CPU reference: `Centre`).
+struct Centre {
+    int index;
+    float s;
+    float d;
+};
+
+float disparity_at(int index, Centre at) {
+    return index == at.index ? at.d : texelFetch(disparity, index).x;
+}
+
 int nearest_pixel(float x, int size) {
     return int(clamp(floor(x + 0.5), 0.0, float(size - 1)));
 }
@@ -62,7 +77,8 @@ bool hits(vec2 p, vec2 u, ivec2 q, float s_q) {
 }
 
 // Randomized intersection search along p + u s (u already scaled by K).
-Hit search(vec2 p, vec2 u, int centre) {
+Hit search(vec2 p, vec2 u, Centre at) {
+    int centre = at.index;
     float s_t = pc.s_max;
     int other = centre;
     for (int t = 0; t <= pc.iterations; ++t) {
@@ -71,7 +87,7 @@ Hit search(vec2 p, vec2 u, int centre) {
         int qx = nearest_pixel(px, pc.width);
         int qy = nearest_pixel(py, pc.height);
         int index = qy * pc.width + qx;
-        float s_q = texelFetch(relative, index).x;
+        float s_q = index == centre ? at.s : texelFetch(relative, index).x;
         if (hits(p, u, ivec2(qx, qy), s_q)) {
             return Hit(index, true);
         }
@@ -92,12 +108,11 @@ float highlight_weight(vec4 c) {
     return exp(-(m - pc.white) * (m - pc.white) / (2.0 * pc.sigma * pc.sigma));
 }
 
-void main() {
-    ivec2 x = ivec2(spread_global_invocation_id().xy);
-    if (!inside(x, ivec2(pc.width, pc.height))) {
-        return;
-    }
+// The pixel's lens samples traced with the centre at relative disparity s_c and true
+// disparity d_c (CPU reference: `Tracer::trace`).
+vec4 trace(ivec2 x, float s_c, float d_c) {
     int centre = x.y * pc.width + x.x;
+    Centre at = Centre(centre, s_c, d_c);
     vec2 p = vec2(x);
     int base = int(pattern_index(uvec2(x), uint(pc.patterns))) * pc.slots;
     vec4 sum = vec4(0.0);
@@ -108,19 +123,19 @@ void main() {
             continue;
         }
         precise vec2 u = vec2(s.x * pc.k, s.y * pc.k);
-        Hit hit = search(p, u, centre);
-        bool centre_hit = hits(p, u, x, texelFetch(relative, centre).x);
+        Hit hit = search(p, u, at);
+        bool centre_hit = hits(p, u, x, s_c);
         // Passes beside the centre's surface: keep the farther pixel, not the mirror (CPU
         // reference: `Tracer::shade`).
-        bool beside = !centre_hit && texelFetch(disparity, hit.index).x < texelFetch(disparity, centre).x;
+        bool beside = !centre_hit && disparity_at(hit.index, at) < d_c;
         if (!hit.valid && !beside) {
-            Hit mirrored = search(p, -u, centre);
+            Hit mirrored = search(p, -u, at);
             if (mirrored.valid) {
                 hit = mirrored;
             }
         }
         // Guard as in the CPU reference: when the centre is a nearer hit of this ray.
-        bool farther = texelFetch(disparity, hit.index).x < texelFetch(disparity, centre).x;
+        bool farther = disparity_at(hit.index, at) < d_c;
         bool guard = pc.bleeding_guard != 0 && farther && centre_hit;
         int index = guard ? centre : hit.index;
         vec4 colour = texelFetch(source, index);
@@ -128,5 +143,22 @@ void main() {
         sum += w * colour;
         weight += w;
     }
-    result[centre] = weight > 0.0 ? sum / weight : texelFetch(source, centre);
+    return weight > 0.0 ? sum / weight : texelFetch(source, centre);
+}
+
+void main() {
+    ivec2 x = ivec2(spread_global_invocation_id().xy);
+    if (!inside(x, ivec2(pc.width, pc.height))) {
+        return;
+    }
+    int centre = x.y * pc.width + x.x;
+    // A mixed edge pixel: its own colour for the in-focus surface, the trace at the farther
+    // surface's depth for the rest (CPU reference: `Tracer::shade`).
+    vec4 edge = texelFetch(edges, centre);
+    if (edge.x > 0.0) {
+        vec4 far = trace(x, edge.y, edge.z);
+        result[centre] = edge.x * texelFetch(source, centre) + (1.0 - edge.x) * far;
+    } else {
+        result[centre] = trace(x, texelFetch(relative, centre).x, texelFetch(disparity, centre).x);
+    }
 }

@@ -1,5 +1,5 @@
 //! GPU host code of Virtual DSLR: uploads the image, the edited disparity map and the lens
-//! sample sets, dispatches `glsl/vdslr_trace.comp` once, reads back.
+//! sample sets and the mixed edge pixels, dispatches `glsl/vdslr_trace.comp` once, reads back.
 use super::{prepare, VdslrParams};
 use crate::image::Image;
 use crate::render::Lens;
@@ -34,7 +34,7 @@ pub struct Vdslr {
 
 impl Vdslr {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(ctx, &shaders::VDSLR_TRACE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Storage], std::mem::size_of::<VdslrPush>())?;
+        let pipeline = ComputePipeline::with_slots(ctx, &shaders::VDSLR_TRACE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Texels(TexelFormat::Vec4), Slot::Storage], std::mem::size_of::<VdslrPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
@@ -45,6 +45,7 @@ impl Vdslr {
         let relative = Buffer::from_slice(ctx, "vdslr relative disparity", &prepared.relative)?;
         let true_disparity = Buffer::from_slice(ctx, "vdslr disparity", disparity)?;
         let samples = Buffer::from_slice(ctx, "vdslr lens samples", &prepared.samples.data)?;
+        let edges = Buffer::from_slice(ctx, "vdslr mixed edges", &prepared.edges)?;
         let result = Buffer::zeroed(ctx, "vdslr result", std::mem::size_of_val(image.pixels.as_slice()) as u64)?;
         let (sigma, white) = params.highlight.map_or((1.0, 1.0), |h| (h.sigma, h.white));
         let push = VdslrPush {
@@ -61,7 +62,7 @@ impl Vdslr {
             sigma,
             white,
         };
-        let bindings = [source.all(), relative.all(), true_disparity.all(), samples.all(), result.all()];
+        let bindings = [source.all(), relative.all(), true_disparity.all(), samples.all(), edges.all(), result.all()];
         let groups = self.pipeline.groups_for([image.width as u32, image.height as u32, 1]);
         let mut batch = CommandBatch::new(ctx)?;
         batch.dispatch(&self.pipeline, &bindings, &push, groups)?;

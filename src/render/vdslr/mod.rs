@@ -24,6 +24,17 @@
 //! instead of staying sharp; on the benchmark this is worth 3 to 8 dB on the fence, branch
 //! and mesh scenes.
 //!
+//! Mixed edge pixels (departure, issue 22): on the outline of an in-focus surface over a
+//! farther one, an anti-aliased pixel holds both surfaces' colours while its depth is one of
+//! them (a Z pass keeps one sample). Traced at that one depth it is either kept sharp, the
+//! farther surface's share included (a ray-traced light seen past hair stays a sharp, dark
+//! blocky strand instead of thin hair over a bright blur), or blurred whole. Such a pixel is
+//! shaded as `a C + (1 - a) far`: its own colour `C` for the in-focus surface (whose shading
+//! is the pixel itself) and the trace at the farther surface's depth for the rest, with the
+//! coverage `a` estimated from its 3x3 neighbourhood's depths and colours: see
+//! [`mixed_edges`]. With 512 lens samples ([`VdslrParams::tuned`]), `bench --single-image`
+//! vdslr 24.27 / 29.93 / 34.70 dB -> 25.60 / 30.17 / 35.22 (mean 29.63 -> 30.33).
+//!
 //! Colour blending is Eq. 5, adapted to linear HDR input: see [`Highlight`].
 //! Special effects edit the disparity map as the paper does: [`FocusField`].
 mod gpu;
@@ -77,23 +88,29 @@ pub struct VdslrParams {
     pub focus: FocusField,
     /// Replace a farther invalid hit by the centre pixel (the paper does; off only for tests).
     pub bleeding_guard: bool,
+    /// Shade mixed pixels on an in-focus outline as a blend of both surfaces ([`mixed_edges`];
+    /// off only for tests).
+    pub mixed_edges: bool,
 }
 
 impl VdslrParams {
     /// What `--method vdslr` and the benchmark use. Measured on `bench --quick` (mean PSNR):
     /// 64 -> 256 lens samples +1.2 dB (HDR bokeh balls stop being grainy; 1024 adds 0.2 dB
     /// more), 3 -> 10 search iterations +0.9 dB (the tilted wall's continuous depth needs them).
+    /// 256 -> 512 samples on `bench --single-image`: +0.34 dB on silhouette-hdr (its many HDR
+    /// bokeh balls: the grain along their rims), +0.18 dB mean, 1024 only 0.05 dB more; twice
+    /// the time (about 1 s per 256^2 frame on lavapipe, under the peer's 2 s).
     /// Eq. 5 highlight weighting stays off: against ray-traced truth it only loses (mean over
     /// the 9 scenes: off 29.08 dB, sigma 1.0 28.46, 0.3 20.86, 0.1 17.30; gather 25.18), since
     /// linear HDR input already carries the highlights' energy that the weighting fakes.
     pub fn tuned() -> Self {
-        Self { samples: 256, iterations: 10, ..Self::default() }
+        Self { samples: 512, iterations: 10, ..Self::default() }
     }
 }
 
 impl Default for VdslrParams {
     fn default() -> Self {
-        Self { samples: 64, patterns: 16, seed: 0, iterations: 3, highlight: None, focus: FocusField::Plane, bleeding_guard: true }
+        Self { samples: 64, patterns: 16, seed: 0, iterations: 3, highlight: None, focus: FocusField::Plane, bleeding_guard: true, mixed_edges: true }
     }
 }
 
@@ -144,6 +161,8 @@ struct Prepared {
     samples: LensSamples,
     /// Largest relative disparity of the map: where every search starts.
     s_max: f32,
+    /// Per pixel `[coverage, s_far, d_far, 0]` ([`mixed_edges`]); coverage 0 elsewhere.
+    edges: Vec<[f32; 4]>,
 }
 
 fn prepare(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) -> Result<Prepared> {
@@ -154,7 +173,86 @@ fn prepare(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) 
     if !s_max.is_finite() {
         return Err(Error::param("disparity must be finite and the image non-empty"));
     }
-    Ok(Prepared { relative, samples, s_max })
+    let edges = if params.mixed_edges {
+        mixed_edges(image, &relative, disparity, lens.coc.k_px)
+    } else {
+        vec![[0.0; 4]; relative.len()]
+    };
+    Ok(Prepared { relative, samples, s_max, edges })
+}
+
+/// Mixed pixels on the outline of an in-focus surface: `[a, s_far, d_far, 0]` per pixel, where
+/// the 3x3 neighbourhood (clamped at the frame) holds an in-focus nearest depth (CoC under one
+/// pixel) and a farthest depth whose CoC differs from it by more than one pixel; `s_far` and
+/// `d_far` are the farthest pixel's relative and true disparity; `[0; 4]` elsewhere. A blurred
+/// near surface is left out: there the ray search's own handling of foreground edges does
+/// better (measured: blending there too cost thin-near 1.6 dB, the wires losing their blur).
+///
+/// The coverage `a` is the share of the nine depths nearer than midway between the two (each
+/// is one random sample of its pixel). On a pixel whose own depth is near it is raised to the
+/// colour's own estimate, the projection of its colour on the line from the far pixels' mean
+/// colour to the near pixels' mean: an aliased edge, whose outline pixels hold the subject's
+/// colour alone, keeps them sharp (the share alone said 6/9 there and let a third of the
+/// background in), and on `bench --single-image` this is worth +0.5 dB on thin-near and
+/// +0.1 on five-planes for 0.3 on silhouette-hdr (whose hair's near means are themselves mixed).
+fn mixed_edges(image: &Image, relative: &[f32], disparity: &[f32], k: f32) -> Vec<[f32; 4]> {
+    let (width, height) = (image.width, image.height);
+    let neighbours = |i: usize| {
+        let (x, y) = ((i % width) as i64, (i / width) as i64);
+        (-1i64..=1).flat_map(move |dy| {
+            (-1i64..=1).map(move |dx| {
+                let qx = (x + dx).clamp(0, width as i64 - 1) as usize;
+                let qy = (y + dy).clamp(0, height as i64 - 1) as usize;
+                qy * width + qx
+            })
+        })
+    };
+    (0..relative.len())
+        .into_par_iter()
+        .map(|i| {
+            let (mut near, mut far) = (i, i);
+            for q in neighbours(i) {
+                if disparity[q] > disparity[near] {
+                    near = q;
+                }
+                if disparity[q] < disparity[far] {
+                    far = q;
+                }
+            }
+            let in_focus = k * relative[near].abs() < 1.0;
+            if !in_focus || k * (relative[near] - relative[far]).abs() <= 1.0 {
+                return [0.0; 4];
+            }
+            let mid = 0.5 * (disparity[near] + disparity[far]);
+            let share = neighbours(i).filter(|&q| disparity[q] > mid).count() as f32 / 9.0;
+            let a = if disparity[i] > mid { share.max(colour_coverage(image, neighbours(i), |q| disparity[q] > mid, i)) } else { share };
+            [a, relative[far], disparity[far], 0.0]
+        })
+        .collect()
+}
+
+/// Where pixel `centre`'s RGB lies on the line from the mean colour of the `is_near` pixels
+/// among `neighbours` (1) to the mean of the others (0), clamped to [0, 1]; 0 when the two
+/// means coincide.
+fn colour_coverage(image: &Image, neighbours: impl Iterator<Item = usize>, is_near: impl Fn(usize) -> bool, centre: usize) -> f32 {
+    let (mut near, mut far, mut counts) = ([0.0f32; 3], [0.0f32; 3], [0.0f32; 2]);
+    for q in neighbours {
+        let (sum, count) = if is_near(q) { (&mut near, &mut counts[0]) } else { (&mut far, &mut counts[1]) };
+        (0..3).for_each(|c| sum[c] += image.pixels[q][c]);
+        *count += 1.0;
+    }
+    let (f, b) = (near.map(|v| v / counts[0]), far.map(|v| v / counts[1]));
+    let colour = image.pixels[centre];
+    let (mut along, mut length) = (0.0, 0.0);
+    for c in 0..3 {
+        along += (colour[c] - b[c]) * (f[c] - b[c]);
+        length += (f[c] - b[c]) * (f[c] - b[c]);
+    }
+    if length > 1e-8 {
+        (along / length).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
 }
 
 /// CPU reference of `glsl/vdslr_trace.comp`.
@@ -178,6 +276,14 @@ struct Tracer<'a> {
     params: &'a VdslrParams,
 }
 
+/// The pixel being shaded and the depth it is traced at: its own relative (`s`) and true
+/// (`d`) disparity, or the farther surface's for a mixed edge pixel.
+struct Centre {
+    index: usize,
+    s: f32,
+    d: f32,
+}
+
 /// The pixel a search ended on, and whether it satisfied the relaxed Eq. 4.
 struct Hit {
     index: usize,
@@ -185,8 +291,23 @@ struct Hit {
 }
 
 impl Tracer<'_> {
+    /// A mixed edge pixel blends its own colour (the in-focus surface) with the trace at the
+    /// farther surface's depth; any other pixel is traced at its own depth.
     fn shade(&self, x: usize, y: usize) -> [f32; 4] {
         let centre = self.image.index(x, y);
+        let [a, s_far, d_far, _] = self.prepared.edges[centre];
+        if a > 0.0 {
+            let (own, far) = (self.image.pixels[centre], self.trace(x, y, s_far, d_far));
+            return std::array::from_fn(|c| a * own[c] + (1.0 - a) * far[c]);
+        }
+        self.trace(x, y, self.prepared.relative[centre], self.disparity[centre])
+    }
+
+    /// The pixel's lens samples traced with the centre at relative disparity `s_c` and true
+    /// disparity `d_c` (its own, or a hypothesis for a mixed pixel).
+    fn trace(&self, x: usize, y: usize, s_c: f32, d_c: f32) -> [f32; 4] {
+        let centre = self.image.index(x, y);
+        let at = Centre { index: centre, s: s_c, d: d_c };
         let p = [x as f32, y as f32];
         let (mut sum, mut weight) = ([0.0f32; 4], 0.0f32);
         for s in self.prepared.samples.set_for(x, y) {
@@ -194,15 +315,15 @@ impl Tracer<'_> {
                 continue;
             }
             let u = [s[0] * self.k, s[1] * self.k];
-            let mut hit = self.search(p, u, centre);
-            let centre_hit = self.hits(p, u, x, y, self.prepared.relative[centre]);
+            let mut hit = self.search(p, u, &at);
+            let centre_hit = self.hits(p, u, x, y, s_c);
             // A failed ray that the centre does not block and whose last read lies behind the
             // centre passes beside the centre's surface (a blurred foreground's edge): it keeps
             // that farther pixel rather than the mirror, which lands back on the foreground and
             // kept blurred foreground edges crisp (issue 22, failure 3).
-            let beside = !centre_hit && self.disparity[hit.index] < self.disparity[centre];
+            let beside = !centre_hit && self.disparity_at(hit.index, &at) < d_c;
             if !hit.valid && !beside {
-                let mirrored = self.search(p, [-u[0], -u[1]], centre);
+                let mirrored = self.search(p, [-u[0], -u[1]], &at);
                 if mirrored.valid {
                     hit = mirrored;
                 }
@@ -212,7 +333,7 @@ impl Tracer<'_> {
             // The paper also applies it to every failed search; a failed ray the centre does
             // not block passes beside it (see `search`), which lets thin blurred foregrounds
             // turn transparent instead of staying sharp.
-            let farther = self.disparity[hit.index] < self.disparity[centre];
+            let farther = self.disparity_at(hit.index, &at) < d_c;
             let guard = self.params.bleeding_guard && farther && centre_hit;
             let index = if guard { centre } else { hit.index };
             let colour = self.image.pixels[index];
@@ -234,15 +355,16 @@ impl Tracer<'_> {
     /// a hit of the ray, the ray passes beside the centre's surface, and the search can
     /// oscillate between the centre and a farther neighbour (a thin blurred foreground over a
     /// background whose CoC is under half a pixel) without ever passing the relaxed test.
-    fn search(&self, p: [f32; 2], u: [f32; 2], centre: usize) -> Hit {
+    fn search(&self, p: [f32; 2], u: [f32; 2], at: &Centre) -> Hit {
         let (w, h) = (self.image.width, self.image.height);
+        let centre = at.index;
         let mut s_t = self.prepared.s_max;
         let mut other = centre;
         for _ in 0..=self.params.iterations {
             let qx = nearest_pixel(p[0] + u[0] * s_t, w);
             let qy = nearest_pixel(p[1] + u[1] * s_t, h);
             let index = qy * w + qx;
-            let s_q = self.prepared.relative[index];
+            let s_q = if index == centre { at.s } else { self.prepared.relative[index] };
             if self.hits(p, u, qx, qy, s_q) {
                 return Hit { index, valid: true };
             }
@@ -252,6 +374,16 @@ impl Tracer<'_> {
             s_t = s_q;
         }
         Hit { index: other, valid: false }
+    }
+
+    /// True disparity of pixel `index`, the centre's being the traced hypothesis.
+    #[inline]
+    fn disparity_at(&self, index: usize, at: &Centre) -> f32 {
+        if index == at.index {
+            at.d
+        } else {
+            self.disparity[index]
+        }
     }
 
     /// The relaxed Eq. 4: pixel `q` of relative disparity `s_q` lies within half a pixel (per
@@ -289,6 +421,34 @@ mod tests {
 
     fn lens(k: f32, focus: f32) -> Lens {
         Lens { coc: CocModel::new(k, focus).unwrap(), aperture: Aperture::Disk }
+    }
+
+    #[test]
+    fn mixed_edges_are_the_outline_of_an_in_focus_surface_only() {
+        // Columns 0-2 at disparity 1.0 (white, column 2 an anti-aliased 0.9 grey), 3-5 at 0.5
+        // (black); K = 10: 5 px of CoC between the two.
+        let (w, h) = (6, 3);
+        let disparity: Vec<f32> = (0..w * h).map(|i| if i % w < 3 { 1.0 } else { 0.5 }).collect();
+        let image = Image::from_fn(w, h, |x, _| [[1.0, 1.0, 0.9, 0.0, 0.0, 0.0][x]; 4]);
+        let edges_for = |k: f32, focus: f32| {
+            let relative = relative_disparity(&disparity, w, h, &lens(k, focus), &FocusField::Plane).unwrap();
+            mixed_edges(&image, &relative, &disparity, k)
+        };
+        // Near side in focus: the two columns along the step. Column 2 (near depth): its colour
+        // 0.9 over the near mean 0.95 and far mean 0, 0.947, above the depth share 6/9; column 3
+        // (far depth): the share of near depths, 3/9. Tolerance: f32 rounding of a few sums.
+        let edges = edges_for(10.0, 1.0);
+        for (i, e) in edges.iter().enumerate() {
+            let expected = match i % w {
+                2 => [0.9 / 0.95, -0.5, 0.5, 0.0],
+                3 => [3.0 / 9.0, -0.5, 0.5, 0.0],
+                _ => [0.0; 4],
+            };
+            assert!(e.iter().zip(expected).all(|(v, x)| (v - x).abs() < 1e-6), "pixel {i}: {e:?}, expected {expected:?}");
+        }
+        // A blurred near side (5 px), or a step under a pixel of CoC: no mixed pixels.
+        assert!(edges_for(10.0, 0.5).iter().all(|e| *e == [0.0; 4]));
+        assert!(edges_for(1.9, 1.0).iter().all(|e| *e == [0.0; 4]));
     }
 
     #[test]
