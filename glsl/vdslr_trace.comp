@@ -1,14 +1,15 @@
 // Virtual DSLR (Yang et al. 2016): per pixel, jittered lens samples traced in image space on
 // the (focus-edited) relative disparity map; randomized search, symmetric fill, bleeding guard,
-// Eq. 5 highlight weighting; mixed pixels on an in-focus outline blend their own colour with
-// the trace at the farther surface's depth. CPU reference: src/render/vdslr/mod.rs `Tracer` (same order).
+// Eq. 5 highlight weighting; mixed pixels at depth edges blend the traces at the nearer and the
+// farther surface's depth. CPU reference: src/render/vdslr/mod.rs `Tracer` (same order).
 //
 // Bindings (set 0):
 //   0: image     vec4[width * height]   premultiplied linear RGBA
 //   1: relative  float[width * height]  d - d_f(x, y), the edited disparity map
 //   2: disparity float[width * height]  true disparity (bleeding guard: which pixel is farther)
 //   3: samples   vec4[patterns * slots] (u, v, weight, 0), unit disk, aperture coordinates
-//   4: edges     vec4[width * height]   (coverage, s_far, d_far, 0) of mixed edge pixels, else 0
+//   4: edges     vec4[width * height]   (coverage, near, far, 0) of mixed edge pixels, else 0;
+//                                       near, far: 3x3 neighbour numbers (`neighbour`)
 //   5: result    vec4[width * height]
 // Push constants: VdslrPush (src/render/vdslr/gpu.rs).
 // Dispatch: (ceil(width / 8), ceil(height / 8), 1).
@@ -100,6 +101,14 @@ Hit search(vec2 p, vec2 u, Centre at) {
     return Hit(other, false);
 }
 
+// Pixel number n (0..9, row by row, 4 the pixel itself) of the 3x3 neighbourhood of x, clamped
+// at the frame (CPU reference: `neighbour`).
+int neighbour(ivec2 x, int n) {
+    int qx = min(max(x.x + n % 3 - 1, 0), pc.width - 1);
+    int qy = min(max(x.y + n / 3 - 1, 0), pc.height - 1);
+    return qy * pc.width + qx;
+}
+
 float highlight_weight(vec4 c) {
     if (pc.highlight == 0) {
         return 1.0;
@@ -152,12 +161,15 @@ void main() {
         return;
     }
     int centre = x.y * pc.width + x.x;
-    // A mixed edge pixel: its own colour for the in-focus surface, the trace at the farther
-    // surface's depth for the rest (CPU reference: `Tracer::shade`).
+    // A mixed edge pixel: the traces at the nearer and the farther surface's depth, blended by
+    // coverage (CPU reference: `Tracer::shade`).
     vec4 edge = texelFetch(edges, centre);
     if (edge.x > 0.0) {
-        vec4 far = trace(x, edge.y, edge.z);
-        result[centre] = edge.x * texelFetch(source, centre) + (1.0 - edge.x) * far;
+        int near = neighbour(x, int(edge.y));
+        int far = neighbour(x, int(edge.z));
+        vec4 near_trace = trace(x, texelFetch(relative, near).x, texelFetch(disparity, near).x);
+        vec4 far_trace = trace(x, texelFetch(relative, far).x, texelFetch(disparity, far).x);
+        result[centre] = edge.x * near_trace + (1.0 - edge.x) * far_trace;
     } else {
         result[centre] = trace(x, texelFetch(relative, centre).x, texelFetch(disparity, centre).x);
     }

@@ -24,16 +24,16 @@
 //! instead of staying sharp; on the benchmark this is worth 3 to 8 dB on the fence, branch
 //! and mesh scenes.
 //!
-//! Mixed edge pixels (departure, issue 22): on the outline of an in-focus surface over a
-//! farther one, an anti-aliased pixel holds both surfaces' colours while its depth is one of
-//! them (a Z pass keeps one sample). Traced at that one depth it is either kept sharp, the
-//! farther surface's share included (a ray-traced light seen past hair stays a sharp, dark
-//! blocky strand instead of thin hair over a bright blur), or blurred whole. Such a pixel is
-//! shaded as `a C + (1 - a) far`: its own colour `C` for the in-focus surface (whose shading
-//! is the pixel itself) and the trace at the farther surface's depth for the rest, with the
-//! coverage `a` estimated from its 3x3 neighbourhood's depths and colours: see
-//! [`mixed_edges`]. With 512 lens samples ([`VdslrParams::tuned`]), `bench --single-image`
-//! vdslr 24.27 / 29.93 / 34.70 dB -> 25.60 / 30.17 / 35.22 (mean 29.63 -> 30.33).
+//! Mixed edge pixels (departure, issue 22): at a depth edge an anti-aliased pixel holds both
+//! surfaces' colours while its depth is one of them (a Z pass keeps one sample). Traced at that
+//! one depth it is all one surface: on an in-focus outline it is kept sharp, the farther
+//! surface's share included (a ray-traced light seen past hair stays a sharp, dark, blocky
+//! strand instead of thin hair over a bright blur), or blurred whole; along a blurred bar it
+//! keeps the bar's edge crisp. Such a pixel is shaded as `a near + (1 - a) far`, the traces
+//! with the centre at the nearer and at the farther surface's depth, with the coverage `a`
+//! estimated from its neighbourhood's depths and colours: see [`mixed_edges`]. With 512 lens
+//! samples ([`VdslrParams::tuned`]), `bench --single-image` vdslr 24.27 / 29.93 / 34.70 dB
+//! -> 25.60 / 30.42 / 35.30 (mean 29.63 -> 30.44).
 //!
 //! Colour blending is Eq. 5, adapted to linear HDR input: see [`Highlight`].
 //! Special effects edit the disparity map as the paper does: [`FocusField`].
@@ -88,8 +88,8 @@ pub struct VdslrParams {
     pub focus: FocusField,
     /// Replace a farther invalid hit by the centre pixel (the paper does; off only for tests).
     pub bleeding_guard: bool,
-    /// Shade mixed pixels on an in-focus outline as a blend of both surfaces ([`mixed_edges`];
-    /// off only for tests).
+    /// Shade mixed pixels at depth edges as a blend of both surfaces ([`mixed_edges`]; off
+    /// only for tests).
     pub mixed_edges: bool,
 }
 
@@ -161,7 +161,7 @@ struct Prepared {
     samples: LensSamples,
     /// Largest relative disparity of the map: where every search starts.
     s_max: f32,
-    /// Per pixel `[coverage, s_far, d_far, 0]` ([`mixed_edges`]); coverage 0 elsewhere.
+    /// Per pixel `[coverage, near, far, 0]` ([`mixed_edges`]); coverage 0 elsewhere.
     edges: Vec<[f32; 4]>,
 }
 
@@ -181,26 +181,29 @@ fn prepare(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) 
     Ok(Prepared { relative, samples, s_max, edges })
 }
 
-/// Mixed pixels on the outline of an in-focus surface: `[a, s_far, d_far, 0]` per pixel, where
-/// the 3x3 neighbourhood (clamped at the frame) holds an in-focus nearest depth (CoC under one
-/// pixel) and a farthest depth whose CoC differs from it by more than one pixel; `s_far` and
-/// `d_far` are the farthest pixel's relative and true disparity; `[0; 4]` elsewhere. A blurred
-/// near surface is left out: there the ray search's own handling of foreground edges does
-/// better (measured: blending there too cost thin-near 1.6 dB, the wires losing their blur).
+/// Mixed pixels at depth edges: `[a, near, far, 0]` per pixel, where the 3x3 neighbourhood
+/// (clamped at the frame) holds a nearest and a farthest depth whose CoCs differ by more than
+/// one pixel; `near` and `far` are the neighbours holding them ([`neighbour`]'s numbering, as
+/// floats), `a` the nearer surface's coverage; `[0; 4]` elsewhere. Where the nearer surface is
+/// blurred it must also be wide (at least 18 of the 49 depths of the 7x7 neighbourhood nearer
+/// than midway): on thin blurred structures the ray search's own handling of foreground edges
+/// does better (measured: blending there too cost thin-near 1.6 dB, the wires losing their
+/// blur); on the blurred bars of five-planes the blend is worth +0.25 dB.
 ///
 /// The coverage `a` is the share of the nine depths nearer than midway between the two (each
 /// is one random sample of its pixel). On a pixel whose own depth is near it is raised to the
 /// colour's own estimate, the projection of its colour on the line from the far pixels' mean
-/// colour to the near pixels' mean: an aliased edge, whose outline pixels hold the subject's
-/// colour alone, keeps them sharp (the share alone said 6/9 there and let a third of the
-/// background in), and on `bench --single-image` this is worth +0.5 dB on thin-near and
-/// +0.1 on five-planes for 0.3 on silhouette-hdr (whose hair's near means are themselves mixed).
+/// colour to the near pixels' mean: an aliased edge, whose outline pixels hold the nearer
+/// surface's colour alone, keeps them as they were (the share alone said 6/9 there and let a
+/// third of the background into an in-focus subject), and on `bench --single-image` this is
+/// worth +0.5 dB on thin-near and +0.1 on five-planes for 0.3 on silhouette-hdr (whose hair's
+/// near means are themselves mixed).
 fn mixed_edges(image: &Image, relative: &[f32], disparity: &[f32], k: f32) -> Vec<[f32; 4]> {
     let (width, height) = (image.width, image.height);
-    let neighbours = |i: usize| {
+    let window = |i: usize, radius: i64| {
         let (x, y) = ((i % width) as i64, (i / width) as i64);
-        (-1i64..=1).flat_map(move |dy| {
-            (-1i64..=1).map(move |dx| {
+        (-radius..=radius).flat_map(move |dy| {
+            (-radius..=radius).map(move |dx| {
                 let qx = (x + dx).clamp(0, width as i64 - 1) as usize;
                 let qy = (y + dy).clamp(0, height as i64 - 1) as usize;
                 qy * width + qx
@@ -210,33 +213,47 @@ fn mixed_edges(image: &Image, relative: &[f32], disparity: &[f32], k: f32) -> Ve
     (0..relative.len())
         .into_par_iter()
         .map(|i| {
-            let (mut near, mut far) = (i, i);
-            for q in neighbours(i) {
-                if disparity[q] > disparity[near] {
-                    near = q;
+            let (mut near, mut far) = (4, 4);
+            let nine: Vec<usize> = window(i, 1).collect();
+            for (n, &q) in nine.iter().enumerate() {
+                if disparity[q] > disparity[nine[near]] {
+                    near = n;
                 }
-                if disparity[q] < disparity[far] {
-                    far = q;
+                if disparity[q] < disparity[nine[far]] {
+                    far = n;
                 }
             }
-            let in_focus = k * relative[near].abs() < 1.0;
-            if !in_focus || k * (relative[near] - relative[far]).abs() <= 1.0 {
+            let (qn, qf) = (nine[near], nine[far]);
+            if k * (relative[qn] - relative[qf]).abs() <= 1.0 {
                 return [0.0; 4];
             }
-            let mid = 0.5 * (disparity[near] + disparity[far]);
-            let share = neighbours(i).filter(|&q| disparity[q] > mid).count() as f32 / 9.0;
-            let a = if disparity[i] > mid { share.max(colour_coverage(image, neighbours(i), |q| disparity[q] > mid, i)) } else { share };
-            [a, relative[far], disparity[far], 0.0]
+            let mid = 0.5 * (disparity[qn] + disparity[qf]);
+            let in_focus = k * relative[qn].abs() < 1.0;
+            if !in_focus && window(i, 3).filter(|&q| disparity[q] > mid).count() < 18 {
+                return [0.0; 4];
+            }
+            let share = nine.iter().filter(|&&q| disparity[q] > mid).count() as f32 / 9.0;
+            let a = if disparity[i] > mid { share.max(colour_coverage(image, &nine, |q| disparity[q] > mid, i)) } else { share };
+            [a, near as f32, far as f32, 0.0]
         })
         .collect()
+}
+
+/// Pixel number `n` (0..9, row by row, 4 the pixel itself) of the 3x3 neighbourhood of
+/// `(x, y)`, clamped at the frame; `neighbour` in `vdslr_trace.comp`.
+#[inline]
+fn neighbour(x: usize, y: usize, n: usize, width: usize, height: usize) -> usize {
+    let qx = (x + n % 3).saturating_sub(1).min(width - 1);
+    let qy = (y + n / 3).saturating_sub(1).min(height - 1);
+    qy * width + qx
 }
 
 /// Where pixel `centre`'s RGB lies on the line from the mean colour of the `is_near` pixels
 /// among `neighbours` (1) to the mean of the others (0), clamped to [0, 1]; 0 when the two
 /// means coincide.
-fn colour_coverage(image: &Image, neighbours: impl Iterator<Item = usize>, is_near: impl Fn(usize) -> bool, centre: usize) -> f32 {
+fn colour_coverage(image: &Image, neighbours: &[usize], is_near: impl Fn(usize) -> bool, centre: usize) -> f32 {
     let (mut near, mut far, mut counts) = ([0.0f32; 3], [0.0f32; 3], [0.0f32; 2]);
-    for q in neighbours {
+    for &q in neighbours {
         let (sum, count) = if is_near(q) { (&mut near, &mut counts[0]) } else { (&mut far, &mut counts[1]) };
         (0..3).for_each(|c| sum[c] += image.pixels[q][c]);
         *count += 1.0;
@@ -291,14 +308,17 @@ struct Hit {
 }
 
 impl Tracer<'_> {
-    /// A mixed edge pixel blends its own colour (the in-focus surface) with the trace at the
-    /// farther surface's depth; any other pixel is traced at its own depth.
+    /// A mixed edge pixel blends the traces at the nearer and the farther surface's depth by
+    /// coverage; any other pixel is traced at its own depth.
     fn shade(&self, x: usize, y: usize) -> [f32; 4] {
         let centre = self.image.index(x, y);
-        let [a, s_far, d_far, _] = self.prepared.edges[centre];
+        let [a, near, far, _] = self.prepared.edges[centre];
         if a > 0.0 {
-            let (own, far) = (self.image.pixels[centre], self.trace(x, y, s_far, d_far));
-            return std::array::from_fn(|c| a * own[c] + (1.0 - a) * far[c]);
+            let (w, h) = (self.image.width, self.image.height);
+            let [near, far] = [near, far].map(|n| neighbour(x, y, n as usize, w, h));
+            let near = self.trace(x, y, self.prepared.relative[near], self.disparity[near]);
+            let far = self.trace(x, y, self.prepared.relative[far], self.disparity[far]);
+            return std::array::from_fn(|c| a * near[c] + (1.0 - a) * far[c]);
         }
         self.trace(x, y, self.prepared.relative[centre], self.disparity[centre])
     }
@@ -424,31 +444,41 @@ mod tests {
     }
 
     #[test]
-    fn mixed_edges_are_the_outline_of_an_in_focus_surface_only() {
+    fn mixed_edges_are_depth_edges_with_an_in_focus_or_wide_near_side() {
         // Columns 0-2 at disparity 1.0 (white, column 2 an anti-aliased 0.9 grey), 3-5 at 0.5
         // (black); K = 10: 5 px of CoC between the two.
         let (w, h) = (6, 3);
         let disparity: Vec<f32> = (0..w * h).map(|i| if i % w < 3 { 1.0 } else { 0.5 }).collect();
         let image = Image::from_fn(w, h, |x, _| [[1.0, 1.0, 0.9, 0.0, 0.0, 0.0][x]; 4]);
-        let edges_for = |k: f32, focus: f32| {
-            let relative = relative_disparity(&disparity, w, h, &lens(k, focus), &FocusField::Plane).unwrap();
-            mixed_edges(&image, &relative, &disparity, k)
+        let edges_for = |disparity: &[f32], image: &Image, k: f32, focus: f32| {
+            let relative = relative_disparity(disparity, image.width, image.height, &lens(k, focus), &FocusField::Plane).unwrap();
+            mixed_edges(image, &relative, disparity, k)
         };
-        // Near side in focus: the two columns along the step. Column 2 (near depth): its colour
-        // 0.9 over the near mean 0.95 and far mean 0, 0.947, above the depth share 6/9; column 3
-        // (far depth): the share of near depths, 3/9. Tolerance: f32 rounding of a few sums.
-        let edges = edges_for(10.0, 1.0);
+        // The two columns along the step. Column 2 (near depth): its colour 0.9 over the near
+        // mean 0.95 and the far mean 0, 0.947, above the depth share 6/9; nearest itself (4),
+        // farthest the first far neighbour (2, up right). Column 3 (far depth): the share of
+        // near depths, 3/9; nearest the first near neighbour (0, up left). Tolerance: f32
+        // rounding of a few sums.
+        let edges = edges_for(&disparity, &image, 10.0, 1.0);
         for (i, e) in edges.iter().enumerate() {
             let expected = match i % w {
-                2 => [0.9 / 0.95, -0.5, 0.5, 0.0],
-                3 => [3.0 / 9.0, -0.5, 0.5, 0.0],
+                2 => [0.9 / 0.95, 4.0, 2.0, 0.0],
+                3 => [3.0 / 9.0, 0.0, 4.0, 0.0],
                 _ => [0.0; 4],
             };
             assert!(e.iter().zip(expected).all(|(v, x)| (v - x).abs() < 1e-6), "pixel {i}: {e:?}, expected {expected:?}");
         }
-        // A blurred near side (5 px), or a step under a pixel of CoC: no mixed pixels.
-        assert!(edges_for(10.0, 0.5).iter().all(|e| *e == [0.0; 4]));
-        assert!(edges_for(1.9, 1.0).iter().all(|e| *e == [0.0; 4]));
+        // The near side blurred (5 px) but wide (28 of the 49 depths of the 7x7): the same.
+        assert_eq!(edges_for(&disparity, &image, 10.0, 0.5), edges);
+        // A step under a pixel of CoC: none.
+        assert!(edges_for(&disparity, &image, 1.9, 1.0).iter().all(|e| *e == [0.0; 4]));
+        // A blurred line one pixel wide (7 of 49 depths): none; the same line in focus: its
+        // outline.
+        let (w, h) = (9, 9);
+        let line: Vec<f32> = (0..w * h).map(|i| if i % w == 4 { 1.0 } else { 0.5 }).collect();
+        let grey = Image::filled(w, h, [0.5; 4]);
+        assert!(edges_for(&line, &grey, 10.0, 0.5).iter().all(|e| *e == [0.0; 4]));
+        assert!(edges_for(&line, &grey, 10.0, 1.0).iter().enumerate().all(|(i, e)| (e[0] > 0.0) == (3..=5).contains(&(i % w))));
     }
 
     #[test]
