@@ -117,16 +117,16 @@ float highlight_weight(vec4 c) {
     return exp(-(m - pc.white) * (m - pc.white) / (2.0 * pc.sigma * pc.sigma));
 }
 
-// The pixel's lens samples traced with the centre at relative disparity s_c and true
-// disparity d_c (CPU reference: `Tracer::trace`).
-vec4 trace(ivec2 x, float s_c, float d_c) {
+// The pixel's lens samples first, first + step, ... traced with the centre at relative
+// disparity s_c and true disparity d_c (CPU reference: `Tracer::trace`).
+vec4 trace(ivec2 x, float s_c, float d_c, int first, int step) {
     int centre = x.y * pc.width + x.x;
     Centre at = Centre(centre, s_c, d_c);
     vec2 p = vec2(x);
     int base = int(pattern_index(uvec2(x), uint(pc.patterns))) * pc.slots;
     vec4 sum = vec4(0.0);
     float weight = 0.0;
-    for (int i = 0; i < pc.slots; ++i) {
+    for (int i = first; i < pc.slots; i += step) {
         vec4 s = samples[base + i];
         if (s.z <= 0.0) {
             continue;
@@ -161,16 +161,16 @@ void main() {
         return;
     }
     int centre = x.y * pc.width + x.x;
-    // A mixed edge pixel: the traces at the nearer and the farther surface's depth, blended by
-    // coverage (CPU reference: `Tracer::shade`).
+    // A mixed edge pixel: the traces at the nearer and the farther surface's depth over the
+    // even and the odd sample slots, blended by coverage (CPU reference: `Tracer::shade`).
     vec4 edge = texelFetch(edges, centre);
     if (edge.x > 0.0) {
         int near = neighbour(x, int(edge.y));
         int far = neighbour(x, int(edge.z));
-        vec4 near_trace = trace(x, texelFetch(relative, near).x, texelFetch(disparity, near).x);
-        vec4 far_trace = trace(x, texelFetch(relative, far).x, texelFetch(disparity, far).x);
+        vec4 near_trace = trace(x, texelFetch(relative, near).x, texelFetch(disparity, near).x, 0, 2);
+        vec4 far_trace = trace(x, texelFetch(relative, far).x, texelFetch(disparity, far).x, 1, 2);
         result[centre] = edge.x * near_trace + (1.0 - edge.x) * far_trace;
     } else {
-        result[centre] = trace(x, texelFetch(relative, centre).x, texelFetch(disparity, centre).x);
+        result[centre] = trace(x, texelFetch(relative, centre).x, texelFetch(disparity, centre).x, 0, 1);
     }
 }

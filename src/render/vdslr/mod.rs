@@ -301,6 +301,13 @@ struct Centre {
     d: f32,
 }
 
+/// Which of a pixel's sample slots a trace takes: `first`, `first + step`, ...
+#[derive(Clone, Copy)]
+struct Slots {
+    first: usize,
+    step: usize,
+}
+
 /// The pixel a search ended on, and whether it satisfied the relaxed Eq. 4.
 struct Hit {
     index: usize,
@@ -309,28 +316,30 @@ struct Hit {
 
 impl Tracer<'_> {
     /// A mixed edge pixel blends the traces at the nearer and the farther surface's depth by
-    /// coverage; any other pixel is traced at its own depth.
+    /// coverage, each over half of the pixel's lens samples (even and odd slots: the strata
+    /// alternate, so each half still covers the lens) so that it costs what one trace does;
+    /// any other pixel is traced at its own depth with all of them.
     fn shade(&self, x: usize, y: usize) -> [f32; 4] {
         let centre = self.image.index(x, y);
         let [a, near, far, _] = self.prepared.edges[centre];
         if a > 0.0 {
             let (w, h) = (self.image.width, self.image.height);
             let [near, far] = [near, far].map(|n| neighbour(x, y, n as usize, w, h));
-            let near = self.trace(x, y, self.prepared.relative[near], self.disparity[near]);
-            let far = self.trace(x, y, self.prepared.relative[far], self.disparity[far]);
+            let near = self.trace(x, y, self.prepared.relative[near], self.disparity[near], Slots { first: 0, step: 2 });
+            let far = self.trace(x, y, self.prepared.relative[far], self.disparity[far], Slots { first: 1, step: 2 });
             return std::array::from_fn(|c| a * near[c] + (1.0 - a) * far[c]);
         }
-        self.trace(x, y, self.prepared.relative[centre], self.disparity[centre])
+        self.trace(x, y, self.prepared.relative[centre], self.disparity[centre], Slots { first: 0, step: 1 })
     }
 
-    /// The pixel's lens samples traced with the centre at relative disparity `s_c` and true
+    /// The pixel's lens samples in `slots` traced with the centre at relative disparity `s_c` and true
     /// disparity `d_c` (its own, or a hypothesis for a mixed pixel).
-    fn trace(&self, x: usize, y: usize, s_c: f32, d_c: f32) -> [f32; 4] {
+    fn trace(&self, x: usize, y: usize, s_c: f32, d_c: f32, slots: Slots) -> [f32; 4] {
         let centre = self.image.index(x, y);
         let at = Centre { index: centre, s: s_c, d: d_c };
         let p = [x as f32, y as f32];
         let (mut sum, mut weight) = ([0.0f32; 4], 0.0f32);
-        for s in self.prepared.samples.set_for(x, y) {
+        for s in self.prepared.samples.set_for(x, y).iter().skip(slots.first).step_by(slots.step) {
             if s[2] <= 0.0 {
                 continue;
             }
