@@ -33,7 +33,7 @@
 //! with the centre at the nearer and at the farther surface's depth, with the coverage `a`
 //! estimated from its neighbourhood's depths and colours: see [`mixed_edges`]. With 512 lens
 //! samples ([`VdslrParams::tuned`]), `bench --single-image` vdslr 24.27 / 29.93 / 34.70 dB
-//! -> 25.60 / 30.42 / 35.30 (mean 29.63 -> 30.44).
+//! -> 25.59 / 30.42 / 35.30 (mean 29.63 -> 30.44).
 //!
 //! Colour blending is Eq. 5, adapted to linear HDR input: see [`Highlight`].
 //! Special effects edit the disparity map as the paper does: [`FocusField`].
