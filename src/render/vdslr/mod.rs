@@ -29,7 +29,8 @@
 //! one depth it is all one surface: on an in-focus outline it is kept sharp, the farther
 //! surface's share included (a ray-traced light seen past hair stays a sharp, dark, blocky
 //! strand instead of thin hair over a bright blur), or blurred whole; along a blurred bar it
-//! keeps the bar's edge crisp. Such a pixel is shaded as `a near + (1 - a) far`, the traces
+//! keeps the bar's edge crisp; beside a thin blurred wire it keeps a faint sharp ghost of the
+//! wire. Such a pixel is shaded as `a near + (1 - a) far`, the traces
 //! with the centre at the nearer and at the farther surface's depth, with the coverage `a`
 //! estimated from its neighbourhood's depths and colours: see [`mixed_edges`]. With 512 lens
 //! samples ([`VdslrParams::tuned`]), `bench --single-image` vdslr 24.27 / 29.93 / 34.70 dB
@@ -184,11 +185,14 @@ fn prepare(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) 
 /// Mixed pixels at depth edges: `[a, near, far, 0]` per pixel, where the 3x3 neighbourhood
 /// (clamped at the frame) holds a nearest and a farthest depth whose CoCs differ by more than
 /// one pixel; `near` and `far` are the neighbours holding them ([`neighbour`]'s numbering, as
-/// floats), `a` the nearer surface's coverage; `[0; 4]` elsewhere. Where the nearer surface is
-/// blurred it must also be wide (at least 18 of the 49 depths of the 7x7 neighbourhood nearer
-/// than midway): on thin blurred structures the ray search's own handling of foreground edges
-/// does better (measured: blending there too cost thin-near 1.6 dB, the wires losing their
-/// blur); on the blurred bars of five-planes the blend is worth +0.25 dB.
+/// floats), `a` the nearer surface's coverage; `[0; 4]` elsewhere. Left out: the pixels of a
+/// thin blurred structure themselves (own depth near, the nearer surface blurred, fewer than
+/// 18 of the 49 depths of the 7x7 neighbourhood nearer than midway), where the ray search's
+/// own handling of foreground edges does better (measured: blending them too cost thin-near
+/// 1.6 dB, the wires losing their blur). Their neighbours with the farther depth are blended:
+/// they hold part of the wire's colour, which traced at the background's depth alone stayed a
+/// faint ghost line (+1.3 dB on thin-near); on the blurred bars of five-planes the blend is
+/// worth +0.25 dB.
 ///
 /// The coverage `a` is the share of the nine depths nearer than midway between the two (each
 /// is one random sample of its pixel). On a pixel whose own depth is near it is raised to the
@@ -229,7 +233,7 @@ fn mixed_edges(image: &Image, relative: &[f32], disparity: &[f32], k: f32) -> Ve
             }
             let mid = 0.5 * (disparity[qn] + disparity[qf]);
             let in_focus = k * relative[qn].abs() < 1.0;
-            if !in_focus && window(i, 3).filter(|&q| disparity[q] > mid).count() < 18 {
+            if !in_focus && disparity[i] > mid && window(i, 3).filter(|&q| disparity[q] > mid).count() < 18 {
                 return [0.0; 4];
             }
             let share = nine.iter().filter(|&&q| disparity[q] > mid).count() as f32 / 9.0;
@@ -453,7 +457,7 @@ mod tests {
     }
 
     #[test]
-    fn mixed_edges_are_depth_edges_with_an_in_focus_or_wide_near_side() {
+    fn mixed_edges_are_depth_edges_but_not_thin_blurred_structures() {
         // Columns 0-2 at disparity 1.0 (white, column 2 an anti-aliased 0.9 grey), 3-5 at 0.5
         // (black); K = 10: 5 px of CoC between the two.
         let (w, h) = (6, 3);
@@ -481,13 +485,15 @@ mod tests {
         assert_eq!(edges_for(&disparity, &image, 10.0, 0.5), edges);
         // A step under a pixel of CoC: none.
         assert!(edges_for(&disparity, &image, 1.9, 1.0).iter().all(|e| *e == [0.0; 4]));
-        // A blurred line one pixel wide (7 of 49 depths): none; the same line in focus: its
-        // outline.
+        // A blurred line one pixel wide (7 of 49 depths): its neighbours only, not the line; the
+        // same line in focus: the line too.
         let (w, h) = (9, 9);
         let line: Vec<f32> = (0..w * h).map(|i| if i % w == 4 { 1.0 } else { 0.5 }).collect();
         let grey = Image::filled(w, h, [0.5; 4]);
-        assert!(edges_for(&line, &grey, 10.0, 0.5).iter().all(|e| *e == [0.0; 4]));
-        assert!(edges_for(&line, &grey, 10.0, 1.0).iter().enumerate().all(|(i, e)| (e[0] > 0.0) == (3..=5).contains(&(i % w))));
+        let mixed = |focus: f32, columns: &[usize]| {
+            edges_for(&line, &grey, 10.0, focus).iter().enumerate().all(|(i, e)| (e[0] > 0.0) == columns.contains(&(i % w)))
+        };
+        assert!(mixed(0.5, &[3, 5]) && mixed(1.0, &[3, 4, 5]));
     }
 
     #[test]
