@@ -30,11 +30,11 @@
 //! surface's share included (a ray-traced light seen past hair stays a sharp, dark, blocky
 //! strand instead of thin hair over a bright blur), or blurred whole; along a blurred bar it
 //! keeps the bar's edge crisp; beside a thin blurred wire it keeps a faint sharp ghost of the
-//! wire. Such a pixel is shaded as `a near + (1 - a) far`, the traces
-//! with the centre at the nearer and at the farther surface's depth, with the coverage `a`
-//! estimated from its neighbourhood's depths and colours: see [`mixed_edges`]. With 512 lens
-//! samples ([`VdslrParams::tuned`]), `bench --single-image` vdslr 24.27 / 29.93 / 34.70 dB
-//! -> 25.59 / 30.42 / 35.30 (mean 29.63 -> 30.44).
+//! wire. Such a pixel is shaded as `a near + (1 - a) far`, the traces with the centre at the
+//! nearer and at the farther surface's depth, with the coverage `a` estimated from its
+//! neighbourhood's depths and colours: see [`mixed_edges`]. With 512 lens samples
+//! ([`VdslrParams::tuned`]), `bench --single-image` vdslr 24.27 / 29.93 / 34.70 dB -> 25.59 /
+//! 30.44 / 36.64 (mean 29.63 -> 30.89).
 //!
 //! Colour blending is Eq. 5, adapted to linear HDR input: see [`Highlight`].
 //! Special effects edit the disparity map as the paper does: [`FocusField`].
