@@ -32,7 +32,7 @@
 //! keeps the bar's edge crisp; beside a thin blurred wire it keeps a faint sharp ghost of the
 //! wire. Such a pixel is shaded as `a near + (1 - a) far`, the traces with the centre at the
 //! nearer and at the farther surface's depth, with the coverage `a` estimated from its
-//! neighbourhood's depths and colours: see [`mixed_edges`]. With 512 lens samples
+//! neighbourhood's depths and colours: see `mixed_edges`. With 512 lens samples
 //! ([`VdslrParams::tuned`]), `bench --single-image` vdslr 24.27 / 29.93 / 34.70 dB -> 25.59 /
 //! 30.44 / 36.64 (mean 29.63 -> 30.89).
 //!
@@ -89,7 +89,7 @@ pub struct VdslrParams {
     pub focus: FocusField,
     /// Replace a farther invalid hit by the centre pixel (the paper does; off only for tests).
     pub bleeding_guard: bool,
-    /// Shade mixed pixels at depth edges as a blend of both surfaces ([`mixed_edges`]; off
+    /// Shade mixed pixels at depth edges as a blend of both surfaces (`mixed_edges` in this module; off
     /// only for tests).
     pub mixed_edges: bool,
 }
