@@ -187,7 +187,8 @@ fn assert_single_image_floors(method: &str, floors: [(&str, f64); 3]) {
     let cache = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("single-image-gt");
     let truths = lensblur::bench::scenes::single_image_truths(&[], true, None, Some(&cache)).expect("ray traced");
     let ctx = common::gpu();
-    let methods = select_methods(all_methods(Some(&ctx)).expect("pipelines build"), &[method.into()]).expect("registered");
+    let all = all_methods(Some(&ctx)).expect("pipelines build");
+    let methods = select_methods(all, &[method.into()]).expect("registered");
     let report = run(&truths, &methods).expect("benchmark runs");
     let psnr = |scene: &str| report.cases.iter().find(|c| c.scene == scene).map(|c| c.metrics.psnr).expect("ran");
     for (scene, floor) in floors {
@@ -203,7 +204,8 @@ fn auto_layered_drbokeh_keeps_its_psnr_floors_on_the_single_image_scenes() {
     // light-aware matting, back-colour clamp and light continuation 24.15 / 31.44 / 37.77 (the
     // halo around the silhouette and the hair's colour in the back layer). Floors: 0.3 dB under
     // the measured values, for another driver's rounding.
-    assert_single_image_floors("drbokeh-auto", [("silhouette-hdr", 25.3), ("five-planes", 30.85), ("thin-near", 37.85)]);
+    let floors = [("silhouette-hdr", 25.3), ("five-planes", 30.85), ("thin-near", 37.85)];
+    assert_single_image_floors("drbokeh-auto", floors);
 }
 
 #[test]
@@ -213,5 +215,6 @@ fn vdslr_keeps_its_psnr_floors_on_the_single_image_scenes() {
     // (hair and the silhouette's outline kept sharp with the HDR light behind them, blurred
     // bars' edges crisp, ghosts of the wires), which fails every floor by 0.5 to 0.8 dB.
     // Floors: 0.3 dB under the measured values, as above.
-    assert_single_image_floors("vdslr", [("silhouette-hdr", 24.55), ("five-planes", 30.15), ("thin-near", 32.15)]);
+    let floors = [("silhouette-hdr", 24.55), ("five-planes", 30.15), ("thin-near", 32.15)];
+    assert_single_image_floors("vdslr", floors);
 }

@@ -34,7 +34,10 @@ pub struct Vdslr {
 
 impl Vdslr {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(ctx, &shaders::VDSLR_TRACE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Texels(TexelFormat::Vec4), Slot::Storage], std::mem::size_of::<VdslrPush>())?;
+        // image, relative, disparity, samples, edges, result: the bindings of vdslr_trace.comp.
+        let (vec4, float) = (Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float));
+        let slots = [vec4, float, float, Slot::Storage, vec4, Slot::Storage];
+        let pipeline = ComputePipeline::with_slots(ctx, &shaders::VDSLR_TRACE, &slots, std::mem::size_of::<VdslrPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 

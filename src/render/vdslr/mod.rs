@@ -89,8 +89,8 @@ pub struct VdslrParams {
     pub focus: FocusField,
     /// Replace a farther invalid hit by the centre pixel (the paper does; off only for tests).
     pub bleeding_guard: bool,
-    /// Shade mixed pixels at depth edges as a blend of both surfaces (`mixed_edges` in this module; off
-    /// only for tests).
+    /// Shade mixed pixels at depth edges as a blend of both surfaces (`mixed_edges` in this
+    /// module; off only for tests).
     pub mixed_edges: bool,
 }
 
@@ -237,7 +237,8 @@ fn mixed_edges(image: &Image, relative: &[f32], disparity: &[f32], k: f32) -> Ve
                 return [0.0; 4];
             }
             let share = nine.iter().filter(|&&q| disparity[q] > mid).count() as f32 / 9.0;
-            let a = if disparity[i] > mid { share.max(colour_coverage(image, &nine, |q| disparity[q] > mid, i)) } else { share };
+            let own_near = disparity[i] > mid;
+            let a = if own_near { share.max(colour_coverage(image, &nine, |q| disparity[q] > mid, i)) } else { share };
             [a, near as f32, far as f32, 0.0]
         })
         .collect()
@@ -329,8 +330,9 @@ impl Tracer<'_> {
         if a > 0.0 {
             let (w, h) = (self.image.width, self.image.height);
             let [near, far] = [near, far].map(|n| neighbour(x, y, n as usize, w, h));
-            let near = self.trace(x, y, self.prepared.relative[near], self.disparity[near], Slots { first: 0, step: 2 });
-            let far = self.trace(x, y, self.prepared.relative[far], self.disparity[far], Slots { first: 1, step: 2 });
+            let (even, odd) = (Slots { first: 0, step: 2 }, Slots { first: 1, step: 2 });
+            let near = self.trace(x, y, self.prepared.relative[near], self.disparity[near], even);
+            let far = self.trace(x, y, self.prepared.relative[far], self.disparity[far], odd);
             return std::array::from_fn(|c| a * near[c] + (1.0 - a) * far[c]);
         }
         self.trace(x, y, self.prepared.relative[centre], self.disparity[centre], Slots { first: 0, step: 1 })
@@ -464,7 +466,8 @@ mod tests {
         let disparity: Vec<f32> = (0..w * h).map(|i| if i % w < 3 { 1.0 } else { 0.5 }).collect();
         let image = Image::from_fn(w, h, |x, _| [[1.0, 1.0, 0.9, 0.0, 0.0, 0.0][x]; 4]);
         let edges_for = |disparity: &[f32], image: &Image, k: f32, focus: f32| {
-            let relative = relative_disparity(disparity, image.width, image.height, &lens(k, focus), &FocusField::Plane).unwrap();
+            let (w, h) = (image.width, image.height);
+            let relative = relative_disparity(disparity, w, h, &lens(k, focus), &FocusField::Plane).unwrap();
             mixed_edges(image, &relative, disparity, k)
         };
         // The two columns along the step. Column 2 (near depth): its colour 0.9 over the near
@@ -479,7 +482,8 @@ mod tests {
                 3 => [3.0 / 9.0, 0.0, 4.0, 0.0],
                 _ => [0.0; 4],
             };
-            assert!(e.iter().zip(expected).all(|(v, x)| (v - x).abs() < 1e-6), "pixel {i}: {e:?}, expected {expected:?}");
+            let close = e.iter().zip(expected).all(|(v, x)| (v - x).abs() < 1e-6);
+            assert!(close, "pixel {i}: {e:?}, expected {expected:?}");
         }
         // The near side blurred (5 px) but wide (28 of the 49 depths of the 7x7): the same.
         assert_eq!(edges_for(&disparity, &image, 10.0, 0.5), edges);
@@ -491,7 +495,8 @@ mod tests {
         let line: Vec<f32> = (0..w * h).map(|i| if i % w == 4 { 1.0 } else { 0.5 }).collect();
         let grey = Image::filled(w, h, [0.5; 4]);
         let mixed = |focus: f32, columns: &[usize]| {
-            edges_for(&line, &grey, 10.0, focus).iter().enumerate().all(|(i, e)| (e[0] > 0.0) == columns.contains(&(i % w)))
+            let edges = edges_for(&line, &grey, 10.0, focus);
+            edges.iter().enumerate().all(|(i, e)| (e[0] > 0.0) == columns.contains(&(i % w)))
         };
         assert!(mixed(0.5, &[3, 5]) && mixed(1.0, &[3, 4, 5]));
     }
