@@ -1,19 +1,23 @@
 // Virtual DSLR (Yang et al. 2016): per pixel, jittered lens samples traced in image space on
 // the (focus-edited) relative disparity map; randomized search, symmetric fill, bleeding guard,
-// Eq. 5 highlight weighting. CPU reference: src/render/vdslr/mod.rs `Tracer` (same order).
+// Eq. 5 highlight weighting; mixed pixels at depth edges blend the traces at the nearer and the
+// farther surface's depth. CPU reference: src/render/vdslr/mod.rs `Tracer` (same order).
 //
 // Bindings (set 0):
 //   0: image     vec4[read.z * read.w]   premultiplied linear RGBA of the read rect
 //   1: relative  float[read.z * read.w]  d - d_f(x, y), the edited disparity map
 //   2: disparity float[read.z * read.w]  true disparity (bleeding guard: which pixel is farther)
 //   3: samples   vec4[patterns * slots] (u, v, weight, 0), unit disk, aperture coordinates
-//   4: result    vec4[core.z * core.w]
+//   4: edges     vec4[read.z * read.w]   (coverage, near, far, 0) of mixed edge pixels, else 0;
+//                                        near, far: 3x3 neighbour numbers (`neighbour`)
+//   5: result    vec4[core.z * core.w]
 // Push constants: VdslrPush (src/render/vdslr/gpu.rs).
 // Dispatch: (ceil(core.z / 8), ceil(core.w / 8), 1).
 // Tiled (src/render/tiling.rs, glsl/common/tile.glsl): the dispatch covers `core`, sources
 // are the `read` rect, results core-local; width and height are the full frame's.
-// Sample sets are picked by frame position, and every search step's pixel lies within the
-// halo (the ray's reach, VdslrTiling in src/render/vdslr/gpu.rs).
+// Sample sets are picked by frame position, and every search step's pixel (and a mixed edge
+// pixel's 3x3 neighbours) lies within the halo (the ray's reach, VdslrTiling in
+// src/render/vdslr/gpu.rs).
 //
 // `precise` keeps every position computation unfused (no FMA contraction), so the pixel each
 // search reads is the one the CPU reference reads.
@@ -32,7 +36,8 @@ layout(set = 0, binding = 0) uniform samplerBuffer source;
 layout(set = 0, binding = 1) uniform samplerBuffer relative;
 layout(set = 0, binding = 2) uniform samplerBuffer disparity;
 layout(std430, set = 0, binding = 3) readonly buffer Samples { vec4 samples[]; };
-layout(std430, set = 0, binding = 4) writeonly buffer Result { vec4 result[]; };
+layout(set = 0, binding = 4) uniform samplerBuffer edges;
+layout(std430, set = 0, binding = 5) writeonly buffer Result { vec4 result[]; };
 
 layout(push_constant) uniform Push {
     int width;
@@ -56,6 +61,18 @@ struct Hit {
     bool valid;
 };
 
+// The pixel being shaded and the depth it is traced at: its own relative (s) and true (d)
+// disparity, or the farther surface's for a mixed edge pixel (CPU reference: `Centre`).
+struct Centre {
+    int index;
+    float s;
+    float d;
+};
+
+float disparity_at(int index, Centre at) {
+    return index == at.index ? at.d : texelFetch(disparity, index).x;
+}
+
 int nearest_pixel(float x, int size) {
     return int(clamp(floor(x + 0.5), 0.0, float(size - 1)));
 }
@@ -69,7 +86,8 @@ bool hits(vec2 p, vec2 u, ivec2 q, float s_q) {
 }
 
 // Randomized intersection search along p + u s (u already scaled by K).
-Hit search(vec2 p, vec2 u, int centre) {
+Hit search(vec2 p, vec2 u, Centre at) {
+    int centre = at.index;
     float s_t = pc.s_max;
     int other = centre;
     for (int t = 0; t <= pc.iterations; ++t) {
@@ -78,7 +96,7 @@ Hit search(vec2 p, vec2 u, int centre) {
         int qx = nearest_pixel(px, pc.width);
         int qy = nearest_pixel(py, pc.height);
         int index = rect_index(ivec2(qx, qy), pc.read);
-        float s_q = texelFetch(relative, index).x;
+        float s_q = index == centre ? at.s : texelFetch(relative, index).x;
         if (hits(p, u, ivec2(qx, qy), s_q)) {
             return Hit(index, true);
         }
@@ -91,12 +109,58 @@ Hit search(vec2 p, vec2 u, int centre) {
     return Hit(other, false);
 }
 
+// Pixel number n (0..9, row by row, 4 the pixel itself) of the 3x3 neighbourhood of x, clamped
+// at the frame (CPU reference: `neighbour`).
+int neighbour(ivec2 x, int n) {
+    int qx = min(max(x.x + n % 3 - 1, 0), pc.width - 1);
+    int qy = min(max(x.y + n / 3 - 1, 0), pc.height - 1);
+    return rect_index(ivec2(qx, qy), pc.read);
+}
+
 float highlight_weight(vec4 c) {
     if (pc.highlight == 0) {
         return 1.0;
     }
     float m = min(max(max(c.r, c.g), c.b), pc.white);
     return exp(-(m - pc.white) * (m - pc.white) / (2.0 * pc.sigma * pc.sigma));
+}
+
+// The pixel's lens samples first, first + step, ... traced with the centre at relative
+// disparity s_c and true disparity d_c (CPU reference: `Tracer::trace`).
+vec4 trace(ivec2 x, float s_c, float d_c, int first, int step) {
+    int centre = rect_index(x, pc.read);
+    Centre at = Centre(centre, s_c, d_c);
+    vec2 p = vec2(x);
+    int base = int(pattern_index(uvec2(x), uint(pc.patterns))) * pc.slots;
+    vec4 sum = vec4(0.0);
+    float weight = 0.0;
+    for (int i = first; i < pc.slots; i += step) {
+        vec4 s = samples[base + i];
+        if (s.z <= 0.0) {
+            continue;
+        }
+        precise vec2 u = vec2(s.x * pc.k, s.y * pc.k);
+        Hit hit = search(p, u, at);
+        bool centre_hit = hits(p, u, x, s_c);
+        // Passes beside the centre's surface: keep the farther pixel, not the mirror (CPU
+        // reference: `Tracer::shade`).
+        bool beside = !centre_hit && disparity_at(hit.index, at) < d_c;
+        if (!hit.valid && !beside) {
+            Hit mirrored = search(p, -u, at);
+            if (mirrored.valid) {
+                hit = mirrored;
+            }
+        }
+        // Guard as in the CPU reference: when the centre is a nearer hit of this ray.
+        bool farther = disparity_at(hit.index, at) < d_c;
+        bool guard = pc.bleeding_guard != 0 && farther && centre_hit;
+        int index = guard ? centre : hit.index;
+        vec4 colour = texelFetch(source, index);
+        float w = s.z * highlight_weight(colour);
+        sum += w * colour;
+        weight += w;
+    }
+    return weight > 0.0 ? sum / weight : texelFetch(source, centre);
 }
 
 void main() {
@@ -106,35 +170,17 @@ void main() {
     }
     ivec2 x = pc.core.xy + local;
     int centre = rect_index(x, pc.read);
-    vec2 p = vec2(x);
-    int base = int(pattern_index(uvec2(x), uint(pc.patterns))) * pc.slots;
-    vec4 sum = vec4(0.0);
-    float weight = 0.0;
-    for (int i = 0; i < pc.slots; ++i) {
-        vec4 s = samples[base + i];
-        if (s.z <= 0.0) {
-            continue;
-        }
-        precise vec2 u = vec2(s.x * pc.k, s.y * pc.k);
-        Hit hit = search(p, u, centre);
-        bool centre_hit = hits(p, u, x, texelFetch(relative, centre).x);
-        // Passes beside the centre's surface: keep the farther pixel, not the mirror (CPU
-        // reference: `Tracer::shade`).
-        bool beside = !centre_hit && texelFetch(disparity, hit.index).x < texelFetch(disparity, centre).x;
-        if (!hit.valid && !beside) {
-            Hit mirrored = search(p, -u, centre);
-            if (mirrored.valid) {
-                hit = mirrored;
-            }
-        }
-        // Guard as in the CPU reference: when the centre is a nearer hit of this ray.
-        bool farther = texelFetch(disparity, hit.index).x < texelFetch(disparity, centre).x;
-        bool guard = pc.bleeding_guard != 0 && farther && centre_hit;
-        int index = guard ? centre : hit.index;
-        vec4 colour = texelFetch(source, index);
-        float w = s.z * highlight_weight(colour);
-        sum += w * colour;
-        weight += w;
+    int out_index = rect_index(x, pc.core);
+    // A mixed edge pixel: the traces at the nearer and the farther surface's depth over the
+    // even and the odd sample slots, blended by coverage (CPU reference: `Tracer::shade`).
+    vec4 edge = texelFetch(edges, centre);
+    if (edge.x > 0.0) {
+        int near = neighbour(x, int(edge.y));
+        int far = neighbour(x, int(edge.z));
+        vec4 near_trace = trace(x, texelFetch(relative, near).x, texelFetch(disparity, near).x, 0, 2);
+        vec4 far_trace = trace(x, texelFetch(relative, far).x, texelFetch(disparity, far).x, 1, 2);
+        result[out_index] = edge.x * near_trace + (1.0 - edge.x) * far_trace;
+    } else {
+        result[out_index] = trace(x, texelFetch(relative, centre).x, texelFetch(disparity, centre).x, 0, 1);
     }
-    result[rect_index(x, pc.core)] = weight > 0.0 ? sum / weight : texelFetch(source, centre);
 }

@@ -42,6 +42,8 @@ fn gpu_matches_cpu_reference() {
         (lens(10.0, 0.5), VdslrParams { focus: FocusField::Tilt { gradient: [0.01, -0.02] }, seed: 7, ..Default::default() }),
         (lens(16.0, 0.0), VdslrParams { focus: FocusField::Planes(vec![0.2, 0.9]), bleeding_guard: false, ..Default::default() }),
         (Lens { aperture: Aperture::polygon(5, 10.0, 0.0).unwrap(), ..lens(12.0, 0.6) }, VdslrParams::default()),
+        // The near square in focus: its outline's pixels are mixed edges (traced at the far depth).
+        (lens(14.0, 0.9), VdslrParams::default()),
     ];
     for (i, (lens, params)) in variants.iter().enumerate() {
         let gpu_out = vdslr.run(&image, &disparity, lens, params).unwrap();

@@ -11,7 +11,7 @@ use super::camera_args::CameraArgs;
 
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct MethodArgs {
-    /// Lens samples per pixel of the ray-based methods (vdslr [default: 256], multiview
+    /// Lens samples per pixel of the ray-based methods (vdslr [default: 512], multiview
     /// [default: 512]); rounded up to a square.
     #[arg(long, value_name = "M", help_heading = "Method")]
     pub samples: Option<u32>,

@@ -1,7 +1,7 @@
 //! GPU host code of Virtual DSLR: on frame tiles ([`crate::render::tiling`]), uploads each
-//! tile's read rect of the image, the edited disparity map and the true disparity, with the
-//! lens sample sets shared by every tile, dispatches `glsl/vdslr_trace.comp` over its core,
-//! reads back.
+//! tile's read rect of the image, the edited disparity map, the true disparity and the mixed
+//! edge pixels, with the lens sample sets shared by every tile, dispatches
+//! `glsl/vdslr_trace.comp` over its core, reads back.
 use super::{prepare, VdslrParams};
 use crate::image::Image;
 use crate::render::tiling::{crop, rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats};
@@ -40,18 +40,10 @@ pub struct Vdslr {
 
 impl Vdslr {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline = ComputePipeline::with_slots(
-            ctx,
-            &shaders::VDSLR_TRACE,
-            &[
-                Slot::Texels(TexelFormat::Vec4),
-                Slot::Texels(TexelFormat::Float),
-                Slot::Texels(TexelFormat::Float),
-                Slot::Storage,
-                Slot::Storage,
-            ],
-            std::mem::size_of::<VdslrPush>(),
-        )?;
+        // image, relative, disparity, samples, edges, result: the bindings of vdslr_trace.comp.
+        let (vec4, float) = (Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float));
+        let slots = [vec4, float, float, Slot::Storage, vec4, Slot::Storage];
+        let pipeline = ComputePipeline::with_slots(ctx, &shaders::VDSLR_TRACE, &slots, std::mem::size_of::<VdslrPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
@@ -82,8 +74,9 @@ impl Vdslr {
         let frame = FrameTiling::new(width, image.height, 1, 1).with_work(work);
         let samples = Buffer::from_slice(ctx, "vdslr lens samples", &prepared.samples.data)?;
         let (sigma, white) = params.highlight.map_or((1.0, 1.0), |h| (h.sigma, h.white));
-        // RGBA + two disparities per read pixel, RGBA per core pixel; RGBA is the largest binding.
-        let footprint = |tile| Footprint::per_pixel(&frame, tile, halo, 24, 16, 16);
+        // RGBA, two disparities and the edge record per read pixel, RGBA per core pixel; RGBA
+        // is the largest binding. A mixed edge pixel reads its 3x3 neighbours: within the halo.
+        let footprint = |tile| Footprint::per_pixel(&frame, tile, halo, 40, 16, 16);
         render_image_tiles(
             ctx,
             &frame,
@@ -97,6 +90,8 @@ impl Vdslr {
                 let relative = Buffer::from_iter_in(ctx, batch, "vdslr relative disparity", read.area(), relative)?;
                 let true_disparity =
                     Buffer::from_iter_in(ctx, batch, "vdslr disparity", read.area(), crop(disparity, width, read))?;
+                let edges =
+                    Buffer::from_iter_in(ctx, batch, "vdslr mixed edges", read.area(), crop(&prepared.edges, width, read))?;
                 // The shader writes every core pixel.
                 let result = Buffer::uninitialised(ctx, "vdslr result", core.area() as u64 * 16)?;
                 let push = VdslrPush {
@@ -115,7 +110,7 @@ impl Vdslr {
                     core: rect_push(core),
                     read: rect_push(read),
                 };
-                let bindings = [source.all(), relative.all(), true_disparity.all(), samples.all(), result.all()];
+                let bindings = [source.all(), relative.all(), true_disparity.all(), samples.all(), edges.all(), result.all()];
                 let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
                 batch.dispatch(&self.pipeline, &bindings, &push, groups)?;
                 result.readable_in(ctx, batch)
