@@ -125,9 +125,32 @@ float highlight_weight(vec4 c) {
     return exp(-(m - pc.white) * (m - pc.white) / (2.0 * pc.sigma * pc.sigma));
 }
 
+// The pixel whose colour stands for the farther surface at a mixed pixel: of the neighbours
+// beyond `midway`, the one whose colour differs most from the nearer neighbour's (first of the
+// largest in neighbour order); the centre if none (CPU reference: `Tracer::farther_colour`).
+int farther_colour(ivec2 x, int centre, int near, float midway) {
+    vec3 near_colour = texelFetch(source, near).rgb;
+    int best = centre;
+    float best_distance = -1.0;
+    for (int n = 0; n < 9; ++n) {
+        int q = neighbour(x, n);
+        if (n == 4 || q == centre || texelFetch(disparity, q).x > midway) {
+            continue;
+        }
+        precise vec3 diff = texelFetch(source, q).rgb - near_colour;
+        precise float distance = diff.r * diff.r + diff.g * diff.g + diff.b * diff.b;
+        if (distance > best_distance) {
+            best = q;
+            best_distance = distance;
+        }
+    }
+    return best;
+}
+
 // The pixel's lens samples first, first + step, ... traced with the centre at relative
 // disparity s_c and true disparity d_c (CPU reference: `Tracer::trace`).
-vec4 trace(ivec2 x, float s_c, float d_c, int first, int step) {
+// `colour`: the pixel whose colour stands for the centre's surface (CPU reference: `Surface`).
+vec4 trace(ivec2 x, float s_c, float d_c, int colour, int first, int step) {
     int centre = rect_index(x, pc.read);
     Centre at = Centre(centre, s_c, d_c);
     vec2 p = vec2(x);
@@ -155,12 +178,12 @@ vec4 trace(ivec2 x, float s_c, float d_c, int first, int step) {
         bool farther = disparity_at(hit.index, at) < d_c;
         bool guard = pc.bleeding_guard != 0 && farther && centre_hit;
         int index = guard ? centre : hit.index;
-        vec4 colour = texelFetch(source, index);
-        float w = s.z * highlight_weight(colour);
-        sum += w * colour;
+        vec4 c = texelFetch(source, index == centre ? colour : index);
+        float w = s.z * highlight_weight(c);
+        sum += w * c;
         weight += w;
     }
-    return weight > 0.0 ? sum / weight : texelFetch(source, centre);
+    return weight > 0.0 ? sum / weight : texelFetch(source, colour);
 }
 
 void main() {
@@ -177,10 +200,13 @@ void main() {
     if (edge.x > 0.0) {
         int near = neighbour(x, int(edge.y));
         int far = neighbour(x, int(edge.z));
-        vec4 near_trace = trace(x, texelFetch(relative, near).x, texelFetch(disparity, near).x, 0, 2);
-        vec4 far_trace = trace(x, texelFetch(relative, far).x, texelFetch(disparity, far).x, 1, 2);
+        float d_near = texelFetch(disparity, near).x;
+        float d_far = texelFetch(disparity, far).x;
+        int far_colour = farther_colour(x, centre, near, 0.5 * (d_near + d_far));
+        vec4 near_trace = trace(x, texelFetch(relative, near).x, d_near, centre, 0, 2);
+        vec4 far_trace = trace(x, texelFetch(relative, far).x, d_far, far_colour, 1, 2);
         result[out_index] = edge.x * near_trace + (1.0 - edge.x) * far_trace;
     } else {
-        result[out_index] = trace(x, texelFetch(relative, centre).x, texelFetch(disparity, centre).x, 0, 1);
+        result[out_index] = trace(x, texelFetch(relative, centre).x, texelFetch(disparity, centre).x, centre, 0, 1);
     }
 }

@@ -210,11 +210,13 @@ fn auto_layered_drbokeh_keeps_its_psnr_floors_on_the_single_image_scenes() {
 
 #[test]
 fn vdslr_keeps_its_psnr_floors_on_the_single_image_scenes() {
-    // Measured (lavapipe; its CPU reference gives the same pixels): vdslr 24.83 / 30.47 /
-    // 32.44 dB; before issue 22's mixed edge pixels and 512 lens samples 23.78 / 29.69 / 31.68
+    // Measured (lavapipe; its CPU reference gives the same pixels): vdslr 24.84 / 30.49 /
+    // 33.82 dB; before issue 22's mixed edge pixels and 512 lens samples 23.78 / 29.69 / 31.68
     // (hair and the silhouette's outline kept sharp with the HDR light behind them, blurred
-    // bars' edges crisp, ghosts of the wires), which fails every floor by 0.5 to 0.8 dB.
-    // Floors: 0.3 dB under the measured values, as above.
-    let floors = [("silhouette-hdr", 24.55), ("five-planes", 30.15), ("thin-near", 32.15)];
+    // bars' edges crisp, ghosts of the wires), which fails every floor by 0.5 to 1.8 dB; with
+    // them but the mixed pixels' farther trace keeping their own colour (the wires' faint
+    // lines) thin-near was 32.44, which fails its floor by 1 dB. Floors: 0.3 dB under the
+    // measured values, as above.
+    let floors = [("silhouette-hdr", 24.55), ("five-planes", 30.15), ("thin-near", 33.5)];
     assert_single_image_floors("vdslr", floors);
 }
