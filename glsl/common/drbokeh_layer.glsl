@@ -157,11 +157,33 @@ ivec2 interior_span(float t, int oy, ivec2 outer, int orientation) {
 #endif
 
 #ifdef DRBOKEH_LAYER_GAUGE
+// The vignetted disk's rows in closed form: the unit cat's-eye's row at height v is the
+// intersection of its two unit disks' rows (centres +-a, gauge_normals[0]), as (interior lo,
+// hi, outer lo, hi) like the table (exact rows: both the same); empty (.x > .y) above or below.
+// Centrally symmetric, so both orientations share it. The f32 error of the bounds (~1e-7, or
+// ~5e-4 of a radius where a row meets a disk's top, sqrt of a rounding) stays below what the
+// callers' GAUGE_MARGIN moves them there (about sqrt(2 / 4096) = 0.02 of a radius at a top, 1 / 4096
+// elsewhere).
+vec4 cats_eye_row(float v) {
+    vec2 a = gauge_normals[0];
+    float room_upper = 1.0 - (v - a.y) * (v - a.y);
+    float room_lower = 1.0 - (v + a.y) * (v + a.y);
+    if (room_upper < 0.0 || room_lower < 0.0) {
+        return vec4(1.0, -1.0, 1.0, -1.0);
+    }
+    float lo = max(a.x - sqrt(room_upper), -a.x - sqrt(room_lower));
+    float hi = min(a.x + sqrt(room_upper), -a.x + sqrt(room_lower));
+    return vec4(lo, hi, lo, hi);
+}
+
 // The row table's entry for v (clamped far outside [-1, 1]: an empty row there): (interior lo,
 // hi, outer lo, hi) at unit level. Orientation 1 (every source and centre nearer than focus):
 // the aperture's own rows; -1 (every one farther): its mirror's, the entry of -v negated;
 // 0: both orientations'.
 vec4 aperture_row(float v, int orientation) {
+    if (GAUGE_VIGNETTED) {
+        return cats_eye_row(v);
+    }
     float w = orientation < 0 ? -v : v;
     float f = (clamp(w, -2.0, 2.0) + 1.0) * 0.5 * float(APERTURE_ROW_SEGMENTS);
     int segment = int(floor(f));
@@ -198,8 +220,18 @@ ivec2 interior_span(float t, int oy, ivec2 outer, int orientation) {
 }
 
 // The gauge's closed-form constants come from the host (texel 0 of aperture_rows), computed
-// in f64 like the row table they must agree with.
-void gauge_setup_rows() {
+// in f64 like the row table they must agree with. The vignetted disk's from the tile of x0:
+// the cat's-eye at the middle of the tile's in-frame part (`LensView::at_receiver`), so the
+// whole workgroup shares one shape and closed-form rows (cats_eye_row) instead of a table.
+void gauge_setup_rows(ivec2 x0) {
+    if (GAUGE_VIGNETTED) {
+        ivec2 first = x0 / DRBOKEH_TILE * DRBOKEH_TILE;
+        ivec2 last = min(first + DRBOKEH_TILE - 1, ivec2(pc.width, pc.height) - 1);
+        vec2 a = drbokeh_vignette_centre(vec2(first + last) * 0.5);
+        float k = 1.0 - dot(a, a);
+        gauge_setup(pc.aperture, vec4(a, 1.0 / k, k));
+        return;
+    }
     gauge_setup(pc.aperture, texelFetch(aperture_rows, 0));
 }
 
@@ -464,7 +496,7 @@ void main() {
 #ifdef DRBOKEH_LAYER_SPANS
     {
 #ifdef DRBOKEH_LAYER_GAUGE
-        gauge_setup_rows();
+        gauge_setup_rows(x0);
 #endif
         Centre c[RUN];
         bool occluding = false;

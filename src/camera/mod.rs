@@ -7,7 +7,7 @@ mod aperture;
 mod aperture_rows;
 pub(crate) mod hints;
 
-pub use aperture::{cats_eye_gauge, ring_weight, Aperture, ApertureGpu, KernelImage, CATS_EYE_SHAPE, KERNEL_FADE_PX};
+pub use aperture::{cats_eye_gauge, ring_weight, Aperture, ApertureGpu, KernelImage, CATS_EYE_SHAPE, KERNEL_FADE_PX, VIGNETTED_SHAPE};
 pub use aperture_rows::{aperture_row_table, closed_form_gauge, APERTURE_ROW_SEGMENTS, EMPTY_APERTURE_ROW};
 pub use hints::CameraHints;
 

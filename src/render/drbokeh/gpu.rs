@@ -14,7 +14,7 @@ use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tiling::Rect;
 use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, Slot, TexelFormat};
-use crate::Result;
+use crate::{Error, Result};
 
 /// Bytes per read pixel of one layer: uploaded rgba + disparity, prepass P / A + (s, alpha),
 /// block prefix + suffix of (P / A, alpha).
@@ -236,6 +236,10 @@ impl DrBokehGpu {
     /// Records the layer passes and the composite of one frame tile (the backward pass records
     /// them over its receivers and reads every intermediate).
     pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
+        if self.kernel == LayerKernel::Baseline && params.lens.is_vignetted() {
+            // The first kernel's per-tap lens knows one shape per render.
+            return Err(Error::param("the baseline layer kernel cannot render the vignetted disk"));
+        }
         let groups = self.composite.groups_for([b.core.width() as u32, b.core.height() as u32, 1]);
         // A layer workgroup covers one 16x16 search tile: the optimised kernels write a run of
         // TILE / local_size_x adjacent pixels per invocation.
