@@ -107,9 +107,8 @@ fn optimised_kernel_matches_the_baseline_kernel_for_both_models_and_every_apertu
             let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: aperture.clone() };
             let fast = optimised.render(&stack, &lens, model).unwrap();
             let first = baseline.render(&stack, &lens, model).unwrap();
-            let span_path = !matches!(aperture, Aperture::Kernel(_));
-            if model == Model::DrBokeh && span_path {
-                // The span paths (disk, polygon, ring) divide by the area once per source instead of
+            if model == Model::DrBokeh {
+                // The span paths (disk, polygon, ring, kernel) divide by the area once per source instead of
                 // once per tap and sum interiors from block sums: f32 rounding only, each
                 // kernel is within 5e-5 of the f64 reference.
                 let worst = worst_relative(&fast, &first);
@@ -325,5 +324,37 @@ fn vignetted_disk_matches_cpu_reference_and_per_tap_evaluation() {
         assert_span_path_matches(&fast, &full, &crossing(70, 53), &lens);
     }
     drop((fast, full));
+    finish(ctx);
+}
+
+/// The kernel path (runs of full-weight cells summed, runs of zero-weight cells skipped,
+/// `src/camera/kernel_runs.rs`) against the per-tap first kernel, on a 24^2 five-armed star
+/// with soft edges and a hole (full, zero and partial cells in most rows), on the disk test's
+/// scene (every radius >= 3/2: zero runs skipped, in-focus occluding centres) and on one whose
+/// near layer crosses the focal plane (mirrored and mixed orientations, blended small CoCs).
+#[test]
+fn kernel_path_matches_per_tap_evaluation_and_is_bit_identical_tiled_or_not() {
+    let ctx = gpu();
+    let fast = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
+    let per_tap = DrBokehGpu::with_kernel(&ctx, LayerKernel::Baseline).unwrap();
+    let n = 24;
+    let star = (0..n * n)
+        .map(|i| {
+            let (u, v) = ((i % n) as f32 / (n - 1) as f32 * 2.0 - 1.0, (i / n) as f32 / (n - 1) as f32 * 2.0 - 1.0);
+            let (r, theta) = (u.hypot(v), v.atan2(u));
+            let arm = 0.45 + 0.5 * (2.5 * theta).cos().abs();
+            if r < 0.15 { 0.0 } else { ((arm - r) * 8.0).clamp(0.0, 1.0) }
+        })
+        .collect();
+    let kernel = Aperture::Kernel(KernelImage::from_weights(n, star).unwrap());
+    let (w, h) = (70, 53);
+    let flat = scene(w, h);
+    let mut crossing = flat.clone();
+    crossing.layers[0].disparity = (0..w * h).map(|i| 0.3 + 0.006 * (i % w) as f32).collect();
+    let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture: kernel };
+    for stack in [&flat, &crossing] {
+        assert_span_path_matches(&fast, &per_tap, stack, &lens);
+    }
+    drop((fast, per_tap));
     finish(ctx);
 }

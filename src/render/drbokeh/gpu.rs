@@ -7,7 +7,7 @@
 use super::bounds::{search_tiles, search_windows, span_radii, NO_SPAN_RADII};
 use super::tiled::{frame_cores, run_batches, run_tiled, Footprint, TilePlan};
 use super::{AperturePath, Model, Params, TILE};
-use crate::camera::{aperture_row_table, closed_form_gauge, Aperture, EMPTY_APERTURE_ROW};
+use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
 use crate::render::Lens;
 use crate::shaders;
@@ -115,7 +115,8 @@ const LAYER_SLOTS: [Slot; 13] = {
     ]
 };
 
-/// Bindings of `drbokeh_layer_gauge.comp`: the layer pass's and the aperture's row table.
+/// Bindings of `drbokeh_layer_gauge.comp` and `drbokeh_layer_kernel.comp`: the layer pass's
+/// and the aperture's row table (the kernel image's runs, [`kernel_run_table`]).
 const LAYER_GAUGE_SLOTS: [Slot; 14] = {
     let mut slots = [Slot::Storage; 14];
     let mut i = 0;
@@ -152,7 +153,7 @@ impl DrBokehGpu {
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_DISK, &LAYER_SLOTS, push)?),
                 Some(PipelineVariants::new(ctx, &shaders::DRBOKEH_LAYER_GAUGE, &LAYER_GAUGE_SLOTS, push)?),
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_RING, &LAYER_SLOTS, push)?),
-                Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_KERNEL, &LAYER_SLOTS, push)?),
+                Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_KERNEL, &LAYER_GAUGE_SLOTS, push)?),
             ),
             LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None, None, None),
         };
@@ -254,7 +255,7 @@ impl DrBokehGpu {
             match (path, &self.layer_disk, &self.layer_gauge, &self.layer_ring, &self.layer_kernel) {
                 (AperturePath::Disk, Some(disk), _, _, _) => (disk, true, LAYER_SLOTS.len()),
                 (AperturePath::Ring, _, _, Some(ring), _) => (ring, true, LAYER_SLOTS.len()),
-                (AperturePath::Kernel, _, _, _, Some(kernel)) => (kernel, false, LAYER_SLOTS.len()),
+                (AperturePath::Kernel, _, _, _, Some(kernel)) => (kernel, true, LAYER_GAUGE_SLOTS.len()),
                 (AperturePath::Gauge, _, Some(variants), _, _) => {
                     gauge = variants.get(&params.lens.gauge_specialization())?;
                     (&gauge, true, LAYER_GAUGE_SLOTS.len())
@@ -394,8 +395,9 @@ impl<'a> ForwardFrame<'a> {
         windows: &'a [i32],
         interior: bool,
     ) -> Result<Self> {
-        let rows = match params.lens.path(params.model) {
-            AperturePath::Gauge => aperture_rows(aperture),
+        let rows = match (params.lens.path(params.model), aperture) {
+            (AperturePath::Gauge, _) => aperture_rows(aperture),
+            (AperturePath::Kernel, Aperture::Kernel(kernel)) => kernel_run_table(kernel),
             _ => vec![EMPTY_APERTURE_ROW],
         };
         Ok(Self {

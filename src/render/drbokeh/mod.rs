@@ -147,8 +147,9 @@ pub enum AperturePath {
     /// Default model, ring: the disk path's gather less a second one over the obstruction
     /// (the ring's weight is `S(r) (1 - blend S(inner r))`), both with row spans.
     Ring,
-    /// Default model, kernel image: every tap evaluated, without the other models' and
-    /// shapes' code.
+    /// Default model, kernel image: the disk's row spans split into the kernel's runs
+    /// ([`crate::camera::kernel_run_table`]): full-weight runs summed, zero-weight runs
+    /// skipped, the kernel evaluated at the taps between.
     Kernel,
     /// Every tap evaluated (the compat model).
     PerTap,
