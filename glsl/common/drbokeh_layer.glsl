@@ -64,6 +64,34 @@ const float GAUGE_MARGIN = 1.0 / 4096.0;
 layout(set = 0, binding = 13) uniform samplerBuffer kernel_runs;
 const float KERNEL_RUN_FULL = 1.0; // KERNEL_RUN_FULL in src/camera/kernel_runs.rs
 const float KERNEL_RUN_ZERO = 2.0;
+
+// aperture_kernel_sample's operations on the table's cells (texel 0: (n, the first cell);
+// each cell its four corners, zero outside the image): a coordinate clamped to [-1, n] reads
+// corners of zeros exactly where aperture_kernel_sample returns 0, and inside, the same texels
+// with the same weights. One fetch instead of four, and no bounds tests.
+// Texel 0 of the table, read once per invocation (kernel_setup).
+float kernel_n;
+int kernel_cells;
+
+void kernel_setup() {
+    vec2 table = texelFetch(kernel_runs, 0).xy;
+    kernel_n = table.x;
+    kernel_cells = int(table.y);
+}
+
+float kernel_runs_sample(vec2 uv) {
+    float n = kernel_n;
+    float fx = clamp((uv.x * 0.5 + 0.5) * n - 0.5, -1.0, n);
+    float fy = clamp((uv.y * 0.5 + 0.5) * n - 0.5, -1.0, n);
+    float x0 = floor(fx);
+    float y0 = floor(fy);
+    float tx = fx - x0;
+    float ty = fy - y0;
+    vec4 corners = texelFetch(kernel_runs, kernel_cells + (int(y0) + 1) * (int(n) + 2) + int(x0) + 1);
+    float top = corners.x * (1.0 - tx) + corners.y * tx;
+    float bottom = corners.z * (1.0 - tx) + corners.w * tx;
+    return top * (1.0 - ty) + bottom * ty;
+}
 #endif
 
 // Largest |ox| with ox^2 + oy^2 < (h + 1)^2: the row of the window disk at height oy.
@@ -312,8 +340,8 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
             vec2 p = vec2(float(o), float(oy));
             float r = abs(sa.x);
             float blend = smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r);
-            float k_source = 1.0 + (aperture_kernel_sample((sa.x > 0.0 ? p : -p) / (r + 0.5), pc.kernel_size) - 1.0) * blend;
-            float k_centre = 1.0 + (aperture_kernel_sample((c[k].s > 0.0 ? p : -p) / c[k].support, pc.kernel_size) - 1.0) * c[k].kernel_blend;
+            float k_source = 1.0 + (kernel_runs_sample((sa.x > 0.0 ? p : -p) / (r + 0.5)) - 1.0) * blend;
+            float k_centre = 1.0 + (kernel_runs_sample((c[k].s > 0.0 ? p : -p) / c[k].support) - 1.0) * c[k].kernel_blend;
             span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, k_source, k_centre, inside, o == 0 && oy == 0, occlusion);
 #else
             span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
@@ -386,7 +414,7 @@ void interior_sum(inout Centre c[RUN], int row, ivec2 x0, int from, int to, bool
 // row, or the pair of adjacent ones, holding every such height, grown by 1e-3 of a cell for
 // the f32 rounding; -1 when they are more (then every tap is evaluated) or outside the kernel.
 int kernel_row_set(int w, float t, float outer) {
-    float n = texelFetch(kernel_runs, 0).x;
+    float n = kernel_n;
     float a = float(w) / t;
     float b = float(w) / outer;
     int j_lo = int(floor((min(a, b) * 0.5 + 0.5) * n - 0.5 - 1.0e-3));
@@ -569,6 +597,9 @@ void main() {
     {
 #ifdef DRBOKEH_LAYER_GAUGE
         gauge_setup_rows(x0);
+#endif
+#ifdef DRBOKEH_LAYER_KERNEL
+        kernel_setup();
 #endif
         Centre c[RUN];
         bool occluding = false;

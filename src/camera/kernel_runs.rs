@@ -20,11 +20,14 @@ const SLACK: f32 = 1e-5;
 pub const KERNEL_RUN_FULL: f32 = 1.0;
 pub const KERNEL_RUN_ZERO: f32 = 2.0;
 
-/// The table, as texels: `[0]` = (n, 0, 0, 0); then one index texel per row set, `(first, count,
+/// The table, as texels: `[0]` = (n, first texel of the cells, 0, 0); then one index texel per row set, `(first, count,
 /// 0, 0)` with `first` the texel of its first run: set `s` in `0..n + 1` is the single cell row
 /// `j = s - 1` (cell rows run from -1 to n - 1), set `n + 1 + s` in `0..n` the pair `(s - 1,
 /// s)`; then the runs, `(u_lo, u_hi, class, 0)`, in ascending u. A zero run at either end
-/// reaches past the kernel (`-/+ 2`: the sample is 0 outside it).
+/// reaches past the kernel (`-/+ 2`: the sample is 0 outside it). Last, the kernel's cells
+/// `(i, j)` for i, j in -1..=n, row-major (`n + 2` a side): each texel the cell's four corners
+/// (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1), zero outside the image, so the shader samples
+/// with one fetch and no bounds tests (`kernel_runs_sample`).
 pub fn kernel_run_table(kernel: &KernelImage) -> Vec<[f32; 4]> {
     let n = kernel.size as i64;
     let texel = |x: i64, y: i64| if x < 0 || y < 0 || x >= n || y >= n { 0.0 } else { kernel.weights[(y * n + x) as usize] };
@@ -67,12 +70,45 @@ pub fn kernel_run_table(kernel: &KernelImage) -> Vec<[f32; 4]> {
         }
         index.push([(first + start) as f32, (runs.len() - start) as f32, 0.0, 0.0]);
     }
-    std::iter::once([n as f32, 0.0, 0.0, 0.0]).chain(index).chain(runs).collect()
+    let padded = (first + runs.len()) as f32;
+    let side = n + 2;
+    let cells = (0..side * side).map(|c| {
+        let (i, j) = (c % side - 1, c / side - 1);
+        [texel(i, j), texel(i + 1, j), texel(i, j + 1), texel(i + 1, j + 1)]
+    });
+    std::iter::once([n as f32, padded, 0.0, 0.0]).chain(index).chain(runs).chain(cells).collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `kernel_runs_sample` (glsl/common/drbokeh_layer.glsl) on the table's cells, in f32.
+    fn cells_sample(table: &[[f32; 4]], u: f32, v: f32) -> f32 {
+        let (n, first) = (table[0][0], table[0][1] as usize);
+        let fx = ((u * 0.5 + 0.5) * n - 0.5).clamp(-1.0, n);
+        let fy = ((v * 0.5 + 0.5) * n - 0.5).clamp(-1.0, n);
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (tx, ty) = (fx - x0, fy - y0);
+        let c = table[first + (y0 as i64 + 1) as usize * (n as usize + 2) + (x0 as i64 + 1) as usize];
+        let top = c[0] * (1.0 - tx) + c[1] * tx;
+        let bottom = c[2] * (1.0 - tx) + c[3] * tx;
+        top * (1.0 - ty) + bottom * ty
+    }
+
+    /// The cells sample every point, inside the kernel, on its edges and far outside, to the
+    /// same bits as [`KernelImage::sample`] (same texels, same weights, same operations).
+    #[test]
+    fn cells_sample_as_the_kernel_does() {
+        let kernel = KernelImage::from_weights(5, (0..25).map(|i| ((i * 7) % 11) as f32 / 10.0).collect()).unwrap();
+        let table = kernel_run_table(&kernel);
+        for a in -130..=130 {
+            for b in -130..=130 {
+                let (u, v) = (a as f32 / 97.0, b as f32 / 89.0);
+                assert_eq!(cells_sample(&table, u, v).to_bits(), kernel.sample(u, v).to_bits(), "({u}, {v})");
+            }
+        }
+    }
 
     /// Every point of a full run samples 1 and every point of a zero run 0, in every row of
     /// its set; a 2x2 kernel with one zero texel has both kinds and partial cells.
