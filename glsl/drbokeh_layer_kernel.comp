@@ -1,8 +1,8 @@
-// Dr.Bokeh layer pass, kernel-image path: the default model with an `image:` aperture, every
-// tap evaluated as in glsl/drbokeh_layer.comp but without the compat model's terms and the
-// other shapes' gauges, which lavapipe would run under lane masks at every tap. Same bindings,
-// push constants and dispatch as glsl/drbokeh_layer.comp; the body is
-// glsl/common/drbokeh_layer.glsl.
+// Dr.Bokeh layer pass, kernel-image path: the default model with an `image:` aperture on the
+// disk path's row spans, each row split into the kernel's runs (binding 13, kernel_run_table in
+// src/camera/kernel_runs.rs): full-weight runs from the block sums, zero-weight runs skipped,
+// the kernel sampled at the taps between. Otherwise the bindings, push constants and dispatch
+// of glsl/drbokeh_layer.comp; the body is glsl/common/drbokeh_layer.glsl.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #define DRBOKEH_LAYER_KERNEL 1

@@ -8,7 +8,7 @@
 // Bindings (set 0, std430), over the uploaded rect pc.read, layer-major like the sources:
 //   0: rgba       readonly  vec4[layer_count * read pixels]
 //   1: disparity  readonly  float[layer_count * read pixels]
-//   2: area_lut   readonly  float[area_count]
+//   2: area_lut   readonly  float[area_count] (x 17 levels for a vignetted lens)
 //   3: source_pa  writeonly vec4[layer_count * read pixels]
 //   4: source_sa  writeonly vec2[layer_count * read pixels]
 // Dispatch: (ceil(read width / 16), ceil(read height / 16), layer_count).
@@ -43,6 +43,9 @@ void main() {
     int i = drbokeh_read_index(layer, pc.read.xy + local);
     vec4 p = texelFetch(rgba, i);
     float s = pc.k_px * (texelFetch(disparity, i).x - pc.focus_disparity);
-    source_pa[i] = p.w > 0.0 ? p / drbokeh_area_for(abs(s)) : vec4(0.0);
+    // A vignetted lens (shape -2, default model only) normalises by the source's own shape.
+    ivec2 position = pc.read.xy + local;
+    float area = pc.aperture.x < -1.5 ? drbokeh_area_at(abs(s), position) : drbokeh_area_for(abs(s));
+    source_pa[i] = p.w > 0.0 ? p / area : vec4(0.0);
     source_sa[i] = vec2(s, p.w);
 }

@@ -486,3 +486,62 @@ fn render_count_is_the_number_of_renders_a_look_makes() {
         assert_eq!(look.render_count(&stack, &lens), want, "renders counted");
     }
 }
+
+/// `--cats-eye` on a disk under Dr.Bokeh's default model is one render of the vignetted disk
+/// (each receiver tile's cat's-eye): lens-shaped at a corner, round at the centre, and close to
+/// the node grid it replaces (the grid blends four nodes' shapes, 1/3 of the frame apart).
+#[test]
+fn one_pass_cats_eye_is_lens_shaped_at_corners_and_close_to_the_node_grid() {
+    let ctx = gpu();
+    let renderer = DrBokehGpu::new(&ctx).unwrap();
+    let look = Character { cats_eye: Some(CatsEye::new(1.0).unwrap()), ..Character::default() };
+    let (one_pass, vignetted) = look.for_method(Method::DrBokeh, &lens(6.0, Aperture::Disk));
+    assert_eq!((one_pass.cats_eye, &vignetted.aperture), (None, &Aperture::Vignetted { strength: 1.0 }));
+    for (method, base) in [(Method::DrBokehCompat, Aperture::Disk), (Method::DrBokeh, Aperture::polygon(6, 0.0, 0.0).unwrap())] {
+        let (kept, same) = look.for_method(method, &lens(6.0, base.clone()));
+        assert_eq!((kept.cats_eye.is_some(), same.aperture), (true, base), "{method:?}: the node grid stays");
+    }
+
+    let stack = point_lights(80, 80, &[(40, 40), (8, 8)]);
+    let image = render(&renderer, &stack, &vignetted).unwrap();
+    let (radial, tangential) = diagonal_variances(&image, 32, 32);
+    assert!((radial / tangential - 1.0).abs() < 0.05, "centre is round: {radial} vs {tangential}");
+    // The corner tile's own eye (|a| ~0.45 at (8, 8)), not a blend with milder nodes inward:
+    // narrower than the grid's bound of 0.7.
+    let (radial, tangential) = diagonal_variances(&image, 0, 0);
+    assert!(radial / tangential < 0.6, "corner is narrower radially: {radial} vs {tangential}");
+
+    // A 128x96 two-layer frame (CoC ~10 px both sides of focus, highlights of 20) at strength
+    // 0.6 against the 4x4 grid: PSNR over the peak.
+    let (w, h) = (128, 96);
+    let front = Image::from_fn(w, h, |x, y| if (20..60).contains(&x) && (30..70).contains(&y) { [0.9, 0.3, 0.1, 1.0] } else { [0.0; 4] });
+    let back = Image::from_fn(w, h, |x, y| {
+        let v = ((x * 5 + y * 3) % 7) as f32 / 7.0 + if (x * 7 + y * 13) % 97 == 0 { 20.0 } else { 0.0 };
+        [v, 1.0 - v.min(1.0), 0.5, 1.0]
+    });
+    let stack = LayerStack::new(w, h, vec![
+        Layer { name: "front".into(), rgba: front, disparity: vec![0.9; w * h] },
+        Layer { name: "back".into(), rgba: back, disparity: vec![0.1; w * h] },
+    ]).unwrap();
+    let base = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: Aperture::Disk };
+    let eye = CatsEye { strength: 0.6, grid: 4 };
+    let grid = render_cats_eye(&|s: &LayerStack, l: &Lens| render(&renderer, s, l), &stack, &base, &eye).unwrap();
+    let single = render(&renderer, &stack, &Lens { aperture: Aperture::Vignetted { strength: 0.6 }, ..base.clone() }).unwrap();
+    let disk = render(&renderer, &stack, &base).unwrap();
+    let psnr = |a: &Image, b: &Image| {
+        let peak = b.pixels.iter().flat_map(|p| p[..3].iter()).fold(0.0f32, |m, &v| m.max(v)) as f64;
+        let mse = a.pixels.iter().zip(&b.pixels).flat_map(|(p, q)| (0..3).map(move |c| ((p[c] - q[c]) as f64).powi(2))).sum::<f64>()
+            / (3 * w * h) as f64;
+        10.0 * (peak * peak / mse).log10()
+    };
+    // The grid's shapes at 16x16 nodes (8 px apart here), nearer a shape per receiver: the one
+    // pass must be nearer it than the 4x4 grid (measured 43.4 against 40.0 dB), and near the
+    // 4x4 grid (38.9 dB) where the plain disk is not (31.8 dB).
+    let fine = render_cats_eye(&|s: &LayerStack, l: &Lens| render(&renderer, s, l), &stack, &base, &CatsEye { strength: 0.6, grid: 16 }).unwrap();
+    let (to_fine, grid_to_fine) = (psnr(&single, &fine), psnr(&grid, &fine));
+    assert!(to_fine > grid_to_fine, "one pass {to_fine} dB from the 16x16 grid, the 4x4 grid {grid_to_fine} dB");
+    let (to_grid, disk_to_grid) = (psnr(&single, &grid), psnr(&disk, &grid));
+    assert!(to_grid > 36.0 && disk_to_grid < to_grid - 5.0, "one pass {to_grid} dB from the 4x4 grid, the plain disk {disk_to_grid} dB");
+    drop(renderer);
+    finish(ctx);
+}

@@ -107,9 +107,8 @@ fn optimised_kernel_matches_the_baseline_kernel_for_both_models_and_every_apertu
             let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: aperture.clone() };
             let fast = optimised.render(&stack, &lens, model).unwrap();
             let first = baseline.render(&stack, &lens, model).unwrap();
-            let span_path = !matches!(aperture, Aperture::Kernel(_));
-            if model == Model::DrBokeh && span_path {
-                // The span paths (disk, polygon, ring) divide by the area once per source instead of
+            if model == Model::DrBokeh {
+                // The span paths (disk, polygon, ring, kernel) divide by the area once per source instead of
                 // once per tap and sum interiors from block sums: f32 rounding only, each
                 // kernel is within 5e-5 of the f64 reference.
                 let worst = worst_relative(&fast, &first);
@@ -294,6 +293,67 @@ fn ring_path_matches_per_tap_evaluation_and_is_bit_identical_tiled_or_not() {
         for stack in [&flat, &crossing] {
             assert_span_path_matches(&fast, &per_tap, stack, &lens);
         }
+    }
+    drop((fast, per_tap));
+    finish(ctx);
+}
+
+/// The vignetted disk (one-pass `--cats-eye`: the cat's-eye of each 16 px receiver tile, each
+/// source's area from its own position) against its f64 CPU reference, which evaluates every
+/// tap with the same shapes, and against the same shader evaluating every tap (no interior
+/// sums, no trimmed rows), with its near layer crossing focus and at the limit strength 1.5
+/// (corner eyes with |a| = 0.75, 14% of the disk) as well as 0.6.
+#[test]
+fn vignetted_disk_matches_cpu_reference_and_per_tap_evaluation() {
+    let ctx = gpu();
+    let fast = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
+    let full = DrBokehGpu::with_kernel(&ctx, LayerKernel::OptimisedNoInterior).unwrap();
+    let crossing = |w: usize, h: usize| {
+        let mut stack = scene(w, h);
+        stack.layers[0].disparity = (0..w * h).map(|i| 0.3 + 0.006 * (i % w) as f32).collect();
+        stack
+    };
+    for strength in [0.6, 1.5] {
+        let aperture = Aperture::Vignetted { strength };
+        // 3x3 tiles at K = 25 (the CPU reference is slow): the same bound as every aperture's.
+        let small = crossing(45, 37);
+        let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: aperture.clone() };
+        let worst = worst_relative(&fast.render(&small, &lens, Model::DrBokeh).unwrap(), &render_cpu(&small, &lens, Model::DrBokeh).unwrap());
+        assert!(worst < 5e-5, "strength {strength}: worst relative difference {worst} from the CPU reference");
+        let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture };
+        assert_span_path_matches(&fast, &full, &crossing(70, 53), &lens);
+    }
+    drop((fast, full));
+    finish(ctx);
+}
+
+/// The kernel path (runs of full-weight cells summed, runs of zero-weight cells skipped,
+/// `src/camera/kernel_runs.rs`) against the per-tap first kernel, on a 24^2 five-armed star
+/// with soft edges and a hole (full, zero and partial cells in most rows), on the disk test's
+/// scene (every radius >= 3/2: zero runs skipped, in-focus occluding centres) and on one whose
+/// near layer crosses the focal plane (mirrored and mixed orientations, blended small CoCs).
+#[test]
+fn kernel_path_matches_per_tap_evaluation_and_is_bit_identical_tiled_or_not() {
+    let ctx = gpu();
+    let fast = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
+    let per_tap = DrBokehGpu::with_kernel(&ctx, LayerKernel::Baseline).unwrap();
+    let n = 24;
+    let star = (0..n * n)
+        .map(|i| {
+            let (u, v) = ((i % n) as f32 / (n - 1) as f32 * 2.0 - 1.0, (i / n) as f32 / (n - 1) as f32 * 2.0 - 1.0);
+            let (r, theta) = (u.hypot(v), v.atan2(u));
+            let arm = 0.45 + 0.5 * (2.5 * theta).cos().abs();
+            if r < 0.15 { 0.0 } else { ((arm - r) * 8.0).clamp(0.0, 1.0) }
+        })
+        .collect();
+    let kernel = Aperture::Kernel(KernelImage::from_weights(n, star).unwrap());
+    let (w, h) = (70, 53);
+    let flat = scene(w, h);
+    let mut crossing = flat.clone();
+    crossing.layers[0].disparity = (0..w * h).map(|i| 0.3 + 0.006 * (i % w) as f32).collect();
+    let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture: kernel };
+    for stack in [&flat, &crossing] {
+        assert_span_path_matches(&fast, &per_tap, stack, &lens);
     }
     drop((fast, per_tap));
     finish(ctx);

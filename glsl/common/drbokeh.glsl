@@ -89,16 +89,41 @@ float drbokeh_occlusion(float s_y, float s_x, float r_x, float alpha_x, bool is_
 
 // Area normalisation: exact lattice sums tabulated on the host, linear between entries,
 // then the r^2 + 1/20 growth of the continuous integral.
-float drbokeh_area(float r) {
+// `level`: which of a vignetted lens's tables (0 otherwise).
+float drbokeh_area_in(float r, int level) {
+    int base = level * pc.area_count;
     int last = pc.area_count - 1;
     float r_last = float(last) * pc.area_step;
     if (r >= r_last) {
-        return drbokeh_area_lut(last) * (r * r + 0.05) / (r_last * r_last + 0.05);
+        return drbokeh_area_lut(base + last) * (r * r + 0.05) / (r_last * r_last + 0.05);
     }
     float f = r / pc.area_step;
     int i = min(int(floor(f)), last - 1);
     float t = f - float(i);
-    return drbokeh_area_lut(i) * (1.0 - t) + drbokeh_area_lut(i + 1) * t;
+    return drbokeh_area_lut(base + i) * (1.0 - t) + drbokeh_area_lut(base + i + 1) * t;
+}
+
+float drbokeh_area(float r) {
+    return drbokeh_area_in(r, 0);
+}
+
+// The vignetted disk (shape -2, strength pc.aperture.y): its cat's-eye centre a at frame
+// position p (disks at +-a), half of character::CatsEye::shift. `LensView::vignette_centre`.
+const int DRBOKEH_VIGNETTE_AREA_LEVELS = 17; // VIGNETTE_AREA_LEVELS in src/render/drbokeh/mod.rs
+
+vec2 drbokeh_vignette_centre(vec2 p) {
+    vec2 c = vec2(float(pc.width - 1), float(pc.height - 1)) * 0.5;
+    return (0.5 * pc.aperture.y / max(length(c), 1.0)) * (p - c);
+}
+
+// Area of a source of radius r at pixel p of a vignetted render: linear between the area
+// tables of the two cat's-eyes around its |a| (`Params::area_at`).
+float drbokeh_area_at(float r, ivec2 p) {
+    float top = 0.5 * pc.aperture.y;
+    float f = top > 0.0 ? length(drbokeh_vignette_centre(vec2(p))) / top * float(DRBOKEH_VIGNETTE_AREA_LEVELS - 1) : 0.0;
+    int level = min(int(floor(f)), DRBOKEH_VIGNETTE_AREA_LEVELS - 2);
+    float t = f - float(level);
+    return drbokeh_area_in(r, level) * (1.0 - t) + drbokeh_area_in(r, level + 1) * t;
 }
 
 // Drops the coverage V claims where no source of the layer reaches x (W = 0).

@@ -4,16 +4,18 @@
 // same span path with row bounds from the aperture's row table and the shape's gauge in the
 // rim taps), glsl/drbokeh_layer_ring.comp DRBOKEH_LAYER_RING (default model, ring: the disk
 // path's gather, then the obstruction's, subtracted), glsl/drbokeh_layer_kernel.comp
-// DRBOKEH_LAYER_KERNEL (default model, kernel image: per tap, without the other models' and
-// shapes' terms) and glsl/drbokeh_layer.comp none of them (every model and aperture, per tap).
+// DRBOKEH_LAYER_KERNEL (default model, kernel image: the disk path's rows split into the
+// kernel's runs of full-weight cells, summed, and of zero-weight cells, skipped, with the kernel
+// sampled only at the taps between; src/camera/kernel_runs.rs) and glsl/drbokeh_layer.comp
+// none of them (every model and aperture, per tap).
 // Separate pipelines rather than a runtime branch so that none carries another's code: lavapipe
 // runs branches under lane masks. Bindings, push constants and dispatch: see
 // glsl/drbokeh_layer.comp.
 #ifndef LENSBLUR_DRBOKEH_LAYER_GLSL
 #define LENSBLUR_DRBOKEH_LAYER_GLSL
 
-#if defined(DRBOKEH_LAYER_DISK) || defined(DRBOKEH_LAYER_RING)
-// The disk's row bounds: the ring's rim is the disk's.
+#if defined(DRBOKEH_LAYER_DISK) || defined(DRBOKEH_LAYER_RING) || defined(DRBOKEH_LAYER_KERNEL)
+// The disk's row bounds: the ring's rim is the disk's, a kernel image lies in the disk.
 #define DRBOKEH_LAYER_DISK_ROWS 1
 #endif
 #if defined(DRBOKEH_LAYER_DISK_ROWS) || defined(DRBOKEH_LAYER_GAUGE)
@@ -56,6 +58,43 @@ const int APERTURE_ROW_SEGMENTS = 2048; // APERTURE_ROW_SEGMENTS in src/camera/a
 const float GAUGE_MARGIN = 1.0 / 4096.0;
 #include "gauge.glsl"
 #endif
+#ifdef DRBOKEH_LAYER_KERNEL
+// The kernel image's row runs (kernel_run_table in src/camera/kernel_runs.rs): texel 0 = (n,
+// first cell), then (first, count) per row set, then runs (u lo, u hi, class) in ascending u,
+// then the kernel's cells.
+layout(set = 0, binding = 13) uniform samplerBuffer kernel_runs;
+const float KERNEL_RUN_FULL = 1.0; // KERNEL_RUN_FULL in src/camera/kernel_runs.rs
+const float KERNEL_RUN_ZERO = 2.0;
+
+// Texel 0 of the table, read once per invocation (kernel_setup).
+float kernel_n;
+int kernel_cells;
+
+void kernel_setup() {
+    vec2 table = texelFetch(kernel_runs, 0).xy;
+    kernel_n = table.x;
+    kernel_cells = int(table.y);
+}
+
+// aperture_kernel_sample's operations on the table's cells (each its four corners, zero
+// outside the image): a coordinate clamped to [-1, n] reads corners of zeros exactly where
+// aperture_kernel_sample returns 0, and inside, the same texels with the same weights. One
+// fetch instead of four, and no bounds tests (measured: 9.3 s CPU instead of 11.8 for the
+// 1024^2 frame with a 64^2 star; the four fetches, not the tests, were the cost).
+float kernel_runs_sample(vec2 uv) {
+    float n = kernel_n;
+    float fx = clamp((uv.x * 0.5 + 0.5) * n - 0.5, -1.0, n);
+    float fy = clamp((uv.y * 0.5 + 0.5) * n - 0.5, -1.0, n);
+    float x0 = floor(fx);
+    float y0 = floor(fy);
+    float tx = fx - x0;
+    float ty = fy - y0;
+    vec4 corners = texelFetch(kernel_runs, kernel_cells + (int(y0) + 1) * (int(n) + 2) + int(x0) + 1);
+    float top = corners.x * (1.0 - tx) + corners.y * tx;
+    float bottom = corners.z * (1.0 - tx) + corners.w * tx;
+    return top * (1.0 - ty) + bottom * ty;
+}
+#endif
 
 // Largest |ox| with ox^2 + oy^2 < (h + 1)^2: the row of the window disk at height oy.
 int row_half_width(int h, int oy) {
@@ -80,6 +119,9 @@ struct Centre {
     float ring_blend;   // the ring weight's fade-in at this centre's radius
     float hole_support; // inner r + 1/2: the obstruction's reach
 #endif
+#ifdef DRBOKEH_LAYER_KERNEL
+    float kernel_blend; // the kernel weight's fade-in at this centre's radius
+#endif
 };
 
 Centre centre_at(int index) {
@@ -89,6 +131,9 @@ Centre centre_at(int index) {
 #ifdef DRBOKEH_LAYER_RING
     float blend = smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r);
     return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0, blend, pc.aperture.z * r + 0.5);
+#elif defined(DRBOKEH_LAYER_KERNEL)
+    float blend = smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r);
+    return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0, blend);
 #else
     return Centre(s, r + 0.5, alpha * (1.0 - smoothstep(0.5, 1.5, r)), vec4(0.0), 0.0, 0.0);
 #endif
@@ -157,11 +202,33 @@ ivec2 interior_span(float t, int oy, ivec2 outer, int orientation) {
 #endif
 
 #ifdef DRBOKEH_LAYER_GAUGE
+// The vignetted disk's rows in closed form: the unit cat's-eye's row at height v is the
+// intersection of its two unit disks' rows (centres +-a, gauge_normals[0]), as (interior lo,
+// hi, outer lo, hi) like the table (exact rows: both the same); empty (.x > .y) above or below.
+// Centrally symmetric, so both orientations share it. The f32 error of the bounds (~1e-7, or
+// ~5e-4 of a radius where a row meets a disk's top, sqrt of a rounding) stays below what the
+// callers' GAUGE_MARGIN moves them there (about sqrt(2 / 4096) = 0.02 of a radius at a top, 1 / 4096
+// elsewhere).
+vec4 cats_eye_row(float v) {
+    vec2 a = gauge_normals[0];
+    float room_upper = 1.0 - (v - a.y) * (v - a.y);
+    float room_lower = 1.0 - (v + a.y) * (v + a.y);
+    if (room_upper < 0.0 || room_lower < 0.0) {
+        return vec4(1.0, -1.0, 1.0, -1.0);
+    }
+    float lo = max(a.x - sqrt(room_upper), -a.x - sqrt(room_lower));
+    float hi = min(a.x + sqrt(room_upper), -a.x + sqrt(room_lower));
+    return vec4(lo, hi, lo, hi);
+}
+
 // The row table's entry for v (clamped far outside [-1, 1]: an empty row there): (interior lo,
 // hi, outer lo, hi) at unit level. Orientation 1 (every source and centre nearer than focus):
 // the aperture's own rows; -1 (every one farther): its mirror's, the entry of -v negated;
 // 0: both orientations'.
 vec4 aperture_row(float v, int orientation) {
+    if (GAUGE_VIGNETTED) {
+        return cats_eye_row(v);
+    }
     float w = orientation < 0 ? -v : v;
     float f = (clamp(w, -2.0, 2.0) + 1.0) * 0.5 * float(APERTURE_ROW_SEGMENTS);
     int segment = int(floor(f));
@@ -198,8 +265,18 @@ ivec2 interior_span(float t, int oy, ivec2 outer, int orientation) {
 }
 
 // The gauge's closed-form constants come from the host (texel 0 of aperture_rows), computed
-// in f64 like the row table they must agree with.
-void gauge_setup_rows() {
+// in f64 like the row table they must agree with. The vignetted disk's from the tile of x0:
+// the cat's-eye at the middle of the tile's in-frame part (`LensView::at_receiver`), so the
+// whole workgroup shares one shape and closed-form rows (cats_eye_row) instead of a table.
+void gauge_setup_rows(ivec2 x0) {
+    if (GAUGE_VIGNETTED) {
+        ivec2 first = x0 / DRBOKEH_TILE * DRBOKEH_TILE;
+        ivec2 last = min(first + DRBOKEH_TILE - 1, ivec2(pc.width, pc.height) - 1);
+        vec2 a = drbokeh_vignette_centre(vec2(first + last) * 0.5);
+        float k = 1.0 - dot(a, a);
+        gauge_setup(pc.aperture, vec4(a, 1.0 / k, k));
+        return;
+    }
     gauge_setup(pc.aperture, texelFetch(aperture_rows, 0));
 }
 
@@ -258,6 +335,16 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
             } else {
                 span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
             }
+#elif defined(DRBOKEH_LAYER_KERNEL)
+            // drbokeh_lens's kernel weight (aperture_kernel_weight) for the source and for the
+            // centre: the kernel at x - y mirrored for a near one (aperture_coords), i.e. at
+            // (o, oy) or its mirror.
+            vec2 p = vec2(float(o), float(oy));
+            float r = abs(sa.x);
+            float blend = smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r);
+            float k_source = 1.0 + (kernel_runs_sample((sa.x > 0.0 ? p : -p) / (r + 0.5)) - 1.0) * blend;
+            float k_centre = 1.0 + (kernel_runs_sample((c[k].s > 0.0 ? p : -p) / c[k].support) - 1.0) * c[k].kernel_blend;
+            span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, k_source, k_centre, inside, o == 0 && oy == 0, occlusion);
 #else
             span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
 #endif
@@ -323,6 +410,67 @@ void interior_sum(inout Centre c[RUN], int row, ivec2 x0, int from, int to, bool
 }
 
 
+#ifdef DRBOKEH_LAYER_KERNEL
+// The row set of the kernel runs that gather row oy crosses (kernel-space height w = oy, or -oy
+// mirrored), over the scales c in [t, outer] that its taps sample at (p / (r + 1/2)): the cell
+// row, or the pair of adjacent ones, holding every such height, grown by 1e-3 of a cell for
+// the f32 rounding; -1 when they are more (then every tap is evaluated) or outside the kernel.
+int kernel_row_set(int w, float t, float outer) {
+    float n = kernel_n;
+    float a = float(w) / t;
+    float b = float(w) / outer;
+    int j_lo = int(floor((min(a, b) * 0.5 + 0.5) * n - 0.5 - 1.0e-3));
+    int j_hi = int(floor((max(a, b) * 0.5 + 0.5) * n - 0.5 + 1.0e-3));
+    if (j_lo < -1 || j_hi > int(n) - 1 || j_hi > j_lo + 1) {
+        return -1;
+    }
+    return j_hi == j_lo ? j_lo + 1 : int(n) + 1 + (j_lo + 1);
+}
+
+// One gather row of the kernel path without occlusion: columns ox0..ox1 (offsets from x0)
+// split into full runs (a span sum, where also the disk's interior `mid` says S = 1 for every
+// centre), zero runs (skipped: K is exactly 0 for every source and centre when every radius
+// is at least 3/2, blend exactly 1) and the taps between (evaluated). A run's kernel columns
+// q = o (or -o mirrored) with q / c inside it for every scale c in [t, outer]; column ox is in
+// it for every centre k when ox - k is. `orientation` (tile_radii.z): 1 every source and
+// centre near (the kernel at (o, oy)), -1 every one far (its mirror), 0 both: no runs.
+void kernel_row(inout Centre c[RUN], int row, ivec2 x0, int ox0, int ox1, ivec2 span, int oy, ivec2 mid, float t, float outer, int orientation) {
+    bool zeros = t - 0.5 >= APERTURE_KERNEL_FADE_END_PX;
+    int set = orientation == 0 ? -1 : kernel_row_set(orientation * oy, t, outer);
+    int pos = ox0;
+    if (set >= 0) {
+        vec4 entry = texelFetch(kernel_runs, 1 + set);
+        int first = int(entry.x);
+        int count = int(entry.y);
+        for (int i = 0; i < count; ++i) {
+            // Ascending ox: the runs in order, or reversed for the mirror.
+            vec4 run = texelFetch(kernel_runs, first + (orientation > 0 ? i : count - 1 - i));
+            bool full = run.z == KERNEL_RUN_FULL;
+            if (!full && !zeros) {
+                continue;
+            }
+            int q0 = int(ceil(run.x >= 0.0 ? run.x * outer : run.x * t));
+            int q1 = int(floor(run.y >= 0.0 ? run.y * t : run.y * outer));
+            int a = max((orientation > 0 ? q0 : -q1) + RUN - 1, pos);
+            int b = min(orientation > 0 ? q1 : -q0, ox1);
+            if (full) {
+                a = max(a, mid.x);
+                b = min(b, mid.y);
+            }
+            if (a > b) {
+                continue;
+            }
+            full_taps(c, row, pos, a - 1, span, oy, false, false);
+            if (full) {
+                interior_sum(c, row, x0, a, b, false);
+            }
+            pos = b + 1;
+        }
+    }
+    full_taps(c, row, pos, ox1, span, oy, false, false);
+}
+#endif
+
 // Default model, gauge aperture (disk, polygon, ellipse): the terms of drbokeh_lens /
 // drbokeh_scatter / drbokeh_occlusion with K = 1 and the shape's gauge, for RUN horizontally
 // adjacent centres x0 + (k, 0) (same 16x16 tile, same window): each source is loaded once for all of them, and centre k's gauge
@@ -360,6 +508,12 @@ void gather_span_run(ivec2 x0, int h, float t, float outer, int orientation, ino
                 mid1 = b;
             }
         }
+#ifdef DRBOKEH_LAYER_KERNEL
+        if (!occlusion) {
+            kernel_row(c, row, x0, ox0, ox1, span, oy, ivec2(mid0, mid1), t, outer, orientation);
+            continue;
+        }
+#endif
         full_taps(c, row, ox0, mid0 - 1, span, oy, occlusion, hole);
         if (mid0 <= mid1) {
             interior_sum(c, row, x0, mid0, mid1, hole);
@@ -373,24 +527,8 @@ float visibility(float vis_sum, float vis_weight) {
     return vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
 }
 
-#ifdef DRBOKEH_LAYER_KERNEL
-// drbokeh_lens for a kernel image (the Euclidean gauge, aperture_kernel_weight's kernel
-// branch, the same operations) without the other shapes' gauges and weights: lavapipe runs
-// every branch of drbokeh_lens under lane masks, atan and cos of the polygon's gauge included.
-vec2 layer_lens(vec2 offset, float r, float rel) {
-    vec2 p = aperture_coords(offset, rel);
-    float sample_weight = aperture_kernel_sample(p / (r + 0.5), pc.kernel_size);
-    float blend = smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r);
-    return vec2(length(p), 1.0 + (sample_weight - 1.0) * blend);
-}
-#else
-vec2 layer_lens(vec2 offset, float r, float rel) {
-    return drbokeh_lens(offset, r, rel);
-}
-#endif
 
-// Any model and aperture: the first kernel's per-tap terms over the clipped window disk (the
-// kernel-image path: the default model and a kernel image only).
+// Any model and aperture: the first kernel's per-tap terms over the clipped window disk.
 void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
     int ix = drbokeh_read_index(pc.layer, x);
     float rel_x = texelFetch(disparity, ix).x - pc.focus_disparity;
@@ -398,11 +536,7 @@ void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
     float r_x = abs(s_x);
     float alpha_x = texelFetch(rgba, ix).w;
     int box_half = drbokeh_visibility_box_compat(r_x);
-#ifdef DRBOKEH_LAYER_KERNEL
-    const bool compat = false;
-#else
     bool compat = pc.model == DRBOKEH_MODEL_COMPAT;
-#endif
     cw = vec4(0.0);
     float vis_sum = 0.0;
     float vis_weight = 0.0;
@@ -423,7 +557,7 @@ void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
             vec2 offset = vec2(float(-ox), float(-oy));
             bool is_self = ox == 0 && oy == 0;
             if (p.w > 0.0) {
-                vec2 lens = layer_lens(offset, r_y, rel_y);
+                vec2 lens = drbokeh_lens(offset, r_y, rel_y);
                 float s = compat ? drbokeh_scatter_compat(r_y, lens.x) : drbokeh_scatter(r_y, lens.x);
                 float o = compat ? drbokeh_occlusion_compat(rel_y, rel_x, r_x, is_self)
                                  : drbokeh_occlusion(s_y, s_x, r_x, alpha_x, is_self);
@@ -437,7 +571,7 @@ void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
                     vis_weight += 1.0;
                 }
             } else {
-                vec2 lens = layer_lens(offset, r_x, rel_x);
+                vec2 lens = drbokeh_lens(offset, r_x, rel_x);
                 float d = drbokeh_scatter(r_x, lens.x) * lens.y;
                 vis_sum += p.w * d;
                 vis_weight += d;
@@ -464,7 +598,10 @@ void main() {
 #ifdef DRBOKEH_LAYER_SPANS
     {
 #ifdef DRBOKEH_LAYER_GAUGE
-        gauge_setup_rows();
+        gauge_setup_rows(x0);
+#endif
+#ifdef DRBOKEH_LAYER_KERNEL
+        kernel_setup();
 #endif
         Centre c[RUN];
         bool occluding = false;

@@ -18,11 +18,13 @@
 #include "aperture.glsl"
 
 // The shape, a specialization constant (ComputePipeline::specialized): 0 = ellipse, 1 =
-// cat's-eye, else the polygon's blades. As a literal the loops over the normals unroll and the normals stay in
+// cat's-eye, 2 = the vignetted disk (a cat's-eye whose a the layer pass sets per receiver
+// tile), else the polygon's blades. As a literal the loops over the normals unroll and the normals stay in
 // registers (a loop with a run-time bound is ~1.5x slower on lavapipe).
 layout(constant_id = 0) const int GAUGE_BLADES = 6;
 const bool GAUGE_EVEN = GAUGE_BLADES % 2 == 0;
-const bool GAUGE_CATS_EYE = GAUGE_BLADES == 1;
+const bool GAUGE_VIGNETTED = GAUGE_BLADES == 2;
+const bool GAUGE_CATS_EYE = GAUGE_BLADES == 1 || GAUGE_VIGNETTED;
 // Normals visited: n, or n / 2 for an even polygon (|p . n_i|); 0 for the ellipse.
 const int GAUGE_STEPS = GAUGE_BLADES < 3 ? 0 : (GAUGE_EVEN ? GAUGE_BLADES / 2 : GAUGE_BLADES);
 const int GAUGE_MAX_STEPS = 16; // Aperture::polygon's limit

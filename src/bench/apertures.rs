@@ -38,7 +38,9 @@ pub fn aperture_cases(kernel_png: &Path) -> Result<Vec<ApertureCase>> {
         case("polygon:5:rotation=10", &["--aperture", "polygon:5:rotation=10"], blender_bokeh(5)),
         case("polygon:9:roundness=0.5", &["--aperture", "polygon:9:roundness=0.5"], None),
         case("anamorphic:1.8", &["--aperture", "anamorphic:1.8"], None),
+        case("ring:0.2", &["--aperture", "ring:0.2"], None),
         case("ring:0.5", &["--aperture", "ring:0.5"], None),
+        case("ring:0.8", &["--aperture", "ring:0.8"], None),
         case("image:star", &["--aperture", &image], None),
         case("cats-eye 0.6 (disk)", &["--cats-eye", "0.6"], None),
     ])

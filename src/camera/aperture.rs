@@ -44,6 +44,15 @@ pub enum Aperture {
     CatsEye {
         shift: [f32; 2],
     },
+    /// A disk vignetted into the cat's-eye of [`crate::character::CatsEye`] in one render: the
+    /// shift varies over the frame (`strength * position / half-diagonal`), so the shape is
+    /// not one gauge. Only Dr.Bokeh's default model renders it (its gauge path resolves the
+    /// [`Aperture::CatsEye`] of each 16 px receiver tile, `LensView::at_receiver`); the
+    /// character controls hand it to no other renderer. Position-free uses (`gauge`,
+    /// `relative_area`) see the frame centre's shape, the disk.
+    Vignetted {
+        strength: f32,
+    },
     /// A custom kernel image, sampled over the CoC disk.
     Kernel(KernelImage),
 }
@@ -62,11 +71,15 @@ pub const KERNEL_FADE_PX: [f32; 2] = [0.5, 1.5];
 /// The aperture as a shader reads it (push constants): `[shape, rotation (rad), parameter,
 /// kernel (1 = sample the kernel buffer)]`, shape 0 = disk (or kernel image), 1 = ellipse
 /// (parameter = squeeze), 2 = ring (parameter = inner radius), >= 3 = polygon of that many
-/// blades (parameter = roundness), -1 = cat's-eye (`[-1, shift.x / 2, shift.y / 2, 0]`).
+/// blades (parameter = roundness), -1 = cat's-eye (`[-1, shift.x / 2, shift.y / 2, 0]`), -2 =
+/// vignetted disk (`[-2, strength, 0, 0]`).
 pub type ApertureGpu = [f32; 4];
 
 /// The GPU form's shape code of [`Aperture::CatsEye`].
 pub const CATS_EYE_SHAPE: f32 = -1.0;
+
+/// The GPU form's shape code of [`Aperture::Vignetted`].
+pub const VIGNETTED_SHAPE: f32 = -2.0;
 
 impl Aperture {
     pub fn polygon(blades: u32, rotation_deg: f32, roundness: f32) -> Result<Self> {
@@ -231,6 +244,7 @@ impl Aperture {
             // The ellipse's area pi * 1 * (1 / squeeze).
             &Aperture::Ellipse { squeeze, .. } => 1.0 / squeeze,
             &Aperture::Ring { inner } => 1.0 - inner * inner,
+            Aperture::Vignetted { .. } => 1.0,
             // Two unit disks whose centres are d apart overlap in 2 acos(d/2) - (d/2) sqrt(4 - d^2).
             &Aperture::CatsEye { shift } => {
                 let half = 0.5 * shift[0].hypot(shift[1]) as f64;
@@ -280,6 +294,7 @@ impl Aperture {
             Aperture::Ellipse { squeeze, rotation } => [1.0, rotation, squeeze, 0.0],
             Aperture::Ring { inner } => [2.0, 0.0, inner, 0.0],
             Aperture::CatsEye { shift } => [CATS_EYE_SHAPE, 0.5 * shift[0], 0.5 * shift[1], 0.0],
+            Aperture::Vignetted { strength } => [VIGNETTED_SHAPE, strength, 0.0, 0.0],
             Aperture::Kernel(_) => [0.0, 0.0, 1.0, 1.0],
         }
     }

@@ -3,8 +3,9 @@
 //! clamp, focus pick, highlight bloom), a procedural aperture (the anamorphic ellipse, the
 //! ring and a vignetted disk's cat's-eye are shapes of [`crate::camera::Aperture`] with closed
 //! forms; the cat's-eye of any other aperture is a kernel image), or a combination of several
-//! renders (chromatic aberration: one per channel; cat's-eye: one per grid node). Each piece
-//! is a CPU function testable on its own.
+//! renders (chromatic aberration: one per channel; cat's-eye: one per grid node, or one pass
+//! of [`crate::camera::Aperture::Vignetted`] for a disk under Dr.Bokeh). Each piece is a CPU
+//! function testable on its own.
 pub mod bloom;
 pub mod chromatic;
 pub mod debug;
@@ -23,6 +24,7 @@ pub use focus::focus_disparity_at;
 pub use remap::BlurRemap;
 pub use vignette::{render_cats_eye, CatsEye};
 
+use crate::camera::Aperture;
 use crate::image::Image;
 use crate::render::drbokeh::RenderOptions;
 use crate::render::vdslr::FocusField;
@@ -132,8 +134,24 @@ impl Character {
     ) -> Result<(Image, Cow<'a, LayerStack>, Lens)> {
         self.check_focus_field(settings.focus(method))?;
         let (prepared, lens) = self.prepare(stack, lens)?;
+        let (look, lens) = self.for_method(method, &lens);
         let render = |s: &LayerStack, l: &Lens| method.render_with(ctx, s, l, options, settings);
-        let image = self.render_prepared(&render, &prepared, &lens)?;
+        let image = look.render_prepared(&render, &prepared, &lens)?;
         Ok((image, prepared, lens))
+    }
+
+    /// The controls and lens `method` renders: a cat's-eye of a disk under Dr.Bokeh's default
+    /// model is one render of [`Aperture::Vignetted`] (its gauge path takes each receiver
+    /// tile's shape), so the node grid is dropped; every other method, model or base aperture
+    /// keeps the grid ([`render_cats_eye`]). [`Self::render_count`] of the result counts what
+    /// [`Self::render`] does.
+    pub fn for_method(&self, method: Method, lens: &Lens) -> (Character, Lens) {
+        match &self.cats_eye {
+            Some(eye) if method == Method::DrBokeh && lens.aperture == Aperture::Disk => (
+                Character { cats_eye: None, ..self.clone() },
+                Lens { aperture: Aperture::Vignetted { strength: eye.strength }, ..lens.clone() },
+            ),
+            _ => (self.clone(), lens.clone()),
+        }
     }
 }

@@ -313,7 +313,8 @@ pub(super) fn render_loaded<'a>(
     let start = Instant::now();
     let layer_count = loaded.stack.layers.len();
     let what = format!("{what_prefix}rendering {layer_count} layer(s) with {}", args.method);
-    let passes = args.character.resolve()?.render_count(&loaded.stack, &loaded.camera.lens);
+    let (look, lens) = args.character.resolve()?.for_method(args.method, &loaded.camera.lens);
+    let passes = look.render_count(&loaded.stack, &lens);
     let tile_progress = progress::tiles(spinner, what, passes);
     let options = RenderOptions {
         tile: args.tile,

@@ -28,6 +28,28 @@
 //! `rel = d - d_f`, so with `g_s = dL/ds` and `g_rel = dL/drel` (at fixed s) per pixel:
 //! `dL/dd = K g_s + g_rel`, `dL/dK = sum rel g_s`, `dL/dd_f = -sum dL/dd`.
 use super::{math, LensView, Model, Params, AREA_STEP_PX};
+use crate::camera::Aperture;
+use crate::image::Image;
+use crate::render::Lens;
+use crate::stack::LayerStack;
+use crate::{Error, Result};
+
+/// What both backward passes (CPU reference and GPU) refuse: an output gradient of another
+/// size than the stack, and the vignetted disk, whose per-tile shape (forward only: the
+/// backward's gauge paths take one shape per render) has no adjoint here. `grad` has no
+/// `--cats-eye`, so no command reaches it.
+pub(crate) fn check_inputs(stack: &LayerStack, lens: &Lens, grad_output: &Image) -> Result<()> {
+    if (grad_output.width, grad_output.height) != (stack.width, stack.height) {
+        return Err(Error::data(format!(
+            "output gradient is {}x{}, the stack {}x{}",
+            grad_output.width, grad_output.height, stack.width, stack.height
+        )));
+    }
+    if matches!(lens.aperture, Aperture::Vignetted { .. }) {
+        return Err(Error::unsupported("the vignetted disk (one-pass --cats-eye) has no backward pass"));
+    }
+    Ok(())
+}
 
 /// How the backward differentiates the forward's soft steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

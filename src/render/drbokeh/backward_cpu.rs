@@ -5,14 +5,14 @@
 //! in [`super::backward`]). Each function owns the values it returns: gathers only.
 use rayon::prelude::*;
 
-use super::backward::{pair_grad, vis_weight, BackwardOptions, Px};
+use super::backward::{check_inputs, pair_grad, vis_weight, BackwardOptions, Px};
 use super::cpu::{render_cpu_terms, LayerTerms};
 use super::{math, Model, Params, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
 use crate::render::Lens;
 use crate::stack::{Layer, LayerStack};
-use crate::{Error, Result};
+use crate::Result;
 
 /// The f64 CPU reference as a [`Differentiable`] renderer.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -75,12 +75,7 @@ pub struct LayerAdjoint {
 
 /// The vector-Jacobian product of [`super::render_cpu`] with `grad_output`.
 pub fn backward_cpu(stack: &LayerStack, lens: &Lens, model: Model, options: BackwardOptions, grad_output: &Image) -> Result<CpuGradients> {
-    if (grad_output.width, grad_output.height) != (stack.width, stack.height) {
-        return Err(Error::data(format!(
-            "output gradient is {}x{}, the stack {}x{}",
-            grad_output.width, grad_output.height, stack.width, stack.height
-        )));
-    }
+    check_inputs(stack, lens, grad_output)?;
     let terms = render_cpu_terms(stack, lens, model, options.window())?;
     let params = &terms.params;
     let adjoints = composite_backward_cpu(params, &terms.layers, grad_output);

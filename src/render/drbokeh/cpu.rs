@@ -92,7 +92,8 @@ pub fn layer_cpu(params: &Params, layer: &Layer, window: Vec<i32>) -> LayerTerms
 /// `[C.rgb, W]` and `V` of output pixel (x, y) over the square window of half-width `h`.
 fn layer_pixel(params: &Params, layer: &Layer, x: i64, y: i64, h: i64) -> ([f64; 4], f64) {
     let (width, height) = (params.width as i64, params.height as i64);
-    let lens = &params.lens;
+    // A vignetted lens's shape is the receiver tile's (LensView::at_receiver).
+    let lens = &*params.lens.at_receiver(x as usize, y as usize, params.width, params.height);
     let ix = (y * width + x) as usize;
     let rel_x = lens.rel(layer.disparity[ix]);
     let s_x = lens.k_px * rel_x;
@@ -128,7 +129,7 @@ fn layer_pixel(params: &Params, layer: &Layer, x: i64, y: i64, h: i64) -> ([f64;
                     Model::DrBokeh => (math::scatter(r_y, g), math::occlusion(s_y, s_x, r_x, alpha_x, is_self)),
                     Model::Compat => (math::scatter_compat(r_y, g), math::occlusion_compat(rel_y, rel_x, r_x, is_self)),
                 };
-                let weight = s * k * o / params.area(r_y);
+                let weight = s * k * o / params.area_at(r_y, sx as usize, sy as usize);
                 for c in 0..3 {
                     cw[c] += p[c] as f64 * weight;
                 }

@@ -7,7 +7,7 @@
 //! lens, area table, push constants) and the search windows are shared with it.
 use super::bounds::{search_tiles, search_windows, span_radii, NO_SPAN_RADII};
 use super::{AperturePath, Model, Params, TILE};
-use crate::camera::{aperture_row_table, closed_form_gauge, Aperture, EMPTY_APERTURE_ROW};
+use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
 use crate::render::tiling::{crop, run_batches, run_tiled, store_core, Footprint, TilePlan};
 use crate::render::Lens;
@@ -15,7 +15,7 @@ use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tiling::Rect;
 use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, Slot, TexelFormat};
-use crate::Result;
+use crate::{Error, Result};
 
 /// Bytes per read pixel of one layer: uploaded rgba + disparity, prepass P / A + (s, alpha),
 /// block prefix + suffix of (P / A, alpha).
@@ -83,7 +83,8 @@ const LAYER_SLOTS: [Slot; 13] = {
     ]
 };
 
-/// Bindings of `drbokeh_layer_gauge.comp`: the layer pass's and the aperture's row table.
+/// Bindings of `drbokeh_layer_gauge.comp` and `drbokeh_layer_kernel.comp`: the layer pass's
+/// and the aperture's row table (the kernel image's runs, [`kernel_run_table`]).
 const LAYER_GAUGE_SLOTS: [Slot; 14] = {
     let mut slots = [Slot::Storage; 14];
     let mut i = 0;
@@ -120,7 +121,7 @@ impl DrBokehGpu {
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_DISK, &LAYER_SLOTS, push)?),
                 Some(PipelineVariants::new(ctx, &shaders::DRBOKEH_LAYER_GAUGE, &LAYER_GAUGE_SLOTS, push)?),
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_RING, &LAYER_SLOTS, push)?),
-                Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_KERNEL, &LAYER_SLOTS, push)?),
+                Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_KERNEL, &LAYER_GAUGE_SLOTS, push)?),
             ),
             LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None, None, None),
         };
@@ -200,6 +201,10 @@ impl DrBokehGpu {
     /// Records the layer passes and the composite of one frame tile (the backward pass records
     /// them over its receivers and reads every intermediate).
     pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
+        if self.kernel == LayerKernel::Baseline && params.lens.is_vignetted() {
+            // The first kernel's per-tap lens knows one shape per render.
+            return Err(Error::unsupported("the baseline layer kernel cannot render the vignetted disk"));
+        }
         let groups = self.composite.groups_for([b.core.width() as u32, b.core.height() as u32, 1]);
         // A layer workgroup covers one 16x16 search tile: the optimised kernels write a run of
         // TILE / local_size_x adjacent pixels per invocation.
@@ -214,7 +219,7 @@ impl DrBokehGpu {
             match (path, &self.layer_disk, &self.layer_gauge, &self.layer_ring, &self.layer_kernel) {
                 (AperturePath::Disk, Some(disk), _, _, _) => (disk, true, LAYER_SLOTS.len()),
                 (AperturePath::Ring, _, _, Some(ring), _) => (ring, true, LAYER_SLOTS.len()),
-                (AperturePath::Kernel, _, _, _, Some(kernel)) => (kernel, false, LAYER_SLOTS.len()),
+                (AperturePath::Kernel, _, _, _, Some(kernel)) => (kernel, true, LAYER_GAUGE_SLOTS.len()),
                 (AperturePath::Gauge, _, Some(variants), _, _) => {
                     gauge = variants.get(&params.lens.gauge_specialization())?;
                     (&gauge, true, LAYER_GAUGE_SLOTS.len())
@@ -354,8 +359,9 @@ impl<'a> ForwardFrame<'a> {
         windows: &'a [i32],
         interior: bool,
     ) -> Result<Self> {
-        let rows = match params.lens.path(params.model) {
-            AperturePath::Gauge => aperture_rows(aperture),
+        let rows = match (params.lens.path(params.model), aperture) {
+            (AperturePath::Gauge, _) => aperture_rows(aperture),
+            (AperturePath::Kernel, Aperture::Kernel(kernel)) => kernel_run_table(kernel),
             _ => vec![EMPTY_APERTURE_ROW],
         };
         Ok(Self {

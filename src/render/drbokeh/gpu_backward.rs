@@ -12,7 +12,7 @@
 //! of per-pixel shares (dL/dK: `rel g_s` per pixel; dL/d focus: minus every disparity
 //! gradient) done on the host in f64 in image order after the last tile: deterministic and
 //! independent of the tile size.
-use super::backward::BackwardOptions;
+use super::backward::{check_inputs, BackwardOptions};
 use super::backward_cpu::tile_reach_cpu;
 use super::bounds::{grow_windows, search_windows};
 use super::gpu::{halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
@@ -25,7 +25,7 @@ use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tiling::Rect;
 use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, Slot, TexelFormat};
-use crate::{Error, Result};
+use crate::Result;
 
 /// The Dr.Bokeh forward and backward pipelines on one device, for one model and options.
 pub struct DrBokehGpuGrad {
@@ -142,12 +142,7 @@ impl DrBokehGpuGrad {
         grad_output: &Image,
         options: &RenderOptions,
     ) -> Result<(StackGradients, RenderStats)> {
-        if (grad_output.width, grad_output.height) != (stack.width, stack.height) {
-            return Err(Error::data(format!(
-                "output gradient is {}x{}, the stack {}x{}",
-                grad_output.width, grad_output.height, stack.width, stack.height
-            )));
-        }
+        check_inputs(stack, lens, grad_output)?;
         let params = Params::new(stack, lens, self.model)?;
         let windows = grow_windows(search_windows(&params, stack), self.options.window_margin());
         let per_layer = params.tiles_x * params.tiles_y;

@@ -25,7 +25,9 @@
 //! ([`crate::render::tiling`]) plans tile side and batch size from the device's limits and
 //! memory budget and retries smaller when memory runs out. The backward ([`DrBokehGpuGrad`])
 //! tiles the frame the same way, by the same policy, with the same guarantee.
-use crate::camera::{Aperture, CocModel};
+use std::borrow::Cow;
+
+use crate::camera::{Aperture, CocModel, CATS_EYE_SHAPE};
 
 pub mod backward;
 pub mod backward_cpu;
@@ -59,6 +61,11 @@ pub const KERNEL_FADE_END_PX: f64 = crate::camera::KERNEL_FADE_PX[1] as f64;
 /// Step of the area table in pixels of CoC radius, and the radius it covers.
 pub const AREA_STEP_PX: f64 = 1.0 / 16.0;
 pub const AREA_TABLE_RADIUS_PX: f64 = 16.0;
+/// Cat's-eyes in a vignetted lens's area table (`Params::area_at`), |a| evenly spaced: the
+/// area is smooth in |a| (the relative area falls from 1 to 0.62 at strength 0.6), so linear
+/// interpolation between 17 levels errs by ~2e-5 of it there (0.3% at the limit strength 1.5,
+/// where the corner's eye keeps 14% of the disk).
+pub const VIGNETTE_AREA_LEVELS: usize = 17;
 
 /// Which formulas the renderer evaluates.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -140,8 +147,9 @@ pub enum AperturePath {
     /// Default model, ring: the disk path's gather less a second one over the obstruction
     /// (the ring's weight is `S(r) (1 - blend S(inner r))`), both with row spans.
     Ring,
-    /// Default model, kernel image: every tap evaluated, without the other models' and
-    /// shapes' code.
+    /// Default model, kernel image: the disk's row spans split into the kernel's runs
+    /// ([`crate::camera::kernel_run_table`]): full-weight runs summed, zero-weight runs
+    /// skipped, the kernel evaluated at the taps between.
     Kernel,
     /// Every tap evaluated (the compat model).
     PerTap,
@@ -163,13 +171,51 @@ impl LensView {
     }
 
     /// The specialization constants of the gauge paths' shaders (`GAUGE_BLADES` in
-    /// `glsl/common/gauge.glsl`): the polygon's blades, 0 for the ellipse, 1 for the cat's-eye.
+    /// `glsl/common/gauge.glsl`): the polygon's blades, 0 for the ellipse, 1 for the cat's-eye,
+    /// 2 for the vignetted disk (a cat's-eye per receiver tile).
     pub fn gauge_specialization(&self) -> [u32; 1] {
         match self.aperture[0] {
             shape if shape >= 3.0 => [shape as u32],
+            _ if self.is_vignetted() => [2],
             shape if shape < -0.5 => [1],
             _ => [0],
         }
+    }
+
+    /// Whether the aperture is [`Aperture::Vignetted`] (shape -2 of the GPU form): its shape
+    /// depends on the frame position ([`Self::at_receiver`]).
+    pub fn is_vignetted(&self) -> bool {
+        self.aperture[0] < -1.5
+    }
+
+    /// The vignetted disk's cat's-eye centre `a` at frame position (x, y) of a `width` x
+    /// `height` frame: half of `character::CatsEye::shift` (its disks sit at +-a), in f64.
+    /// Mirrors `drbokeh_vignette_centre` in `glsl/common/drbokeh.glsl`.
+    pub fn vignette_centre(&self, x: f64, y: f64, width: usize, height: usize) -> [f64; 2] {
+        let (cx, cy) = ((width as f64 - 1.0) * 0.5, (height as f64 - 1.0) * 0.5);
+        let scale = 0.5 * self.aperture[1] / cx.hypot(cy).max(1.0);
+        [scale * (x - cx), scale * (y - cy)]
+    }
+
+    /// The lens a receiver pixel (x, y) of a vignetted render gathers through: the cat's-eye
+    /// at the middle of its 16 px tile (the part inside the frame), so one workgroup of the
+    /// layer pass shares one shape and its row bounds. Every other lens is its own.
+    ///
+    /// The approximation: a source's bokeh takes the shape of the tile it lands in, not of
+    /// its own position (up to a CoC radius away: the shift moves by strength * r / half
+    /// diagonal, ~0.03 aperture radii for r = 40 px on a 1024^2 frame at strength 0.6), and the
+    /// shape steps between tiles (0.013 radii at that strength). The node grid it replaces
+    /// blended four nodes' shapes 341 px apart on that frame.
+    pub fn at_receiver(&self, x: usize, y: usize, width: usize, height: usize) -> Cow<'_, LensView> {
+        if !self.is_vignetted() {
+            return Cow::Borrowed(self);
+        }
+        let middle = |p: usize, n: usize| {
+            let first = p / TILE * TILE;
+            (first + (first + TILE - 1).min(n - 1)) as f64 * 0.5
+        };
+        let [ax, ay] = self.vignette_centre(middle(x, width), middle(y, height), width, height);
+        Cow::Owned(LensView { aperture: [CATS_EYE_SHAPE as f64, ax, ay, 0.0], ..self.clone() })
     }
 
     /// The layer-pass variant for this lens under `model` (from the GPU form: shape 0 = disk,

@@ -1,7 +1,8 @@
 //! Host-side parameters of one render: validated sizes, the lens in f64, the global bound of
 //! the dilation loop, and the area table — everything both the CPU reference and the GPU
 //! host code derive from a stack and a lens, computed in one place.
-use super::{math, DrBokehPush, LensView, Model, AREA_STEP_PX, AREA_TABLE_RADIUS_PX, TILE};
+use super::{math, DrBokehPush, LensView, Model, AREA_STEP_PX, AREA_TABLE_RADIUS_PX, TILE, VIGNETTE_AREA_LEVELS};
+use crate::camera::CATS_EYE_SHAPE;
 use crate::render::tiling::{rect_push as rect, FrameTiling};
 use crate::render::Lens;
 use crate::tiling::Rect;
@@ -40,6 +41,9 @@ impl Params {
         }
         lens.coc.check_renderable(lo, hi)?;
         let view = LensView::new(&lens.coc, &lens.aperture);
+        if view.is_vignetted() && model != Model::DrBokeh {
+            return Err(Error::unsupported("the vignetted disk (one-pass --cats-eye) renders under the default model only"));
+        }
         let max_radius = view.signed_radius(lo).abs().max(view.signed_radius(hi).abs());
         let max_support = match model {
             Model::DrBokeh => math::support(max_radius),
@@ -59,11 +63,12 @@ impl Params {
         })
     }
 
-    /// Area normalisation of a source of CoC radius `r` under this model.
+    /// Area normalisation of a source of CoC radius `r` under this model (for a vignetted
+    /// lens: of a source at the frame centre, see [`Self::area_at`]).
     #[inline]
     pub fn area(&self, r: f64) -> f64 {
         match self.model {
-            Model::DrBokeh => math::area_from_lut(&self.area_lut, AREA_STEP_PX, r),
+            Model::DrBokeh => math::area_from_lut(self.area_level(0), AREA_STEP_PX, r),
             Model::Compat => math::area_compat(r),
         }
     }
@@ -71,6 +76,34 @@ impl Params {
     /// What the tiler needs of the frame: tiles are whole 16x16 search tiles.
     pub(crate) fn tiling(&self) -> FrameTiling {
         FrameTiling::new(self.width, self.height, self.layer_count, TILE)
+    }
+
+    /// Area normalisation of a source of CoC radius `r` at pixel (x, y): [`Self::area`] but for
+    /// a vignetted lens, whose table holds [`VIGNETTE_AREA_LEVELS`] cat's-eyes from the disk to
+    /// the frame corner's shape: linear between the two levels around the source's |a| (its
+    /// own position's shape, so each source spreads about its own energy). Mirrors
+    /// `drbokeh_area_at` in `glsl/common/drbokeh.glsl`.
+    pub fn area_at(&self, r: f64, x: usize, y: usize) -> f64 {
+        if self.model != Model::DrBokeh || !self.lens.is_vignetted() {
+            return self.area(r);
+        }
+        let [ax, ay] = self.lens.vignette_centre(x as f64, y as f64, self.width, self.height);
+        let top = 0.5 * self.lens.aperture[1];
+        let f = if top > 0.0 { ax.hypot(ay) / top * (VIGNETTE_AREA_LEVELS - 1) as f64 } else { 0.0 };
+        let level = (f.floor() as usize).min(VIGNETTE_AREA_LEVELS - 2);
+        let t = f - level as f64;
+        let area = |l: usize| math::area_from_lut(self.area_level(l), AREA_STEP_PX, r);
+        area(level) * (1.0 - t) + area(level + 1) * t
+    }
+
+    /// Entries of one level of the area table.
+    fn area_count(&self) -> usize {
+        self.area_lut.len() / if self.lens.is_vignetted() { VIGNETTE_AREA_LEVELS } else { 1 }
+    }
+
+    fn area_level(&self, level: usize) -> &[f64] {
+        let count = self.area_count();
+        &self.area_lut[level * count..(level + 1) * count]
     }
 
     /// Push constants for a dispatch on `layer` over the whole image (one frame tile).
@@ -94,7 +127,7 @@ impl Params {
             focus_disparity: self.lens.focus_disparity as f32,
             max_support: self.max_support as f32,
             area_step: AREA_STEP_PX as f32,
-            area_count: self.area_lut.len() as i32,
+            area_count: self.area_count() as i32,
             leaky_slope: 0.0,
             pad: [0; 2],
             aperture: self.lens.aperture.map(|v| v as f32),
@@ -122,7 +155,25 @@ impl Params {
 /// `A(r) = sum over integer offsets o of S(r, gauge(o)) K(o, r)`: the exact discrete energy of
 /// a source's footprint, so a source of tabulated radius spreads exactly its own energy. The
 /// lattice is symmetric under `o -> -o`, so the near-source mirror does not change the sum.
+///
+/// A vignetted lens gets [`VIGNETTE_AREA_LEVELS`] tables one after the other: the cat's-eyes
+/// with |a| from 0 (the disk) to the frame corner's `strength / 2`, each with its centre on
+/// the u axis (the lattice's small anisotropy is ignored: the continuous areas are exactly
+/// rotation-invariant).
 fn area_table(lens: &LensView) -> Vec<f64> {
+    if !lens.is_vignetted() {
+        return area_table_of(lens);
+    }
+    let top = 0.5 * lens.aperture[1];
+    (0..VIGNETTE_AREA_LEVELS)
+        .flat_map(|level| {
+            let a = top * level as f64 / (VIGNETTE_AREA_LEVELS - 1) as f64;
+            area_table_of(&LensView { aperture: [CATS_EYE_SHAPE as f64, a, 0.0, 0.0], ..lens.clone() })
+        })
+        .collect()
+}
+
+fn area_table_of(lens: &LensView) -> Vec<f64> {
     let count = (AREA_TABLE_RADIUS_PX / AREA_STEP_PX).round() as usize + 1;
     (0..count)
         .map(|i| {
