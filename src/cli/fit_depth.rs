@@ -9,9 +9,9 @@ use std::time::Instant;
 use anyhow::{bail, Context as _};
 use indicatif::{ProgressBar, ProgressStyle};
 use lensblur::optim::{fit_depth, FitOptions};
-use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpuGrad, Model};
 use lensblur::render::gausspsf::GaussPsf;
-use lensblur::render::grad::Differentiable;
+use lensblur::render::grad::{Differentiable, Slope};
+use lensblur::render::Method;
 use lensblur::render::InputKind;
 use lensblur::render::Lens;
 use lensblur::stack::{
@@ -64,7 +64,9 @@ pub struct Args {
     /// Layers (names or globs, comma-separated) whose depth is known and kept as it is.
     #[arg(long, value_name = "NAME,...", value_delimiter = ',')]
     pub fixed_layers: Vec<String>,
-    /// Differentiable renderer: drbokeh (leaky soft step), drbokeh-compat, gausspsf.
+    /// Differentiable renderer: a method with a backward pass (drbokeh, drbokeh-compat; leaky
+    /// soft steps), or gausspsf (the Gaussian-PSF baseline of the Dr.Bokeh paper, which has no
+    /// forward method of its own).
     #[arg(long, default_value = "drbokeh")]
     pub renderer: String,
     /// Print a JSON report (loss history, time) on stdout.
@@ -84,10 +86,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let target = read_rgba(&args.target, None, args.input_args.max_pixels).context("--target")?;
     let ctx = Context::from_env().context("opening the Vulkan device")?;
     let renderer: Box<dyn Differentiable> = match args.renderer.as_str() {
-        "drbokeh" => Box::new(DrBokehGpuGrad::new(&ctx, Model::DrBokeh, BackwardOptions::leaky())?),
-        "drbokeh-compat" => Box::new(DrBokehGpuGrad::new(&ctx, Model::Compat, BackwardOptions::leaky())?),
         "gausspsf" => Box::new(GaussPsf::default()),
-        other => bail!("unknown renderer '{other}' (drbokeh, drbokeh-compat, gausspsf)"),
+        name => match name.parse::<Method>() {
+            Ok(method) if method.is_differentiable() => method.differentiable(&ctx, Slope::Leaky)?,
+            _ => {
+                let with: Vec<&str> = Method::ALL.iter().filter(|m| m.is_differentiable()).map(|m| m.name()).collect();
+                bail!("unknown renderer '{name}' ({}, gausspsf)", with.join(", "))
+            }
+        },
     };
     let options = FitOptions {
         iterations: args.iters,

@@ -9,8 +9,8 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _};
 use lensblur::image::Image;
-use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpuGrad, Model, RenderOptions};
-use lensblur::render::grad::CameraGradients;
+use lensblur::render::drbokeh::RenderOptions;
+use lensblur::render::grad::{CameraGradients, Slope};
 use lensblur::render::{InputKind, Method};
 use lensblur::stack::{read_rgba, write_named_channels, OutputFormat};
 use lensblur::vk::Context;
@@ -71,11 +71,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // An output on an input is the graver mistake: said first.
     check_output_paths(&[("-o", &args.output)], &inputs)?;
     OutputFormat::for_output(&args.output, "-o", OutputFormat::EXR)?;
-    let model = match args.method {
-        m if m == Method::DrBokeh => Model::DrBokeh,
-        m if m == Method::DrBokehCompat => Model::Compat,
-        other => bail!("method '{other}' has no backward pass; use drbokeh or drbokeh-compat"),
-    };
+    // Refused before any work: a method without a backward pass.
+    if !args.method.is_differentiable() {
+        bail!("{}", args.method.differentiable_error());
+    }
     let spinner = progress::spinner(args.json);
     spinner.set_message(format!("reading {}", args.input.display()));
     // No auto-layering: gradients must map back onto the file's own channels.
@@ -83,8 +82,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let Some(info) = &loaded.info else { bail!("{}: grad needs an EXR stack", args.input.display()) };
     let grad_output = read_grad_output(&args.grad_output, &loaded, args.input_args.max_pixels)?;
     let ctx = Context::from_env().context("opening the Vulkan device")?;
-    let options = if args.leaky { BackwardOptions::leaky() } else { BackwardOptions::exact() };
-    let renderer = DrBokehGpuGrad::new(&ctx, model, options)?;
+    let renderer = args.method.differentiable(&ctx, if args.leaky { Slope::Leaky } else { Slope::Exact })?;
     let what = format!("differentiating {} layer(s) with {}", loaded.stack.layers.len(), args.method);
     let tile_progress = progress::tiles(&spinner, what, 1);
     let tiling = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };

@@ -6,6 +6,7 @@
 //! [`CameraGradients`]'s.
 use crate::camera::{CocModel, PhysicalCamera};
 use crate::image::Image;
+use crate::render::tiling::{RenderOptions, RenderStats};
 use crate::render::Lens;
 use crate::stack::fill::push_pull_adjoint;
 use crate::stack::{DepthKind, Layer, LayerStack};
@@ -36,6 +37,30 @@ pub struct StackGradients {
 pub trait Differentiable {
     fn forward(&self, stack: &LayerStack, lens: &Lens) -> Result<Image>;
     fn backward(&self, stack: &LayerStack, lens: &Lens, grad_output: &Image) -> Result<StackGradients>;
+
+    /// [`Self::backward`] cut into frame tiles as `options` says (tile side, memory cap,
+    /// progress), with what it measured; a renderer that does not tile runs the whole frame.
+    fn backward_with(
+        &self,
+        stack: &LayerStack,
+        lens: &Lens,
+        grad_output: &Image,
+        options: &RenderOptions,
+    ) -> Result<(StackGradients, RenderStats)> {
+        let _ = options;
+        Ok((self.backward(stack, lens, grad_output)?, RenderStats::default()))
+    }
+}
+
+/// Which gradient a method's backward pass computes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Slope {
+    /// The exact gradient of the forward (`lensblur grad`'s default).
+    #[default]
+    Exact,
+    /// The forward's soft steps keep a small slope everywhere, so an optimisation started far
+    /// from the answer still sees which way to go (`fit-depth`).
+    Leaky,
 }
 
 /// dL/d(stored depth) of one layer read from a file with depth convention `kind`, from

@@ -4,6 +4,7 @@
 use std::str::FromStr;
 
 use crate::image::Image;
+use crate::render::grad::{Differentiable, Slope};
 use crate::render::tiling::RenderOptions;
 use crate::render::multiview::MultiviewParams;
 use crate::render::vdslr::{FocusField, VdslrParams};
@@ -103,6 +104,8 @@ pub struct MethodSpec {
     pub settings: &'static [Setting],
     /// Makes the renderer: on `ctx` when given, else the CPU reference.
     pub prepare: fn(Option<&Context>) -> Result<Box<dyn Renderer>>,
+    /// Makes its backward pass on `ctx` (`lensblur grad`, `fit-depth`), if it has one.
+    pub differentiable: Option<fn(&Context, Slope) -> Result<Box<dyn Differentiable>>>,
 }
 
 /// A rendering method: a handle on its [`MethodSpec`] in the registry.
@@ -146,6 +149,26 @@ impl Method {
     /// Whether the method runs on the Vulkan device (and so needs a [`Context`]).
     pub fn uses_gpu(self) -> bool {
         self.0.uses_gpu
+    }
+
+    /// Whether the method has a backward pass.
+    pub fn is_differentiable(self) -> bool {
+        self.0.differentiable.is_some()
+    }
+
+    /// The method's backward pass on `ctx`; an [`Error::Unsupported`] naming the methods that
+    /// have one when it has none.
+    pub fn differentiable(self, ctx: &Context, slope: Slope) -> Result<Box<dyn Differentiable>> {
+        match self.0.differentiable {
+            Some(make) => make(ctx, slope),
+            None => Err(Error::unsupported(self.differentiable_error())),
+        }
+    }
+
+    /// "method 'x' has no backward pass; use drbokeh or drbokeh-compat".
+    pub fn differentiable_error(self) -> String {
+        let with: Vec<&str> = Method::ALL.iter().filter(|m| m.is_differentiable()).map(|m| m.name()).collect();
+        format!("method '{}' has no backward pass; use {}", self.name(), with.join(" or "))
     }
 
     /// Whether the method reads `setting`.

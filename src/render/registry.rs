@@ -1,10 +1,12 @@
 //! The method registry: every rendering method, declared once. A new method is its module
 //! (exporting a [`MethodSpec`], say `foo::METHOD`) plus one line `Method(&foo::METHOD)` in
 //! [`Method::ALL`] (a named constant below is optional); `--method`, its flag checks and help,
+//! `grad` and `fit-depth` (through its backward pass, [`MethodSpec::differentiable`]),
 //! `lensblur methods`, the benchmark and the tests' method loops follow. The Blender add-on's
 //! list and the README's method table are checked against it by tests.
 use crate::image::Image;
-use crate::render::drbokeh::{render_cpu, DrBokehGpu, Model};
+use crate::render::drbokeh::{render_cpu, BackwardOptions, DrBokehGpu, DrBokehGpuGrad, Model};
+use crate::render::grad::{Differentiable, Slope};
 use crate::render::gather::{render_gather_cpu, Gather};
 use crate::render::method::{InputKind, Method, MethodInput, MethodSpec, Renderer, Setting};
 use crate::render::multiview::{render_multiview_cpu, Multiview};
@@ -48,6 +50,7 @@ const DRBOKEH: MethodSpec = MethodSpec {
     uses_gpu: true,
     settings: &[],
     prepare: |ctx| drbokeh(ctx, Model::DrBokeh),
+    differentiable: Some(|ctx, slope| drbokeh_backward(ctx, Model::DrBokeh, slope)),
 };
 
 const DRBOKEH_COMPAT: MethodSpec = MethodSpec {
@@ -58,6 +61,7 @@ const DRBOKEH_COMPAT: MethodSpec = MethodSpec {
     uses_gpu: true,
     settings: &[],
     prepare: |ctx| drbokeh(ctx, Model::Compat),
+    differentiable: Some(|ctx, slope| drbokeh_backward(ctx, Model::Compat, slope)),
 };
 
 const MULTIVIEW: MethodSpec = MethodSpec {
@@ -68,6 +72,7 @@ const MULTIVIEW: MethodSpec = MethodSpec {
     uses_gpu: true,
     settings: &[Setting::Samples],
     prepare: multiview,
+    differentiable: None,
 };
 
 const VDSLR: MethodSpec = MethodSpec {
@@ -78,6 +83,7 @@ const VDSLR: MethodSpec = MethodSpec {
     uses_gpu: true,
     settings: &Setting::ALL,
     prepare: vdslr,
+    differentiable: None,
 };
 
 const ORACLE: MethodSpec = MethodSpec {
@@ -88,6 +94,7 @@ const ORACLE: MethodSpec = MethodSpec {
     uses_gpu: false,
     settings: &[],
     prepare: |_| Ok(Box::new(|input: MethodInput<'_>, lens: &Lens, _: &RenderOptions, _: &MethodSettings| Ok(render_oracle(input.layers()?, lens)))),
+    differentiable: None,
 };
 
 const GATHER: MethodSpec = MethodSpec {
@@ -98,6 +105,7 @@ const GATHER: MethodSpec = MethodSpec {
     uses_gpu: true,
     settings: &[],
     prepare: |ctx| Ok(baseline(ctx.map(Gather::new).transpose()?, Gather::run_with, render_gather_cpu)),
+    differentiable: None,
 };
 
 const SCATTER: MethodSpec = MethodSpec {
@@ -108,6 +116,7 @@ const SCATTER: MethodSpec = MethodSpec {
     uses_gpu: true,
     settings: &[],
     prepare: |ctx| Ok(baseline(ctx.map(Scatter::new).transpose()?, Scatter::run_with, render_scatter_cpu)),
+    differentiable: None,
 };
 
 fn drbokeh(ctx: Option<&Context>, model: Model) -> Result<Box<dyn Renderer>> {
@@ -119,6 +128,14 @@ fn drbokeh(ctx: Option<&Context>, model: Model) -> Result<Box<dyn Renderer>> {
             None => render_cpu(stack, lens, model),
         }
     }))
+}
+
+fn drbokeh_backward(ctx: &Context, model: Model, slope: Slope) -> Result<Box<dyn Differentiable>> {
+    let options = match slope {
+        Slope::Exact => BackwardOptions::exact(),
+        Slope::Leaky => BackwardOptions::leaky(),
+    };
+    Ok(Box::new(DrBokehGpuGrad::new(ctx, model, options)?))
 }
 
 fn multiview(ctx: Option<&Context>) -> Result<Box<dyn Renderer>> {

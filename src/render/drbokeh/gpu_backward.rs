@@ -393,4 +393,15 @@ impl Differentiable for DrBokehGpuGrad {
     fn backward(&self, stack: &LayerStack, lens: &Lens, grad_output: &Image) -> Result<StackGradients> {
         Ok(self.backward_with_stats(stack, lens, grad_output)?.0)
     }
+
+    fn backward_with(
+        &self,
+        stack: &LayerStack,
+        lens: &Lens,
+        grad_output: &Image,
+        options: &RenderOptions,
+    ) -> Result<(StackGradients, RenderStats)> {
+        // The inherent method: the tiled backward.
+        DrBokehGpuGrad::backward_with(self, stack, lens, grad_output, options)
+    }
 }
