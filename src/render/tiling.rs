@@ -1,6 +1,6 @@
 //! Tiling as a service (darktable's model): a method declares what the tiler needs — the frame,
-//! the tile alignment, the halo a core reads ([`FrameTiling`]), the device bytes of a tile
-//! ([`Footprint`]) — and records one tile's passes; this module picks the tile side and how
+//! the tile alignment, the halo a core reads (`FrameTiling`), the device bytes of a tile
+//! (`Footprint`) — and records one tile's passes; this module picks the tile side and how
 //! many tiles share one submission from the device's limits and the memory budget, runs the
 //! batches, retries with smaller tiles when device memory runs out, and reports progress.
 //!
