@@ -25,4 +25,4 @@ pub use methods::{all_methods, cpu_methods, gpu_methods, select_methods, BenchCa
 pub use peer::{opendefocus_binary, run_opendefocus, PeerRun, OPENDEFOCUS_ENV};
 pub use runner::{append_external, run, run_with_progress, BenchReport, CaseResult, MethodSummary, Worst};
 pub use sheet::{contact_sheet, write_png, HEAT_MAX};
-pub use single_image::{run_single_image, SingleImageTable, PEER, SINGLE_IMAGE_METHODS};
+pub use single_image::{local_pick_gain, run_single_image, SingleImageTable, PEER, PICK_BLOCK, SINGLE_IMAGE_METHODS};

@@ -6,6 +6,8 @@ use std::fmt;
 use super::peer::{run_opendefocus, PeerRun};
 use super::runner::{append_external, run_with_progress, BenchReport};
 use super::BenchMethod;
+use crate::image::Image;
+use crate::metrics::{compare, display_encode, DisplayImage};
 use crate::raytrace::GroundTruth;
 use crate::render::InputKind;
 use crate::Result;
@@ -20,6 +22,38 @@ pub struct SingleImageTable {
     /// Why the peer has no column of numbers, if it has none.
     pub peer_missing: Option<String>,
     pub peer_init_seconds: f64,
+    /// Per scene, [`local_pick_gain`] of drbokeh-auto against gather (when both ran).
+    pub gather_pick_gain: Vec<(String, f64)>,
+}
+
+/// Side of the blocks [`local_pick_gain`] picks between.
+pub const PICK_BLOCK: usize = 16;
+
+/// What the layered split loses locally to a plain depth-aware gather (issue 22: it must not
+/// be worse anywhere): the PSNR gained over `layered` by taking `plain`'s pixels in every
+/// [`PICK_BLOCK`]-square block where they are closer to `truth` (an oracle pick, display
+/// values as every metric here), in dB. 0 when no block of the plain render is closer.
+pub fn local_pick_gain(layered: &Image, plain: &Image, truth: &Image) -> Result<f64> {
+    let base = compare(layered, truth)?.psnr;
+    let (width, height) = (truth.width, truth.height);
+    let [shown_layered, shown_plain, shown_truth] = [layered, plain, truth].map(display_encode);
+    let block_error = |shown: &DisplayImage, x0: usize, y0: usize| -> f64 {
+        let rows = y0..(y0 + PICK_BLOCK).min(height);
+        let pixels = rows.flat_map(|y| (x0..(x0 + PICK_BLOCK).min(width)).map(move |x| y * width + x));
+        pixels.map(|i| (0..3).map(|c| f64::from(shown.rgb[i][c] - shown_truth.rgb[i][c]).powi(2)).sum::<f64>()).sum()
+    };
+    let mut picked = layered.clone();
+    for y0 in (0..height).step_by(PICK_BLOCK) {
+        for x0 in (0..width).step_by(PICK_BLOCK) {
+            if block_error(&shown_plain, x0, y0) < block_error(&shown_layered, x0, y0) {
+                for y in y0..(y0 + PICK_BLOCK).min(height) {
+                    let row = y * width + x0..y * width + (x0 + PICK_BLOCK).min(width);
+                    picked.pixels[row.clone()].copy_from_slice(&plain.pixels[row]);
+                }
+            }
+        }
+    }
+    Ok(compare(&picked, truth)?.psnr - base)
 }
 
 /// Runs `methods` and the peer on `truths`.
@@ -32,7 +66,17 @@ pub fn run_single_image(truths: &[GroundTruth], methods: &[BenchMethod], progres
         }
         PeerRun::Unavailable(reason) => (Some(reason), 0.0),
     };
-    Ok(SingleImageTable { report, peer_missing, peer_init_seconds })
+    let render_of = |scene: usize, name: &str| {
+        let method = report.methods.iter().position(|m| m.name == name)?;
+        report.renders.get(scene)?.get(method)
+    };
+    let mut gather_pick_gain = Vec::new();
+    for (scene, truth) in truths.iter().enumerate() {
+        if let (Some(layered), Some(plain)) = (render_of(scene, "drbokeh-auto"), render_of(scene, "gather")) {
+            gather_pick_gain.push((truth.name.clone(), local_pick_gain(layered, plain, &truth.defocused)?));
+        }
+    }
+    Ok(SingleImageTable { report, peer_missing, peer_init_seconds, gather_pick_gain })
 }
 
 impl SingleImageTable {
@@ -84,7 +128,17 @@ impl fmt::Display for SingleImageTable {
             }
             writeln!(f)?;
         }
-        write!(f, "PSNR dB on sRGB over black, clipped to [0,1] (render seconds; worst row: lowest PSNR, longest time).\n{PEER}: ")?;
+        write!(f, "PSNR dB on sRGB over black, clipped to [0,1] (render seconds; worst row: lowest PSNR, longest time).\n")?;
+        if !self.gather_pick_gain.is_empty() {
+            let gains: Vec<String> = self.gather_pick_gain.iter().map(|(scene, gain)| format!("{scene} +{gain:.2}")).collect();
+            writeln!(
+                f,
+                "Where drbokeh-auto loses locally to gather (PSNR of an oracle pick of gather's {PICK_BLOCK}x{PICK_BLOCK} blocks \
+                 closer to the truth, dB): {}",
+                gains.join(", ")
+            )?;
+        }
+        write!(f, "{PEER}: ")?;
         match &self.peer_missing {
             Some(reason) => writeln!(f, "n/a, {reason}"),
             None => writeln!(
@@ -94,5 +148,28 @@ impl fmt::Display for SingleImageTable {
                 self.peer_init_seconds
             ),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_pick_gains_only_where_the_plain_render_is_closer() {
+        // A flat grey truth, so every pixel of an offset render has the same display error.
+        let truth = Image::from_fn(40, 24, |_, _| [0.3, 0.3, 0.3, 1.0]);
+        // Off by 0.05 everywhere: no block of a render off by 0.1 is closer.
+        let layered = Image::from_fn(40, 24, |x, y| truth.get(x, y).map(|v| v + 0.05));
+        let worse = Image::from_fn(40, 24, |x, y| truth.get(x, y).map(|v| v + 0.1));
+        assert_eq!(local_pick_gain(&layered, &worse, &truth).unwrap(), 0.0);
+        assert_eq!(local_pick_gain(&layered, &layered, &truth).unwrap(), 0.0);
+        // Exact in one 16x16 block (and a cut block at the edge): the pick takes those.
+        let better = Image::from_fn(40, 24, |x, y| if x < 16 && y < 16 || x >= 32 { truth.get(x, y) } else { worse.get(x, y) });
+        let gain = local_pick_gain(&layered, &better, &truth).unwrap();
+        // The picked blocks' error vanishes: 256 + 8 * 24 = 448 of 960 pixels, so the MSE falls
+        // to 512/960 of the layered one's and the PSNR rises by 10 log10(960/512) dB.
+        let expected = 10.0 * (960.0f64 / 512.0).log10();
+        assert!((gain - expected).abs() < 0.05, "{gain} vs {expected}");
     }
 }
