@@ -8,7 +8,7 @@
 //   1: relative  float[read.z * read.w]  d - d_f(x, y), the edited disparity map
 //   2: disparity float[read.z * read.w]  true disparity (bleeding guard: which pixel is farther)
 //   3: samples   vec4[patterns * slots] (u, v, weight, 0), unit disk, aperture coordinates
-//   4: edges     vec4[read.z * read.w]   (coverage, near, far, 0) of mixed edge pixels, else 0;
+//   4: edges     vec4[core.z * core.w]   (coverage, near, far, 0) of mixed edge pixels, else 0;
 //                                        near, far: 3x3 neighbour numbers (`neighbour`)
 //   5: result    vec4[core.z * core.w]
 // Push constants: VdslrPush (src/render/vdslr/gpu.rs).
@@ -196,7 +196,7 @@ void main() {
     int out_index = rect_index(x, pc.core);
     // A mixed edge pixel: the traces at the nearer and the farther surface's depth over the
     // even and the odd sample slots, blended by coverage (CPU reference: `Tracer::shade`).
-    vec4 edge = texelFetch(edges, centre);
+    vec4 edge = texelFetch(edges, out_index);
     if (edge.x > 0.0) {
         int near = neighbour(x, int(edge.y));
         int far = neighbour(x, int(edge.z));

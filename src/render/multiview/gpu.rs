@@ -71,10 +71,13 @@ impl Multiview {
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
         let ctx = &self.ctx;
-        let pr = Prepared::new(stack, lens, params)?;
+        let mut pr = Prepared::new(stack, lens, params)?;
         let pyramid = Buffer::from_slice(ctx, "multiview pyramid", &pr.pyramid)?;
         let heights = Buffer::from_slice(ctx, "multiview heights", &pr.heights)?;
         let occupancy = Buffer::from_slice(ctx, "multiview occupancy", &pr.occupancy)?;
+        // Uploaded: the host copies (the pyramids are most of a render's memory) go now, not
+        // after the last tile.
+        (pr.pyramid, pr.heights, pr.occupancy) = (Vec::new(), Vec::new(), Vec::new());
         let bounds = Buffer::from_slice(ctx, "multiview bounds", &pr.bounds)?;
         let levels = Buffer::from_slice(ctx, "multiview levels", &pr.levels)?;
         let samples = Buffer::from_slice(ctx, "multiview lens samples", &pr.samples.data)?;

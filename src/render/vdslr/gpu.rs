@@ -74,9 +74,10 @@ impl Vdslr {
         let frame = FrameTiling::new(width, image.height, 1, 1).with_work(work);
         let samples = Buffer::from_slice(ctx, "vdslr lens samples", &prepared.samples.data)?;
         let (sigma, white) = params.highlight.map_or((1.0, 1.0), |h| (h.sigma, h.white));
-        // RGBA, two disparities and the edge record per read pixel, RGBA per core pixel; RGBA
-        // is the largest binding. A mixed edge pixel reads its 3x3 neighbours: within the halo.
-        let footprint = |tile| Footprint::per_pixel(&frame, tile, halo, 40, 16, 16);
+        // RGBA and two disparities per read pixel, the edge record and RGBA per core pixel;
+        // RGBA is the largest binding. A mixed edge pixel reads its 3x3 neighbours: within the
+        // halo.
+        let footprint = |tile| Footprint::per_pixel(&frame, tile, halo, 24, 32, 16);
         render_image_tiles(
             ctx,
             &frame,
@@ -90,8 +91,9 @@ impl Vdslr {
                 let relative = Buffer::from_iter_in(ctx, batch, "vdslr relative disparity", read.area(), relative)?;
                 let true_disparity =
                     Buffer::from_iter_in(ctx, batch, "vdslr disparity", read.area(), crop(disparity, width, read))?;
-                let edges =
-                    Buffer::from_iter_in(ctx, batch, "vdslr mixed edges", read.area(), crop(&prepared.edges, width, read))?;
+                // The core's edge records, classified now: a whole frame's would outweigh the image.
+                let edge_records = prepared.edges_in(image, disparity, lens.coc.k_px, core);
+                let edges = Buffer::from_iter_in(ctx, batch, "vdslr mixed edges", core.area(), edge_records.into_iter())?;
                 // The shader writes every core pixel.
                 let result = Buffer::uninitialised(ctx, "vdslr result", core.area() as u64 * 16)?;
                 let push = VdslrPush {

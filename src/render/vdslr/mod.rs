@@ -47,6 +47,7 @@ use rayon::prelude::*;
 use crate::image::Image;
 use crate::render::lens_samples::LensSamples;
 use crate::render::Lens;
+use crate::tiling::Rect;
 use crate::{Error, Result};
 
 /// Where the lens focuses.
@@ -162,8 +163,24 @@ struct Prepared {
     samples: LensSamples,
     /// Largest relative disparity of the map: where every search starts.
     s_max: f32,
-    /// Per pixel `[coverage, near, far, 0]` ([`mixed_edges`]); coverage 0 elsewhere.
+    /// Per pixel `[coverage, near, far, 0]` ([`mixed_edges`]); coverage 0 elsewhere. Whole
+    /// frame for the CPU reference (`render_vdslr_cpu` fills it); empty for the GPU path,
+    /// whose tiles each classify their own core ([`Prepared::edges_in`]): a frame's worth of
+    /// vec4s is more than the flattened image itself.
     edges: Vec<[f32; 4]>,
+    /// Whether mixed edge pixels are blended at all (`VdslrParams::mixed_edges`).
+    mixed: bool,
+}
+
+impl Prepared {
+    /// The edge records of the pixels in `rect`, row-major ([`mixed_edges`]'s classification;
+    /// all zero when mixed edges are off).
+    fn edges_in(&self, image: &Image, disparity: &[f32], k: f32, rect: Rect) -> Vec<[f32; 4]> {
+        if !self.mixed {
+            return vec![[0.0; 4]; rect.area()];
+        }
+        mixed_edges(image, &self.relative, disparity, k, rect)
+    }
 }
 
 fn prepare(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) -> Result<Prepared> {
@@ -174,12 +191,7 @@ fn prepare(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) 
     if !s_max.is_finite() {
         return Err(Error::data("disparity must be finite and the image non-empty"));
     }
-    let edges = if params.mixed_edges {
-        mixed_edges(image, &relative, disparity, lens.coc.k_px)
-    } else {
-        vec![[0.0; 4]; relative.len()]
-    };
-    Ok(Prepared { relative, samples, s_max, edges })
+    Ok(Prepared { relative, samples, s_max, edges: Vec::new(), mixed: params.mixed_edges })
 }
 
 /// Mixed pixels at depth edges: `[a, near, far, 0]` per pixel, where the 3x3 neighbourhood
@@ -202,7 +214,16 @@ fn prepare(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) 
 /// third of the background into an in-focus subject), and on `bench --single-image` this is
 /// worth +0.5 dB on thin-near and +0.1 on five-planes for 0.3 on silhouette-hdr (whose hair's
 /// near means are themselves mixed).
-fn mixed_edges(image: &Image, relative: &[f32], disparity: &[f32], k: f32) -> Vec<[f32; 4]> {
+///
+/// Computed for the pixels of `rect`, row-major: a GPU tile classifies its own core.
+fn mixed_edges(image: &Image, relative: &[f32], disparity: &[f32], k: f32, rect: Rect) -> Vec<[f32; 4]> {
+    let width = image.width;
+    let pixels: Vec<usize> = (rect.y0..rect.y1).flat_map(|y| (rect.x0..rect.x1).map(move |x| y * width + x)).collect();
+    pixels.into_par_iter().map(|i| mixed_edge(image, relative, disparity, k, i)).collect()
+}
+
+/// [`mixed_edges`]' record of pixel `i`.
+fn mixed_edge(image: &Image, relative: &[f32], disparity: &[f32], k: f32, i: usize) -> [f32; 4] {
     let (width, height) = (image.width, image.height);
     let window = |i: usize, radius: i64| {
         let (x, y) = ((i % width) as i64, (i / width) as i64);
@@ -214,34 +235,29 @@ fn mixed_edges(image: &Image, relative: &[f32], disparity: &[f32], k: f32) -> Ve
             })
         })
     };
-    (0..relative.len())
-        .into_par_iter()
-        .map(|i| {
-            let (mut near, mut far) = (4, 4);
-            let nine: Vec<usize> = window(i, 1).collect();
-            for (n, &q) in nine.iter().enumerate() {
-                if disparity[q] > disparity[nine[near]] {
-                    near = n;
-                }
-                if disparity[q] < disparity[nine[far]] {
-                    far = n;
-                }
-            }
-            let (qn, qf) = (nine[near], nine[far]);
-            if k * (relative[qn] - relative[qf]).abs() <= 1.0 {
-                return [0.0; 4];
-            }
-            let mid = 0.5 * (disparity[qn] + disparity[qf]);
-            let in_focus = k * relative[qn].abs() < 1.0;
-            if !in_focus && disparity[i] > mid && window(i, 3).filter(|&q| disparity[q] > mid).count() < 18 {
-                return [0.0; 4];
-            }
-            let share = nine.iter().filter(|&&q| disparity[q] > mid).count() as f32 / 9.0;
-            let own_near = disparity[i] > mid;
-            let a = if own_near { share.max(colour_coverage(image, &nine, |q| disparity[q] > mid, i)) } else { share };
-            [a, near as f32, far as f32, 0.0]
-        })
-        .collect()
+    let (mut near, mut far) = (4, 4);
+    let nine: Vec<usize> = window(i, 1).collect();
+    for (n, &q) in nine.iter().enumerate() {
+        if disparity[q] > disparity[nine[near]] {
+            near = n;
+        }
+        if disparity[q] < disparity[nine[far]] {
+            far = n;
+        }
+    }
+    let (qn, qf) = (nine[near], nine[far]);
+    if k * (relative[qn] - relative[qf]).abs() <= 1.0 {
+        return [0.0; 4];
+    }
+    let mid = 0.5 * (disparity[qn] + disparity[qf]);
+    let in_focus = k * relative[qn].abs() < 1.0;
+    if !in_focus && disparity[i] > mid && window(i, 3).filter(|&q| disparity[q] > mid).count() < 18 {
+        return [0.0; 4];
+    }
+    let share = nine.iter().filter(|&&q| disparity[q] > mid).count() as f32 / 9.0;
+    let own_near = disparity[i] > mid;
+    let a = if own_near { share.max(colour_coverage(image, &nine, |q| disparity[q] > mid, i)) } else { share };
+    [a, near as f32, far as f32, 0.0]
 }
 
 /// Pixel number `n` (0..9, row by row, 4 the pixel itself) of the 3x3 neighbourhood of
@@ -279,7 +295,9 @@ fn colour_coverage(image: &Image, neighbours: &[usize], is_near: impl Fn(usize) 
 
 /// CPU reference of `glsl/vdslr_trace.comp`.
 pub fn render_vdslr_cpu(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) -> Result<Image> {
-    let prepared = prepare(image, disparity, lens, params)?;
+    let mut prepared = prepare(image, disparity, lens, params)?;
+    let whole = Rect { x0: 0, y0: 0, x1: image.width, y1: image.height };
+    prepared.edges = prepared.edges_in(image, disparity, lens.coc.k_px, whole);
     let tracer = Tracer { image, disparity, prepared: &prepared, k: lens.coc.k_px, params };
     let mut out = Image::new(image.width, image.height);
     out.pixels.par_chunks_mut(image.width.max(1)).enumerate().for_each(|(y, row)| {
@@ -511,7 +529,7 @@ mod tests {
         let edges_for = |disparity: &[f32], image: &Image, k: f32, focus: f32| {
             let (w, h) = (image.width, image.height);
             let relative = relative_disparity(disparity, w, h, &lens(k, focus), &FocusField::Plane).unwrap();
-            mixed_edges(image, &relative, disparity, k)
+            mixed_edges(image, &relative, disparity, k, Rect { x0: 0, y0: 0, x1: image.width, y1: image.height })
         };
         // The two columns along the step. Column 2 (near depth): its colour 0.9 over the near
         // mean 0.95 and the far mean 0, 0.947, above the depth share 6/9; nearest itself (4),
