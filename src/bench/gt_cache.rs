@@ -85,7 +85,10 @@ impl Floats<'_> {
 /// never leaves a half-written entry that would load).
 pub fn store(dir: &Path, key: &str, truth: &GroundTruth) -> Result<PathBuf> {
     let folder = dir.join(key);
-    let temporary = dir.join(format!(".{key}.{}", std::process::id()));
+    // Unique per writer: tests store the same key from several threads of one process.
+    static WRITERS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let writer = WRITERS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let temporary = dir.join(format!(".{key}.{}.{writer}", std::process::id()));
     let io = |path: &Path| {
         let path = path.to_path_buf();
         move |source| Error::Io { path, source }
@@ -111,10 +114,20 @@ pub fn store(dir: &Path, key: &str, truth: &GroundTruth) -> Result<PathBuf> {
     }
     let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
     std::fs::write(temporary.join("truth.bin"), bytes).map_err(io(&temporary))?;
-    if folder.exists() {
-        std::fs::remove_dir_all(&folder).map_err(io(&folder))?;
+    // A damaged entry (the load that preceded this missed) goes; one that another writer is
+    // removing too is gone already.
+    match std::fs::remove_dir_all(&folder) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(Error::Io { path: folder, source: e }),
+        _ => {}
     }
-    std::fs::rename(&temporary, &folder).map_err(io(&folder))?;
+    if let Err(source) = std::fs::rename(&temporary, &folder) {
+        // Another writer stored the same key meanwhile: equal keys are equal truths (the
+        // tracer is deterministic), so its entry stands and ours goes.
+        let _ = std::fs::remove_dir_all(&temporary);
+        if load(dir, key).is_none() {
+            return Err(Error::Io { path: folder, source });
+        }
+    }
     Ok(folder)
 }
 
