@@ -305,3 +305,28 @@ fn fd_check_per_pixel(scene: &LayerStack, gradients: &[(String, Vec<f32>)]) {
         assert!((analytic - numeric).abs() <= 0.01 * numeric.abs() + 1e-3, "{name} pixel {pixel}: {analytic} vs {numeric}");
     }
 }
+
+/// `--max-memory` caps the backward as it caps `render`: a cap the frame's own input and
+/// output exceed is refused before any file appears, and a cap it fits gives the same bytes.
+#[test]
+fn max_memory_caps_the_backward() {
+    let dir = common::temp_dir("cli-grad", "max-memory");
+    let input = dir.join("shot.exr");
+    write_stack(&input, &stack(2.0), &StackWriteOptions::default()).unwrap();
+    let g = write_grad_output(&dir);
+    let camera = ["--blur", "12", "--focus-disparity", "0.25"];
+    let (free, capped) = (dir.join("free.exr"), dir.join("capped.exr"));
+    run_grad(&input, &g, &free, &camera);
+    run_grad(&input, &g, &capped, &[&camera[..], &["--max-memory", "256M"]].concat());
+    assert_eq!(std::fs::read(&free).unwrap(), std::fs::read(&capped).unwrap(), "a cap the frame fits changes nothing");
+    let refused = dir.join("refused.exr");
+    let run = Command::new(env!("CARGO_BIN_EXE_lensblur"))
+        .args(["grad", input.to_str().unwrap(), "--grad-output", g.to_str().unwrap(), "-o", refused.to_str().unwrap()])
+        .args(camera)
+        .args(["--max-memory", "1K"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && stderr.contains("--max-memory") && stderr.contains("is less than"), "{stderr}");
+    assert!(!refused.exists());
+}

@@ -59,6 +59,10 @@ pub struct Args {
     /// Frame tile side in pixels (default: the largest the device's limits and memory allow).
     #[arg(long, value_name = "N")]
     pub tile: Option<usize>,
+    /// Most memory the backward may hold, host and device together: SIZE in bytes or with K,
+    /// M, G (e.g. 512M, 2G). Default: as for `render`.
+    #[arg(long, value_name = "SIZE", value_parser = super::render::parse_size)]
+    pub max_memory: Option<u64>,
     /// Print a JSON report on stdout.
     #[arg(long)]
     pub json: bool,
@@ -85,7 +89,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let renderer = args.method.differentiable(&ctx, if args.leaky { Slope::Leaky } else { Slope::Exact })?;
     let what = format!("differentiating {} layer(s) with {}", loaded.stack.layers.len(), args.method);
     let tile_progress = progress::tiles(&spinner, what, 1);
-    let tiling = RenderOptions { tile: args.tile, progress: Some(&tile_progress), ..RenderOptions::default() };
+    let tiling = RenderOptions {
+        tile: args.tile,
+        max_memory: args.max_memory,
+        progress: Some(&tile_progress),
+        ..RenderOptions::default()
+    };
     let (grads, stats) = renderer.backward_with(&loaded.stack, &loaded.camera.lens, &grad_output, &tiling)?;
     drop(renderer);
     // Teardown validated before the file appears: a validation error leaves no output.
