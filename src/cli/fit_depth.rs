@@ -89,10 +89,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "gausspsf" => Box::new(GaussPsf::default()),
         name => match name.parse::<Method>() {
             Ok(method) if method.is_differentiable() => method.differentiable(&ctx, Slope::Leaky)?,
-            _ => {
-                let with: Vec<&str> = Method::ALL.iter().filter(|m| m.is_differentiable()).map(|m| m.name()).collect();
-                bail!("unknown renderer '{name}' ({}, gausspsf)", with.join(", "))
-            }
+            _ => bail!("unknown renderer '{name}' ({}, gausspsf)", Method::differentiable_names().join(", ")),
         },
     };
     let options = FitOptions {

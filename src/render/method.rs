@@ -167,8 +167,12 @@ impl Method {
 
     /// "method 'x' has no backward pass; use drbokeh or drbokeh-compat".
     pub fn differentiable_error(self) -> String {
-        let with: Vec<&str> = Method::ALL.iter().filter(|m| m.is_differentiable()).map(|m| m.name()).collect();
-        format!("method '{}' has no backward pass; use {}", self.name(), with.join(" or "))
+        format!("method '{}' has no backward pass; use {}", self.name(), Method::differentiable_names().join(" or "))
+    }
+
+    /// The names of the registered methods with a backward pass, in registry order.
+    pub fn differentiable_names() -> Vec<&'static str> {
+        Method::ALL.iter().filter(|m| m.is_differentiable()).map(|m| m.name()).collect()
     }
 
     /// Whether the method reads `setting`.
