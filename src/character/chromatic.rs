@@ -16,17 +16,39 @@ pub fn parse_offsets(spec: &str) -> Result<[f32; 3]> {
     }
 }
 
-/// Renders through `lens` with a per-channel focus offset (CoC pixels).
-/// How many renders [`render_chromatic`] makes: one per channel, or one when no channel
-/// differs (without blur, K = 0, or without offsets: one render is the exact answer).
+/// The distinct focus offsets of `offsets_px` in channel order, and for each channel the index
+/// of its offset among them: channels focused alike share one render (a render gives every
+/// channel of its focal plane at once), so `1,0,0` costs two renders and `0,0,0` one.
+fn distinct_offsets(offsets_px: [f32; 3]) -> (Vec<f32>, [usize; 3]) {
+    let mut distinct: Vec<f32> = Vec::with_capacity(3);
+    let mut index = [0; 3];
+    for (channel, &offset) in offsets_px.iter().enumerate() {
+        index[channel] = match distinct.iter().position(|&d| d == offset) {
+            Some(i) => i,
+            None => {
+                distinct.push(offset);
+                distinct.len() - 1
+            }
+        };
+    }
+    (distinct, index)
+}
+
+/// How many renders [`render_chromatic`] makes: one per distinct focal plane, so one when no
+/// channel differs (without blur, K = 0, every offset is the same plane: one render is the
+/// exact answer).
 pub fn chromatic_renders(lens: &Lens, offsets_px: [f32; 3]) -> usize {
-    if lens.coc.k_px == 0.0 || offsets_px == [0.0; 3] {
+    if lens.coc.k_px == 0.0 {
         1
     } else {
-        3
+        distinct_offsets(offsets_px).0.len()
     }
 }
 
+/// Renders through `lens` with a per-channel focus offset (CoC pixels): one render per
+/// distinct focal plane ([`chromatic_renders`]), channel `c` taken from its plane's render.
+/// Every term of a render (each tap's weight, occlusion, visibility) depends on the CoC of its
+/// focal plane, so planes share no pass; channels sharing a plane share its render.
 pub fn render_chromatic(
     render: &dyn Fn(&LayerStack, &Lens) -> Result<Image>,
     stack: &LayerStack,
@@ -37,31 +59,43 @@ pub fn render_chromatic(
         return Err(Error::invalid("chromatic", "chromatic focus offsets must be finite"));
     }
     if chromatic_renders(lens, offsets_px) == 1 {
-        return render(stack, lens);
-    }
-    let mut shifted = Vec::with_capacity(3);
-    for offset in offsets_px {
         let mut lens = lens.clone();
-        lens.coc.focus_disparity += offset / lens.coc.k_px;
-        // A tiny K turns a pixel of offset into an infinite focus shift: no focal plane moves
-        // that far, so say which flag cannot work (before any render) instead of rendering
-        // a meaningless lens.
-        if !lens.coc.focus_disparity.is_finite() {
-            return Err(Error::invalid("chromatic", format!(
-                "chromatic focus offset of {offset} px needs an infinite focus shift at K = {:e} px per unit; \
-                 use smaller chromatic offsets (--chromatic on the command line) or a larger blur",
-                lens.coc.k_px
-            )));
+        if lens.coc.k_px != 0.0 {
+            shift_focus(&mut lens, offsets_px[1])?;
         }
+        return render(stack, &lens);
+    }
+    let (distinct, index) = distinct_offsets(offsets_px);
+    let mut shifted = Vec::with_capacity(distinct.len());
+    for offset in distinct {
+        let mut lens = lens.clone();
+        shift_focus(&mut lens, offset)?;
         shifted.push(lens);
     }
-    let channels = shifted.iter().map(|lens| render(stack, lens)).collect::<Result<Vec<_>>>()?;
-    let mut out = channels[1].clone();
+    let planes = shifted.iter().map(|lens| render(stack, lens)).collect::<Result<Vec<_>>>()?;
+    // Alpha (coverage) comes from the green channel's plane.
+    let mut out = planes[index[1]].clone();
     for (i, p) in out.pixels.iter_mut().enumerate() {
-        p[0] = channels[0].pixels[i][0];
-        p[2] = channels[2].pixels[i][2];
+        p[0] = planes[index[0]].pixels[i][0];
+        p[2] = planes[index[2]].pixels[i][2];
     }
     Ok(out)
+}
+
+/// Moves `lens`'s focus by `offset` CoC pixels (`d_f + offset / K`).
+fn shift_focus(lens: &mut Lens, offset: f32) -> Result<()> {
+    lens.coc.focus_disparity += offset / lens.coc.k_px;
+    // A tiny K turns a pixel of offset into an infinite focus shift: no focal plane moves
+    // that far, so say which flag cannot work (before any render) instead of rendering
+    // a meaningless lens.
+    if !lens.coc.focus_disparity.is_finite() {
+        return Err(Error::invalid("chromatic", format!(
+            "chromatic focus offset of {offset} px needs an infinite focus shift at K = {:e} px per unit; \
+             use smaller chromatic offsets (--chromatic on the command line) or a larger blur",
+            lens.coc.k_px
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -79,5 +113,27 @@ mod tests {
         let render = |_: &LayerStack, l: &Lens| -> Result<Image> { panic!("rendered with focus {}", l.coc.focus_disparity) };
         let message = render_chromatic(&render, &stack, &lens, [0.0, 0.0, -1.0]).unwrap_err().to_string();
         assert!(message.contains("infinite focus shift") && message.contains("--chromatic"), "{message}");
+    }
+
+    #[test]
+    fn channels_focused_alike_share_one_render() {
+        let layer = Layer { name: "only".into(), rgba: Image::from_fn(2, 2, |_, _| [0.5; 4]), disparity: vec![0.5; 4] };
+        let stack = LayerStack::new(2, 2, vec![layer]).unwrap();
+        let lens = Lens { coc: CocModel::new(4.0, 0.5).unwrap(), aperture: Aperture::Disk };
+        // Each fake render writes its focus disparity into every channel and counts itself.
+        let calls = std::cell::Cell::new(0);
+        let render = |_: &LayerStack, l: &Lens| -> Result<Image> {
+            calls.set(calls.get() + 1);
+            Ok(Image::from_fn(2, 2, |_, _| [l.coc.focus_disparity; 4]))
+        };
+        for (offsets, renders) in [([2.0, 0.0, 0.0], 2), ([0.0, 0.0, 0.0], 1), ([1.0, 1.0, 1.0], 1), ([2.0, 0.0, -2.0], 3), ([-4.0, 0.0, -4.0], 2)] {
+            calls.set(0);
+            let out = render_chromatic(&render, &stack, &lens, offsets).unwrap();
+            assert_eq!(calls.get(), renders, "{offsets:?}");
+            assert_eq!(chromatic_renders(&lens, offsets), renders, "{offsets:?}");
+            // Channel c (and alpha: green's) from the render focused at d_f + offset_c / K.
+            let expected = [offsets[0], offsets[1], offsets[2], offsets[1]].map(|o| 0.5 + o / 4.0);
+            assert_eq!(out.get(1, 1), expected, "{offsets:?}");
+        }
     }
 }
