@@ -1,7 +1,8 @@
 //! The library's one error type. The CLI adds `anyhow` context on top of it.
 //!
 //! A caller can match on what went wrong: the device ([`Error::Vulkan`], [`Error::NoVulkan`],
-//! [`Error::OutOfDeviceMemory`], ...), a file ([`Error::Input`], [`Error::Io`]), a value it
+//! [`Error::OutOfDeviceMemory`], ...), a file ([`Error::Input`], [`Error::Io`], options that do not
+//! fit its kind: [`Error::InputMismatch`]), a value it
 //! passed ([`Error::InvalidParameter`] names which), data that cannot be used as handed over
 //! ([`Error::Data`]: sizes that do not match, an empty stack), the camera
 //! ([`Error::MissingCamera`], [`Error::InvalidCamera`]), an operation that does not apply
@@ -32,6 +33,10 @@ pub enum Error {
     OutOfDeviceMemory { tile: usize, source: Box<Error> },
     #[error("{path}: {message}")]
     Input { path: PathBuf, message: String },
+    /// The input options do not fit the file's kind ([`InputMismatch`] says which): a caller
+    /// that set them from its own flags can name the flag.
+    #[error("{path}: {mismatch}")]
+    InputMismatch { path: PathBuf, mismatch: InputMismatch },
     /// A value the caller passed is out of range or malformed; `parameter` names it (`aperture`,
     /// `frame range`, `vdslr settings`, ...) and the message says what is accepted.
     #[error("{message}")]
@@ -64,6 +69,20 @@ pub enum Error {
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Which input option does not fit the file (`crate::input::InputOptions`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum InputMismatch {
+    /// A PNG/JPEG input without `depth_image`.
+    #[error("a PNG/JPEG input needs its depth image (a grey PNG)")]
+    MissingDepthImage,
+    /// `layers` selected in a PNG/JPEG input.
+    #[error("is a single image: there are no layers to select")]
+    LayersOfSingleImage,
+    /// `depth_image` beside an EXR, which carries its depth in its channels.
+    #[error("carries its depth in its channels: a separate depth image is for PNG/JPEG inputs")]
+    DepthImageBesideStack,
+}
 
 /// What a Vulkan failure means for the user, where the bare result code does not say it.
 fn vulkan_hint(result: ash::vk::Result) -> &'static str {

@@ -15,6 +15,7 @@ use crate::stack::{
     is_ldr_path, read_ldr, read_stack, split_into_layers, AutoLayerOptions, DepthKind, FileChannels, Layer,
     LayerStack, ReadOptions, StackInfo, DEFAULT_MAX_PIXELS,
 };
+use crate::error::InputMismatch;
 use crate::{Error, Result};
 
 /// What a caller says about the camera. The physical parameters it leaves out come from the
@@ -166,10 +167,10 @@ pub fn load(
 fn read(path: &Path, options: &InputOptions) -> Result<(LayerStack, Option<StackInfo>, DepthKind, Vec<String>)> {
     if is_ldr_path(path) {
         let Some(depth_path) = &options.depth_image else {
-            return Err(Error::input(path, "a PNG/JPEG input needs its depth image (a grey PNG)"));
+            return Err(Error::InputMismatch { path: path.into(), mismatch: InputMismatch::MissingDepthImage });
         };
         if options.layers.is_some() {
-            return Err(Error::input(path, "is a single image: there are no layers to select"));
+            return Err(Error::InputMismatch { path: path.into(), mismatch: InputMismatch::LayersOfSingleImage });
         }
         let kind = options.depth_kind.unwrap_or(DepthKind::Disparity);
         let ldr = read_ldr(path, depth_path, kind, options.max_pixels)?;
@@ -178,7 +179,7 @@ fn read(path: &Path, options: &InputOptions) -> Result<(LayerStack, Option<Stack
         return Ok((LayerStack::new(w, h, vec![layer])?, None, kind, Vec::new()));
     }
     if options.depth_image.is_some() {
-        return Err(Error::input(path, "carries its depth in its channels: a separate depth image is for PNG/JPEG inputs"));
+        return Err(Error::InputMismatch { path: path.into(), mismatch: InputMismatch::DepthImageBesideStack });
     }
     let kind = options.depth_kind.unwrap_or(DepthKind::Z);
     let read = ReadOptions {
@@ -264,5 +265,22 @@ mod tests {
         let camera = request.resolve(100, &hints(Some(50.0), Some(2.0), Some(3.0)), &CameraHints::default()).unwrap();
         assert!(camera.physical.is_none() && camera.from_header.is_empty());
         assert_eq!((camera.lens.coc.k_px, camera.lens.coc.focus_disparity), (12.0, 0.25));
+    }
+
+    #[test]
+    fn options_that_do_not_fit_the_files_kind_are_typed_refusals_before_any_read() {
+        // No file exists at these paths: each refusal comes before reading.
+        let refusal = |path: &str, options: InputOptions| {
+            let result = load(Path::new(path), &options, &CameraRequest::default(), &CameraHints::default(), InputKind::Layers);
+            match result {
+                Err(Error::InputMismatch { path: p, mismatch }) if p == Path::new(path) => mismatch,
+                other => panic!("{path}: {:?}", other.map(|_| ())),
+            }
+        };
+        assert_eq!(refusal("photo.png", InputOptions::default()), InputMismatch::MissingDepthImage);
+        let with_depth = || InputOptions { depth_image: Some("depth.png".into()), ..InputOptions::default() };
+        let layers = InputOptions { layers: Some(vec!["fg".into()]), ..with_depth() };
+        assert_eq!(refusal("photo.jpg", layers), InputMismatch::LayersOfSingleImage);
+        assert_eq!(refusal("shot.exr", with_depth()), InputMismatch::DepthImageBesideStack);
     }
 }

@@ -77,4 +77,4 @@ pub mod stack;
 pub mod tiling;
 pub mod vk;
 
-pub use error::{Error, Result};
+pub use error::{Error, InputMismatch, Result};

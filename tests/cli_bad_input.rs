@@ -371,6 +371,18 @@ fn an_output_on_any_input_or_on_another_output_is_refused() {
 }
 
 #[test]
+fn input_options_that_do_not_fit_the_file_are_refused_naming_the_flag() {
+    let dir = common::temp_dir("bad-input", "mismatch");
+    let shot = valid_stack(&dir);
+    let (photo, depth) = ldr_pair(&dir);
+    let depth_s = depth.to_str().unwrap();
+    // The library's typed refusal (lensblur::InputMismatch), reworded by the CLI with the flag.
+    refused(&dir, &photo, &BLUR, &["photo.png", "needs its depth image", "--depth DEPTH.png"]);
+    refused(&dir, &photo, &["--depth", depth_s, "--layers", "fg", "--blur", "4", "--focus-disparity", "0.5"], &["--layers", "photo.png", "single image"]);
+    refused(&dir, &shot, &["--depth", depth_s], &["--depth is for PNG/JPEG inputs", "shot.exr", "carries its depth"]);
+}
+
+#[test]
 fn png_and_depth_images_over_the_pixel_budget_are_refused_from_their_headers() {
     let dir = common::temp_dir("bad-input", "ldr-budget");
     let (photo, depth) = ldr_pair(&dir);

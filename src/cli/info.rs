@@ -3,6 +3,8 @@ use std::path::PathBuf;
 
 use lensblur::stack::{is_ldr_path, ldr_size, read_ldr, read_parts, read_stack, DepthKind, ReadOptions, StackInfo};
 
+use super::input_args::input_flag_error;
+
 #[derive(clap::Args)]
 pub struct InfoArgs {
     /// EXR stack, or PNG/JPEG image (with --depth) to describe.
@@ -24,7 +26,8 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         return ldr_info(&args);
     }
     if args.depth.is_some() {
-        anyhow::bail!("--depth is for PNG/JPEG inputs; {} carries its depth in its channels", args.file.display());
+        let mismatch = lensblur::InputMismatch::DepthImageBesideStack;
+        return Err(input_flag_error(lensblur::Error::InputMismatch { path: args.file.clone(), mismatch }));
     }
     let options = ReadOptions { depth_kind: args.depth_kind.unwrap_or(DepthKind::Z), ..ReadOptions::default() };
     // The library's errors name the file already: no "reading FILE" context on top.

@@ -7,8 +7,9 @@ use anyhow::bail;
 use lensblur::camera::CameraHints;
 pub use lensblur::input::LoadedInput;
 use lensblur::input::{load, InputOptions};
+use lensblur::InputMismatch;
 use lensblur::render::InputKind;
-use lensblur::stack::{is_ldr_path, AutoLayerOptions, DepthKind, DEFAULT_MAX_PIXELS};
+use lensblur::stack::{AutoLayerOptions, DepthKind, DEFAULT_MAX_PIXELS};
 
 use super::camera_args::{flag_error, CameraArgs};
 
@@ -54,8 +55,8 @@ impl InputArgs {
 
     /// [`load`](Self::load) for a frame of a shot: `camera_file` holds the frame's camera
     /// from the shot's camera file, for what neither the flags nor the header give. The
-    /// policy is the library's ([`lensblur::input::load`]); this checks the flag combinations
-    /// first, so a refusal names the flag, and prints the warnings.
+    /// policy is the library's ([`lensblur::input::load`]); this rewords its refusals with the
+    /// flags (`--depth`, `--layers`, camera flags) and prints the warnings.
     pub fn load_frame(
         &self,
         path: &Path,
@@ -63,19 +64,9 @@ impl InputArgs {
         camera_file: &CameraHints,
         input: InputKind,
     ) -> anyhow::Result<LoadedInput> {
-        if is_ldr_path(path) {
-            if self.depth.is_none() {
-                bail!("{}: a PNG/JPEG input needs its depth image: --depth DEPTH.png", path.display());
-            }
-            if self.layers.is_some() {
-                bail!("--layers selects layers of an EXR; {} is a single image", path.display());
-            }
-        } else if self.depth.is_some() {
-            bail!("--depth is for PNG/JPEG inputs; {} carries its depth in its channels", path.display());
-        }
         let request = camera.request()?;
         // The library's errors name the file already: no "reading FILE" context on top.
-        let loaded = load(path, &self.options(), &request, camera_file, input).map_err(flag_error)?;
+        let loaded = load(path, &self.options(), &request, camera_file, input).map_err(input_flag_error)?;
         for warning in &loaded.warnings {
             eprintln!("lensblur: warning: {warning}");
         }
@@ -101,6 +92,20 @@ impl InputArgs {
                 ..defaults
             },
         }
+    }
+}
+
+/// [`flag_error`], plus the input options that do not fit the file's kind, reworded with the
+/// flags that set them.
+pub fn input_flag_error(error: lensblur::Error) -> anyhow::Error {
+    let lensblur::Error::InputMismatch { path, mismatch } = error else {
+        return flag_error(error);
+    };
+    let path = path.display();
+    match mismatch {
+        InputMismatch::MissingDepthImage => anyhow::anyhow!("{path}: a PNG/JPEG input needs its depth image: --depth DEPTH.png"),
+        InputMismatch::LayersOfSingleImage => anyhow::anyhow!("--layers selects layers of an EXR; {path} is a single image"),
+        InputMismatch::DepthImageBesideStack => anyhow::anyhow!("--depth is for PNG/JPEG inputs; {path} carries its depth in its channels"),
     }
 }
 
