@@ -1,10 +1,11 @@
-// Body of the Dr.Bokeh backward pass 2 (per receiver), compiled three times:
+// Body of the Dr.Bokeh backward pass 2 (per receiver), compiled five times:
 // glsl/drbokeh_backward_own_disk.comp defines DRBOKEH_BACKWARD_DISK (default model, disk
 // aperture, no kernel image: V's weights with K = 1 and the Euclidean gauge),
 // glsl/drbokeh_backward_own_gauge.comp also DRBOKEH_BACKWARD_GAUGE (the same with a polygon or
 // ellipse and its closed-form gauge, glsl/common/gauge.glsl), glsl/drbokeh_backward_own_ring.comp
-// DRBOKEH_BACKWARD_RING with the disk's (the ring's weight and dK/dr in closed form) and
-// glsl/drbokeh_backward_own.comp none (every model and aperture). Separate pipelines rather than a runtime branch: lavapipe runs every branch under lane masks. Bindings, push constants
+// DRBOKEH_BACKWARD_RING with the disk's (the ring's weight and dK/dr in closed form),
+// glsl/drbokeh_backward_own_kernel.comp DRBOKEH_BACKWARD_KERNEL with the disk's (a kernel
+// image's bilinear weight and dK/dr per tap) and glsl/drbokeh_backward_own.comp none (every model and aperture). Separate pipelines rather than a runtime branch: lavapipe runs every branch under lane masks. Bindings, push constants
 // and dispatch: see glsl/drbokeh_backward_own.comp.
 #ifndef LENSBLUR_DRBOKEH_BACKWARD_OWN_GLSL
 #define LENSBLUR_DRBOKEH_BACKWARD_OWN_GLSL
@@ -86,6 +87,12 @@ vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2) {
             vec2 ring = drbokeh_ring_weight_d(g, dst.r);
             d_d = d_d * ring.x + d * ring.y;
             d *= ring.x;
+#elif defined(DRBOKEH_BACKWARD_KERNEL)
+            // The same with the kernel image's K and dK/dr at x - y in the receiver's aperture
+            // coordinates.
+            vec2 kernel = drbokeh_kernel_weight_d(aperture_coords(vec2(float(-ox), float(-oy)), dst.rel), dst.r);
+            d_d = d_d * kernel.x + d * kernel.y;
+            d *= kernel.x;
 #endif
             vis += vec4(d, alpha * d, d_d, alpha * d_d);
 #else

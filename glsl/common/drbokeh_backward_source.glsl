@@ -1,10 +1,12 @@
-// Body of the Dr.Bokeh backward pass 4 (per source), compiled three times:
+// Body of the Dr.Bokeh backward pass 4 (per source), compiled five times:
 // glsl/drbokeh_backward_source_disk.comp defines DRBOKEH_BACKWARD_DISK (default model, disk
 // aperture, no kernel image: K = 1 and one Euclidean gauge per tap),
 // glsl/drbokeh_backward_source_gauge.comp also DRBOKEH_BACKWARD_GAUGE (the same with a polygon
 // or ellipse: K = 1, the shape's closed-form gauge, glsl/common/gauge.glsl, one per
 // orientation), glsl/drbokeh_backward_source_ring.comp DRBOKEH_BACKWARD_RING with the disk's
-// (the ring: its weight K(g, r) and dK/dr in closed form, drbokeh_ring_weight_d), and
+// (the ring: its weight K(g, r) and dK/dr in closed form, drbokeh_ring_weight_d),
+// glsl/drbokeh_backward_source_kernel.comp DRBOKEH_BACKWARD_KERNEL with the disk's (a kernel
+// image: its bilinear weight and dK/dr per tap, drbokeh_kernel_weight_d), and
 // glsl/drbokeh_backward_source.comp none (every model and aperture).
 // Separate pipelines rather than a runtime branch: lavapipe runs every branch under lane masks, so a tap pays for all
 // the code in the loop body, taken or not. Bindings, push constants and dispatch: see
@@ -222,6 +224,14 @@ void main() {
                 vec2 ring = drbokeh_ring_weight_d(g, src[k].r);
                 ds = ds * ring.x + s * ring.y;
                 s *= ring.x;
+#elif defined(DRBOKEH_BACKWARD_KERNEL)
+                // The same with the kernel image's K and dK/dr at x - y in the source's
+                // aperture coordinates; a tap outside the soft disk (S = 0, dS/dr = 0) needs none.
+                if (s != 0.0 || ds != 0.0) {
+                    vec2 kernel = drbokeh_kernel_weight_d(aperture_coords(offset, src[k].rel), src[k].r);
+                    ds = ds * kernel.x + s * kernel.y;
+                    s *= kernel.x;
+                }
 #endif
                 bool is_self = ox == 0 && oy == 0;
                 float occ = 1.0;
@@ -239,6 +249,9 @@ void main() {
                 if (own_share != 0.0 && o2 < vis_limit2) {
 #ifdef DRBOKEH_BACKWARD_RING
                     d_p[k].w += own_share * (drbokeh_scatter(dst.r, g_receiver) * drbokeh_ring_weight_d(g_receiver, dst.r).x);
+#elif defined(DRBOKEH_BACKWARD_KERNEL)
+                    vec2 p_receiver = aperture_coords(offset, dst.rel);
+                    d_p[k].w += own_share * (drbokeh_scatter(dst.r, g_receiver) * drbokeh_kernel_weight_d(p_receiver, dst.r).x);
 #else
                     d_p[k].w += own_share * drbokeh_scatter(dst.r, g_receiver);
 #endif

@@ -103,6 +103,17 @@ vec2 drbokeh_ring_weight_d(float g, float r) {
     return vec2(1.0 - blend * (1.0 - step), -d_blend * (1.0 - step) - blend * drbokeh_d_smoothstep(0.0, 1.0, arg) * inner);
 }
 
+// The kernel image's weight at p (aperture coordinates, pixels) through a CoC of radius r and
+// its d/dr: vec2(K, dK/dr) (aperture_kernel_weight; the sample at p / (r + 1/2) moves with r).
+vec2 drbokeh_kernel_weight_d(vec2 p, float r) {
+    float scale = 1.0 / (r + 0.5);
+    vec3 sample_grad = aperture_kernel_sample_grad(p * scale, pc.kernel_size);
+    float d_sample = -dot(sample_grad.yz, p) * scale * scale;
+    float blend = smoothstep(DRBOKEH_KERNEL_FADE_START_PX, DRBOKEH_KERNEL_FADE_END_PX, r);
+    float d_blend = drbokeh_d_smoothstep(DRBOKEH_KERNEL_FADE_START_PX, DRBOKEH_KERNEL_FADE_END_PX, r);
+    return vec2(1.0 + (sample_grad.x - 1.0) * blend, d_sample * blend + (sample_grad.x - 1.0) * d_blend);
+}
+
 // drbokeh_lens plus d(kernel weight)/dr: vec3(gauge, weight, d weight / dr) (the ring's:
 // LensView::lens_d in src/render/drbokeh/backward.rs).
 vec3 drbokeh_lens_d(vec2 offset, float r, float rel) {
@@ -114,12 +125,7 @@ vec3 drbokeh_lens_d(vec2 offset, float r, float rel) {
     if (pc.aperture.w < 0.5 || pc.kernel_size == 0) {
         return vec3(g, 1.0, 0.0);
     }
-    float scale = 1.0 / (r + 0.5);
-    vec3 sample_grad = aperture_kernel_sample_grad(p * scale, pc.kernel_size);
-    float d_sample = -dot(sample_grad.yz, p) * scale * scale;
-    float blend = smoothstep(DRBOKEH_KERNEL_FADE_START_PX, DRBOKEH_KERNEL_FADE_END_PX, r);
-    float d_blend = drbokeh_d_smoothstep(DRBOKEH_KERNEL_FADE_START_PX, DRBOKEH_KERNEL_FADE_END_PX, r);
-    return vec3(g, 1.0 + (sample_grad.x - 1.0) * blend, d_sample * blend + (sample_grad.x - 1.0) * d_blend);
+    return vec3(g, drbokeh_kernel_weight_d(p, r));
 }
 
 // The monotonic leaky slope of the scatter step (pc.leaky_slope = 0: exact).

@@ -45,6 +45,11 @@ pub struct DrBokehGpuGrad {
     /// weight and its d/dr in closed form.
     own_ring: ComputePipeline,
     source_ring: ComputePipeline,
+    /// The same for a kernel image ([`AperturePath::Kernel`]): the disk path's code with the
+    /// kernel's bilinear weight and its d/dr per tap, without the general shader's other
+    /// shapes and models (lavapipe would run them under lane masks at every tap).
+    own_kernel: ComputePipeline,
+    source_kernel: ComputePipeline,
     pub model: Model,
     pub options: BackwardOptions,
 }
@@ -111,6 +116,8 @@ impl DrBokehGpuGrad {
             source_gauge: PipelineVariants::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_GAUGE, &SOURCE_SLOTS, push)?,
             own_ring: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_RING, &OWN_SLOTS, push)?,
             source_ring: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_RING, &SOURCE_SLOTS, push)?,
+            own_kernel: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_KERNEL, &OWN_SLOTS, push)?,
+            source_kernel: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_KERNEL, &SOURCE_SLOTS, push)?,
             model,
             options,
         })
@@ -248,7 +255,8 @@ impl DrBokehGpuGrad {
                 (&gauge.0, &gauge.1)
             }
             AperturePath::Ring => (&self.own_ring, &self.source_ring),
-            AperturePath::Kernel | AperturePath::PerTap => (&self.own, &self.source),
+            AperturePath::Kernel => (&self.own_kernel, &self.source_kernel),
+            AperturePath::PerTap => (&self.own, &self.source),
         };
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
         let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];

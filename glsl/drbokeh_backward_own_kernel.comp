@@ -1,0 +1,9 @@
+// Dr.Bokeh backward pass 2, kernel-image path: the default model with a kernel image
+// (Euclidean gauge; the kernel's bilinear weight and dK/dr per tap). The disk path's code with
+// that weight; same bindings, push constants and dispatch as glsl/drbokeh_backward_own.comp;
+// the body is glsl/common/drbokeh_backward_own.glsl.
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#define DRBOKEH_BACKWARD_DISK 1
+#define DRBOKEH_BACKWARD_KERNEL 1
+#include "drbokeh_backward_own.glsl"
