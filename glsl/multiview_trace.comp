@@ -6,7 +6,8 @@
 // Bindings (set 0):
 //   0: pyramid   vec4[layers * pyramid_len]  per layer: its mip chain, premultiplied RGBA
 //   1: heights   float[layers * w * h]       disparity, empty pixels at the layer's far bound
-//   2: occupancy uint[layers * w * h]        1 = some coverage within reach of the pixel
+//   2: occupancy uint[layers * occupancy_words]  per layer a bit plane (bit i % 32 of word
+//                                            i / 32): some coverage within reach of pixel i
 //   3: bounds    vec4[layers]                (far disparity, near disparity, active, 0)
 //   4: levels    uvec4[levels]               (offset in a layer's pyramid, width, height, 0)
 //   5: samples   vec4[patterns * slots]      (u, v, weight, 0), unit disk, aperture coords
@@ -47,7 +48,7 @@ layout(push_constant) uniform Push {
     int steps;
     int cull;
     int pyramid_len;
-    int pad0;
+    int occupancy_words;
     int pad1;
     int pad2;
     float k;
@@ -114,6 +115,11 @@ vec4 sample_cone(int l, vec2 pos, float diameter) {
     return a + (b - a) * frac;
 }
 
+// The culling mask's bit of `pixel` in layer `l` (Prepared::occupied).
+uint occupied(int l, int pixel) {
+    return (occupancy[l * pc.occupancy_words + (pixel >> 5)] >> uint(pixel & 31)) & 1u;
+}
+
 // False position between the layer's far (lo) and near (hi) disparity.
 float intersect(int l, vec2 p, vec2 u, float lo, float hi) {
     float ta = hi;
@@ -140,10 +146,9 @@ float intersect(int l, vec2 p, vec2 u, float lo, float hi) {
 vec4 trace(vec2 p, vec2 u, int pixel) {
     vec4 acc = vec4(0.0);
     float transmittance = 1.0;
-    int plane = pc.width * pc.height;
     for (int l = 0; l < pc.layers; ++l) {
         vec4 b = bounds[l];
-        if (b.z == 0.0 || (pc.cull != 0 && occupancy[l * plane + pixel] == 0u)) {
+        if (b.z == 0.0 || (pc.cull != 0 && occupied(l, pixel) == 0u)) {
             continue;
         }
         float t = intersect(l, p, u, b.x, b.y);

@@ -407,12 +407,12 @@ pub(crate) fn render_image_tiles(
 
 /// Copies a tile's core-local RGBA result into the frame.
 pub(crate) fn store_core(ctx: &Context, image: &mut Image, core: Rect, result: &Buffer) -> Result<()> {
-    let result: Vec<[f32; 4]> = result.read(ctx)?;
-    for (y, row) in result.chunks_exact(core.width()).take(core.height()).enumerate() {
-        let start = (core.y0 + y) * image.width + core.x0;
-        image.pixels[start..start + core.width()].copy_from_slice(row);
-    }
-    Ok(())
+    result.read_with(ctx, |result: &[[f32; 4]]| {
+        for (y, row) in result.chunks_exact(core.width()).take(core.height()).enumerate() {
+            let start = (core.y0 + y) * image.width + core.x0;
+            image.pixels[start..start + core.width()].copy_from_slice(row);
+        }
+    })
 }
 
 /// Push-constant form of a tile: the core and read rects as (x, y, width, height), which the

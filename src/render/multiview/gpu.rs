@@ -1,4 +1,4 @@
-//! GPU host code of multiview synthesis: uploads what [`super::prepare`] built (pyramids,
+//! GPU host code of multiview synthesis: uploads what [`super::prepare`] builds (pyramids,
 //! height fields, culling masks, lens samples) once for the frame, dispatches
 //! `glsl/multiview_trace.comp` over frame tiles ([`crate::render::tiling`]), reads each back.
 //! The inputs stay whole: cone tracing reads mip levels whose texels span any extent, so a
@@ -10,7 +10,7 @@ use crate::render::tiling::{rect_push, render_image_tiles, Footprint, FrameTilin
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
-use crate::vk::{Buffer, ComputePipeline, Context, Slot, TexelFormat};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, Slot, TexelFormat};
 use crate::Result;
 
 /// Push constants of `glsl/multiview_trace.comp`.
@@ -26,7 +26,8 @@ struct MultiviewPush {
     steps: i32,
     cull: i32,
     pyramid_len: i32,
-    pad: [i32; 3],
+    occupancy_words: i32,
+    pad: [i32; 2],
     k: f32,
     focus: f32,
     cone: f32,
@@ -71,13 +72,15 @@ impl Multiview {
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
         let ctx = &self.ctx;
-        let mut pr = Prepared::new(stack, lens, params)?;
-        let pyramid = Buffer::from_slice(ctx, "multiview pyramid", &pr.pyramid)?;
-        let heights = Buffer::from_slice(ctx, "multiview heights", &pr.heights)?;
+        let pr = Prepared::new(stack, lens, params)?;
+        // The pyramids and height fields (most of a render's memory) are built straight into
+        // the device buffers: no host copy of them exists beside the device's.
+        let mut upload = CommandBatch::new(ctx)?;
+        let pyramid =
+            Buffer::from_iter_in(ctx, &mut upload, "multiview pyramid", pr.layers * pr.pyramid_len, pr.pyramid_texels(stack))?;
+        let heights = Buffer::from_iter_in(ctx, &mut upload, "multiview heights", pr.layers * pr.plane, pr.height_texels(stack))?;
+        upload.submit_and_wait()?;
         let occupancy = Buffer::from_slice(ctx, "multiview occupancy", &pr.occupancy)?;
-        // Uploaded: the host copies (the pyramids are most of a render's memory) go now, not
-        // after the last tile.
-        (pr.pyramid, pr.heights, pr.occupancy) = (Vec::new(), Vec::new(), Vec::new());
         let bounds = Buffer::from_slice(ctx, "multiview bounds", &pr.bounds)?;
         let levels = Buffer::from_slice(ctx, "multiview levels", &pr.levels)?;
         let samples = Buffer::from_slice(ctx, "multiview lens samples", &pr.samples.data)?;
@@ -98,7 +101,8 @@ impl Multiview {
             steps: pr.steps as i32,
             cull: i32::from(pr.cull),
             pyramid_len: pr.pyramid_len as i32,
-            pad: [0; 3],
+            occupancy_words: pr.occupancy_words as i32,
+            pad: [0; 2],
             k: pr.k,
             focus: pr.focus,
             cone: pr.cone,
