@@ -25,8 +25,8 @@ const MIN_TILES_PER_BATCH: u64 = 2;
 pub const CPU_DEVICE_MEMORY_FACTOR: u64 = 3;
 /// Without `--max-memory`, tiles may always hold this much: below it the process's fixed cost
 /// (binary, driver, compiled pipelines: ~150 MiB on lavapipe) dominates the peak anyway, and
-/// cutting small frames or methods whose whole-frame data fills the bound (multiview keeps its
-/// mip pyramids whole) finer would only add submissions.
+/// cutting small frames or methods whose whole-frame data fills the bound finer would only add
+/// submissions.
 const MIN_DEFAULT_TILE_BYTES: u64 = 256 << 20;
 /// Most work (taps or ray-march steps, as the method counts them) one tile's dispatch may do on
 /// a GPU: a few tenths of a second at the ~1e10 simple taps/s of a mid-range card, well inside
