@@ -85,8 +85,7 @@ impl Multiview {
         // The culling masks are held on the device for the whole render, beside the tiles.
         frame.host_bytes += occupancy.size();
         // A tile holds its window's height fields and pyramids (every layer) and its core's
-        // result; a window reaches at most `window_halo` past its core.
-        let halo = pr.window_halo();
+        // result; a window reaches at most `Prepared::window_halo` past its core.
         let footprint = |tile: usize| {
             let window = pr.largest_window(tile);
             let layers = pr.layers as u64;

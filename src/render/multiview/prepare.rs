@@ -490,6 +490,39 @@ mod tests {
         }
     }
 
+    /// Every tile's window starts on a multiple of 2^top, ends on one or at the frame's edge,
+    /// holds its core grown by the margin, and stays within the halo the tiler is told of.
+    #[test]
+    fn windows_are_aligned_and_cover_the_reach() {
+        use crate::camera::{Aperture, CocModel};
+        use crate::image::Image;
+        use crate::stack::Layer;
+        let (w, h) = (97usize, 61usize);
+        let layer = Layer { name: "l".into(), rgba: Image::from_fn(w, h, |_, _| [1.0; 4]), disparity: vec![0.9; w * h] };
+        let stack = LayerStack::new(w, h, vec![layer]).unwrap();
+        let lens = Lens { coc: CocModel::new(14.0, 0.5).unwrap(), aperture: Aperture::Disk };
+        let params = MultiviewParams { samples: 16, cone_scale: 2.0, ..MultiviewParams::default() };
+        let pr = Prepared::new(&stack, &lens, &params).unwrap();
+        assert!(pr.top_level >= 3 && pr.margin > 1 << pr.top_level, "top {} margin {}", pr.top_level, pr.margin);
+        let align = 1 << pr.top_level;
+        for tile in [7, 20, 33] {
+            for y0 in (0..h).step_by(tile) {
+                for x0 in (0..w).step_by(tile) {
+                    let core = Rect { x0, y0, x1: (x0 + tile).min(w), y1: (y0 + tile).min(h) };
+                    let window = pr.window(core);
+                    let (r, reach) = (window.rect, core.grown(pr.margin, w, h));
+                    assert!(r.x0 % align == 0 && r.y0 % align == 0, "{core:?}: {r:?}");
+                    assert!(r.x1 % align == 0 || r.x1 == w, "{core:?}: {r:?}");
+                    assert!(r.y1 % align == 0 || r.y1 == h, "{core:?}: {r:?}");
+                    assert!(r.x0 <= reach.x0 && r.y0 <= reach.y0 && r.x1 >= reach.x1 && r.y1 >= reach.y1, "{core:?}: {r:?}");
+                    let halo = core.grown(pr.window_halo(), w, h);
+                    assert!(r.x0 >= halo.x0 && r.y0 >= halo.y0 && r.x1 <= halo.x1 && r.y1 <= halo.y1, "{core:?}: {r:?}");
+                    assert!(window.pyramid_len <= pr.largest_window(tile).pyramid_len);
+                }
+            }
+        }
+    }
+
     /// Distinct, non-dyadic texel values, so a misplaced child changes the mean.
     fn texels(w: usize, h: usize) -> Vec<[f32; 4]> {
         (0..w * h).map(|i| [i as f32 * 0.37, (i * 7 % 5) as f32, 0.25, (i % 3) as f32 / 3.0]).collect()
