@@ -4,18 +4,23 @@
 // CPU reference: src/render/multiview/mod.rs `shade`/`trace`/`intersect` and prepare.rs.
 //
 // Bindings (set 0):
-//   0: pyramid   vec4[layers * pyramid_len]  per layer: its mip chain, premultiplied RGBA
-//   1: heights   float[layers * w * h]       disparity, empty pixels at the layer's far bound
-//   2: occupancy uint[layers * w * h]        1 = some coverage within reach of the pixel
+//   0: pyramid   vec4[layers * pyramid_len]  per layer: the window's mip levels up to the top
+//                                            level read, premultiplied RGBA
+//   1: heights   float[layers * window area] disparity, empty pixels at the layer's far bound
+//   2: occupancy uint[layers * occupancy_words]  per layer a bit plane (bit i % 32 of word
+//                                            i / 32): some coverage within reach of pixel i
 //   3: bounds    vec4[layers]                (far disparity, near disparity, active, 0)
-//   4: levels    uvec4[levels]               (offset in a layer's pyramid, width, height, 0)
+//   4: levels    uvec4[window levels]        (offset in a layer's pyramid, width, height, 0)
 //   5: samples   vec4[patterns * slots]      (u, v, weight, 0), unit disk, aperture coords
 //   6: result    vec4[core.z * core.w]
 // Push constants: MultiviewPush (src/render/multiview/gpu.rs).
 // Dispatch: (ceil(core.z / 8), ceil(core.w / 8), 1).
 // Tiled (src/render/tiling.rs): the dispatch covers `core` (x, y, width, height) and stores
-// its results core-local; the inputs are the whole frame's (cone tracing reads mip levels of
-// any extent), shared by every tile.
+// its results core-local. Heights and pyramids cover the tile's `window` (Window in
+// src/render/multiview/prepare.rs): the rect its rays reach, whose origin is a multiple of
+// 2^(top level read), so window level L starts at frame texel window.xy >> L and holds the
+// frame's texels there. Reads clamp to the frame's edges, then index the window. The culling
+// masks are the whole frame's.
 //
 // `precise` keeps ray positions unfused so the texel each height lookup reads matches the CPU.
 #version 450
@@ -47,7 +52,7 @@ layout(push_constant) uniform Push {
     int steps;
     int cull;
     int pyramid_len;
-    int pad0;
+    int occupancy_words;
     int pad1;
     int pad2;
     float k;
@@ -55,6 +60,7 @@ layout(push_constant) uniform Push {
     float cone;
     float pad3;
     ivec4 core;
+    ivec4 window;
 } pc;
 
 // Transmittance below which a ray stops (OPAQUE_TRANSMITTANCE).
@@ -68,24 +74,33 @@ float height_at(int l, vec2 p, vec2 u, float t) {
     precise float rel = t - pc.focus;
     precise float x = p.x + u.x * rel;
     precise float y = p.y + u.y * rel;
-    int plane = pc.width * pc.height;
-    return texelFetch(heights, l * plane + nearest_pixel(y, pc.height) * pc.width + nearest_pixel(x, pc.width)).x;
+    ivec2 pixel = ivec2(nearest_pixel(x, pc.width), nearest_pixel(y, pc.height));
+    return texelFetch(heights, l * pc.window.z * pc.window.w + rect_index(pixel, pc.window)).x;
 }
 
 float level_for(float diameter) {
     return min(log2(max(diameter, 1.0)), float(pc.level_count - 1));
 }
 
-vec4 texel(int base, int w, int h, float x, float y) {
-    int xi = int(clamp(x, 0.0, float(w - 1)));
-    int yi = int(clamp(y, 0.0, float(h - 1)));
-    return texelFetch(pyramid, base + yi * w + xi);
+// Texels across mip level `level` of a frame side of `size` pixels: ceil(size / 2^level).
+int level_size(int size, int level) {
+    return ((size - 1) >> level) + 1;
+}
+
+// Texel (x, y) of a level `frame_w x frame_h` in the frame, clamped to it, read from the
+// window's copy of the level (`w` texels wide, starting at frame texel `origin`).
+vec4 texel(int base, int w, ivec2 origin, int frame_w, int frame_h, float x, float y) {
+    int xi = int(clamp(x, 0.0, float(frame_w - 1)));
+    int yi = int(clamp(y, 0.0, float(frame_h - 1)));
+    return texelFetch(pyramid, base + (yi - origin.y) * w + (xi - origin.x));
 }
 
 vec4 bilinear(int l, int level, vec2 pos) {
     uvec4 info = levels[level];
     int w = int(info.y);
-    int h = int(info.z);
+    ivec2 origin = pc.window.xy >> level;
+    int frame_w = level_size(pc.width, level);
+    int frame_h = level_size(pc.height, level);
     float scale = 1.0 / float(1 << level);
     float cx = (pos.x + 0.5) * scale - 0.5;
     float cy = (pos.y + 0.5) * scale - 0.5;
@@ -94,10 +109,10 @@ vec4 bilinear(int l, int level, vec2 pos) {
     float fx = cx - x0;
     float fy = cy - y0;
     int base = l * pc.pyramid_len + int(info.x);
-    vec4 t00 = texel(base, w, h, x0, y0);
-    vec4 t10 = texel(base, w, h, x0 + 1.0, y0);
-    vec4 t01 = texel(base, w, h, x0, y0 + 1.0);
-    vec4 t11 = texel(base, w, h, x0 + 1.0, y0 + 1.0);
+    vec4 t00 = texel(base, w, origin, frame_w, frame_h, x0, y0);
+    vec4 t10 = texel(base, w, origin, frame_w, frame_h, x0 + 1.0, y0);
+    vec4 t01 = texel(base, w, origin, frame_w, frame_h, x0, y0 + 1.0);
+    vec4 t11 = texel(base, w, origin, frame_w, frame_h, x0 + 1.0, y0 + 1.0);
     vec4 top = t00 + (t10 - t00) * fx;
     vec4 bottom = t01 + (t11 - t01) * fx;
     return top + (bottom - top) * fy;
@@ -112,6 +127,11 @@ vec4 sample_cone(int l, vec2 pos, float diameter) {
     vec4 a = bilinear(l, i0, pos);
     vec4 b = bilinear(l, i1, pos);
     return a + (b - a) * frac;
+}
+
+// The culling mask's bit of `pixel` in layer `l` (Prepared::occupied).
+uint occupied(int l, int pixel) {
+    return (occupancy[l * pc.occupancy_words + (pixel >> 5)] >> uint(pixel & 31)) & 1u;
 }
 
 // False position between the layer's far (lo) and near (hi) disparity.
@@ -140,10 +160,9 @@ float intersect(int l, vec2 p, vec2 u, float lo, float hi) {
 vec4 trace(vec2 p, vec2 u, int pixel) {
     vec4 acc = vec4(0.0);
     float transmittance = 1.0;
-    int plane = pc.width * pc.height;
     for (int l = 0; l < pc.layers; ++l) {
         vec4 b = bounds[l];
-        if (b.z == 0.0 || (pc.cull != 0 && occupancy[l * plane + pixel] == 0u)) {
+        if (b.z == 0.0 || (pc.cull != 0 && occupied(l, pixel) == 0u)) {
             continue;
         }
         float t = intersect(l, p, u, b.x, b.y);

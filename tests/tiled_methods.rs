@@ -25,7 +25,11 @@ const TILES: [usize; 5] = [5, 13, 16, 31, 64];
 /// A near square over a far textured layer with a slanted depth: CoC radii of both signs up to
 /// about 10 px, so halos are several tiles wide at the small sides.
 fn stack() -> LayerStack {
-    let (w, h) = (WIDTH, HEIGHT);
+    stack_sized(WIDTH, HEIGHT)
+}
+
+/// [`stack`] on a `w x h` frame.
+fn stack_sized(w: usize, h: usize) -> LayerStack {
     let near = Image::from_fn(w, h, |x, y| {
         if (8..22).contains(&x) && (6..20).contains(&y) {
             [2.0, 0.3, 0.1, 1.0]
@@ -123,6 +127,39 @@ fn tiled_renders_match_the_cpu_references() {
     finish(ctx);
 }
 
+/// Multiview's tiles read windows of the layers aligned to the top mip level their cones read.
+/// Wider cones (top levels 4 and 5: windows aligned to 16 and 32 px, cut at the frame's edges)
+/// on a frame several windows wide still give every tile the whole frame's bytes, which match
+/// the CPU reference, while a tile holds less than the whole frame's inputs.
+#[test]
+fn multiview_windows_aligned_to_coarse_levels_keep_the_bytes() {
+    let ctx = gpu();
+    let mv = Multiview::new(&ctx).unwrap();
+    let (stack, lens) = (stack_sized(150, 100), lens(Aperture::Disk));
+    for cone_scale in [2.0, 4.0] {
+        let params = MultiviewParams { samples: 16, cone_scale, ..Default::default() };
+        let run = |tile: usize| {
+            let options = RenderOptions { tile: Some(tile), tiles_per_batch: Some(1), ..RenderOptions::default() };
+            mv.run_with(&stack, &lens, &params, &options).unwrap()
+        };
+        let (whole, whole_stats) = run(256);
+        for tile in [13, 31, 64] {
+            let (image, stats) = run(tile);
+            assert!(
+                bits(&image) == bits(&whole),
+                "cone scale {cone_scale}, tile {tile}: differs from the whole frame by {}",
+                max_abs_diff(&image, &whole)
+            );
+            assert!(stats.peak_device_bytes < whole_stats.peak_device_bytes, "tile {tile}: {stats:?} {whole_stats:?}");
+        }
+        let cpu = render_multiview_cpu(&stack, &lens, &params).unwrap();
+        let diff = max_abs_diff(&whole, &cpu);
+        assert!(diff <= 2e-4, "cone scale {cone_scale}: max |gpu - cpu| = {diff}");
+    }
+    drop(mv);
+    finish(ctx);
+}
+
 /// The service's out-of-memory retry serves every method: a frame refused at its first tile
 /// size comes out of smaller tiles, identical.
 #[test]
@@ -135,9 +172,13 @@ fn out_of_device_memory_retries_smaller_tiles_for_a_non_drbokeh_method() {
     let roomy = RenderOptions { max_memory: Some(1 << 30), ..RenderOptions::default() };
     let (whole, stats) = mv.run_with(&stack, &lens, &params, &roomy).unwrap();
     assert_eq!(stats.tiles, 1, "the small frame fits as one tile");
-    // A tile holds only its result (16 bytes a pixel): 12 kB refuses the whole frame (27 kB),
-    // and admits one 16 px tile at a time (4 kB).
-    let limited = RenderOptions { device_memory_limit: Some(12_000), tiles_per_batch: Some(1), ..roomy };
+    // A tile holds its window's inputs and its core's result: a limit between what one 16 px
+    // tile and the whole frame hold refuses the whole frame and admits 16 px tiles one by one.
+    let one_by_one = RenderOptions { tile: Some(16), tiles_per_batch: Some(1), ..roomy };
+    let small = mv.run_with(&stack, &lens, &params, &one_by_one).unwrap().1.peak_device_bytes;
+    assert!(small < stats.peak_device_bytes, "a 16 px tile holds less than the whole frame: {small} vs {stats:?}");
+    let limit = (small + stats.peak_device_bytes) / 2;
+    let limited = RenderOptions { device_memory_limit: Some(limit), tiles_per_batch: Some(1), ..roomy };
     let (image, stats) = mv.run_with(&stack, &lens, &params, &limited).unwrap();
     assert!(stats.tiles > 1 && stats.tile_size < WIDTH, "{stats:?}");
     assert!(bits(&image) == bits(&whole), "retry changed the output by {}", max_abs_diff(&image, &whole));

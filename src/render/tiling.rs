@@ -25,8 +25,8 @@ const MIN_TILES_PER_BATCH: u64 = 2;
 pub const CPU_DEVICE_MEMORY_FACTOR: u64 = 3;
 /// Without `--max-memory`, tiles may always hold this much: below it the process's fixed cost
 /// (binary, driver, compiled pipelines: ~150 MiB on lavapipe) dominates the peak anyway, and
-/// cutting small frames or methods whose whole-frame data fills the bound (multiview keeps its
-/// mip pyramids whole) finer would only add submissions.
+/// cutting small frames or methods whose whole-frame data fills the bound finer would only add
+/// submissions.
 const MIN_DEFAULT_TILE_BYTES: u64 = 256 << 20;
 /// Most work (taps or ray-march steps, as the method counts them) one tile's dispatch may do on
 /// a GPU: a few tenths of a second at the ~1e10 simple taps/s of a mid-range card, well inside
@@ -407,12 +407,12 @@ pub(crate) fn render_image_tiles(
 
 /// Copies a tile's core-local RGBA result into the frame.
 pub(crate) fn store_core(ctx: &Context, image: &mut Image, core: Rect, result: &Buffer) -> Result<()> {
-    let result: Vec<[f32; 4]> = result.read(ctx)?;
-    for (y, row) in result.chunks_exact(core.width()).take(core.height()).enumerate() {
-        let start = (core.y0 + y) * image.width + core.x0;
-        image.pixels[start..start + core.width()].copy_from_slice(row);
-    }
-    Ok(())
+    result.read_with(ctx, |result: &[[f32; 4]]| {
+        for (y, row) in result.chunks_exact(core.width()).take(core.height()).enumerate() {
+            let start = (core.y0 + y) * image.width + core.x0;
+            image.pixels[start..start + core.width()].copy_from_slice(row);
+        }
+    })
 }
 
 /// Push-constant form of a tile: the core and read rects as (x, y, width, height), which the

@@ -263,6 +263,22 @@ impl Buffer {
         Ok(out)
     }
 
+    /// Calls `f` with the whole buffer as `T`s (after the batches that wrote it have waited):
+    /// the mapped memory itself where it is host-visible, else a read-back copy ([`Self::read`]).
+    /// A tile's result then goes into the frame without a second copy of it on the host.
+    pub fn read_with<T: bytemuck::Pod, R>(&self, ctx: &Context, f: impl FnOnce(&[T]) -> R) -> Result<R> {
+        let aligned = |ptr: &*mut u8| (*ptr as usize) % std::mem::align_of::<T>() == 0;
+        if let Some(ptr) = self.mapped().filter(aligned) {
+            let count = self.size() as usize / std::mem::size_of::<T>();
+            // SAFETY: mapped, coherent and aligned for T; `count` Ts lie within the buffer, which
+            // `&self` keeps alive while `f` runs; the writing batch has waited on its fence after
+            // a shader-write -> host-read barrier, and nothing writes it meanwhile.
+            let data = unsafe { std::slice::from_raw_parts(ptr.cast::<T>(), count) };
+            return Ok(f(data));
+        }
+        Ok(f(&self.read::<T>(ctx)?))
+    }
+
     fn check_len(&self, len: usize) -> Result<()> {
         if len as u64 > self.size() {
             return Err(Error::internal(format!(

@@ -1,9 +1,10 @@
-//! GPU host code of multiview synthesis: uploads what [`super::prepare`] built (pyramids,
-//! height fields, culling masks, lens samples) once for the frame, dispatches
-//! `glsl/multiview_trace.comp` over frame tiles ([`crate::render::tiling`]), reads each back.
-//! The inputs stay whole: cone tracing reads mip levels whose texels span any extent, so a
-//! tile's reach is the frame; tiling bounds each dispatch's time and the output's memory.
-use super::prepare::Prepared;
+//! GPU host code of multiview synthesis: dispatches `glsl/multiview_trace.comp` over frame
+//! tiles ([`crate::render::tiling`]) and reads each back. Each tile gets its own window of the
+//! layers ([`super::prepare::Window`]: its rays' reach, aligned to the top mip level they
+//! read) with the height fields and pyramids over it, built straight into device memory; only
+//! the culling masks (a bit a pixel) and the lens samples are the frame's. So the tiler bounds
+//! the inputs' memory too, and a tile computes exactly what the whole frame computes there.
+use super::prepare::{Prepared, Window};
 use super::MultiviewParams;
 use crate::image::Image;
 use crate::render::tiling::{rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats};
@@ -26,15 +27,18 @@ struct MultiviewPush {
     steps: i32,
     cull: i32,
     pyramid_len: i32,
-    pad: [i32; 3],
+    occupancy_words: i32,
+    pad: [i32; 2],
     k: f32,
     focus: f32,
     cone: f32,
     pad3: f32,
-    /// The tile's core ([`rect_push`]); inputs are the whole frame's.
+    /// The tile's core ([`rect_push`]).
     core: [i32; 4],
+    /// The tile's window: the rect its height fields and pyramids cover.
+    window: [i32; 4],
 }
-const _: () = assert!(std::mem::size_of::<MultiviewPush>() == 80);
+const _: () = assert!(std::mem::size_of::<MultiviewPush>() == 96);
 
 /// Multiview synthesis on the GPU.
 pub struct Multiview {
@@ -71,47 +75,61 @@ impl Multiview {
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
         let ctx = &self.ctx;
-        let mut pr = Prepared::new(stack, lens, params)?;
-        let pyramid = Buffer::from_slice(ctx, "multiview pyramid", &pr.pyramid)?;
-        let heights = Buffer::from_slice(ctx, "multiview heights", &pr.heights)?;
+        let pr = Prepared::new(stack, lens, params)?;
         let occupancy = Buffer::from_slice(ctx, "multiview occupancy", &pr.occupancy)?;
-        // Uploaded: the host copies (the pyramids are most of a render's memory) go now, not
-        // after the last tile.
-        (pr.pyramid, pr.heights, pr.occupancy) = (Vec::new(), Vec::new(), Vec::new());
         let bounds = Buffer::from_slice(ctx, "multiview bounds", &pr.bounds)?;
-        let levels = Buffer::from_slice(ctx, "multiview levels", &pr.levels)?;
         let samples = Buffer::from_slice(ctx, "multiview lens samples", &pr.samples.data)?;
         // Work bound: per lens sample and layer, the intersection's steps and one cone sample.
         let work = (pr.samples.slots * pr.layers) as u64 * (u64::from(pr.steps) + 1);
         let mut frame = FrameTiling::new(pr.width, pr.height, pr.layers, 1).with_work(work);
-        // The frame's inputs are held on the device for the whole render, beside the tiles.
-        frame.host_bytes += [&pyramid, &heights, &occupancy].iter().map(|b| b.size()).sum::<u64>();
-        // A tile holds only its core's result.
-        let footprint = |tile| Footprint::per_pixel(&frame, tile, 0, 0, 16, 16);
-        let push = |core| MultiviewPush {
+        // The culling masks are held on the device for the whole render, beside the tiles.
+        frame.host_bytes += occupancy.size();
+        // A tile holds its window's height fields and pyramids (every layer) and its core's
+        // result; a window reaches at most `Prepared::window_halo` past its core.
+        let footprint = |tile: usize| {
+            let window = pr.largest_window(tile);
+            let layers = pr.layers as u64;
+            let pyramid = layers * window.pyramid_len as u64 * 16;
+            let heights = layers * window.rect.area() as u64 * 4;
+            let result = (tile.min(pr.width) * tile.min(pr.height)) as u64 * 16;
+            Footprint { largest_binding: pyramid.max(heights).max(result), total: pyramid + heights + result }
+        };
+        let push = |core, window: &Window| MultiviewPush {
             width: pr.width as i32,
             height: pr.height as i32,
             layers: pr.layers as i32,
-            level_count: pr.levels.len() as i32,
+            level_count: pr.level_count as i32,
             slots: pr.samples.slots as i32,
             patterns: pr.samples.patterns as i32,
             steps: pr.steps as i32,
             cull: i32::from(pr.cull),
-            pyramid_len: pr.pyramid_len as i32,
-            pad: [0; 3],
+            pyramid_len: window.pyramid_len as i32,
+            occupancy_words: pr.occupancy_words as i32,
+            pad: [0; 2],
             k: pr.k,
             focus: pr.focus,
             cone: pr.cone,
             pad3: 0.0,
             core: rect_push(core),
+            window: rect_push(window.rect),
         };
         render_image_tiles(
             ctx,
             &frame,
             options,
             footprint,
+            // What a tile reads is its window, not the service's read rect.
             |_| 0,
             |batch, core, _| {
+                let window = pr.window(core);
+                let pyramid_len = pr.layers * window.pyramid_len;
+                let pyramids = pr.window_pyramids(stack, &window);
+                let pyramid = Buffer::from_iter_in(ctx, batch, "multiview pyramid", pyramid_len, pyramids)?;
+                let heights_len = pr.layers * window.rect.area();
+                let heights = pr.window_heights(stack, &window);
+                let heights = Buffer::from_iter_in(ctx, batch, "multiview heights", heights_len, heights)?;
+                let levels =
+                    Buffer::from_iter_in(ctx, batch, "multiview levels", window.levels.len(), window.levels.iter().copied())?;
                 // The shader writes every core pixel.
                 let result = Buffer::uninitialised(ctx, "multiview result", core.area() as u64 * 16)?;
                 let bindings = [
@@ -124,7 +142,7 @@ impl Multiview {
                     result.all(),
                 ];
                 let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
-                batch.dispatch(&self.pipeline, &bindings, &push(core), groups)?;
+                batch.dispatch(&self.pipeline, &bindings, &push(core, &window), groups)?;
                 result.readable_in(ctx, batch)
             },
         )

@@ -86,7 +86,7 @@ const OPAQUE_TRANSMITTANCE: f32 = 1.0e-4;
 
 /// CPU reference of `glsl/multiview_trace.comp`.
 pub fn render_multiview_cpu(stack: &LayerStack, lens: &Lens, params: &MultiviewParams) -> Result<Image> {
-    let prepared = Prepared::new(stack, lens, params)?;
+    let prepared = Prepared::with_planes(stack, lens, params)?;
     let mut out = Image::new(stack.width, stack.height);
     out.pixels.par_chunks_mut(stack.width.max(1)).enumerate().for_each(|(y, row)| {
         for (x, pixel) in row.iter_mut().enumerate() {
@@ -123,7 +123,7 @@ fn trace(pr: &Prepared, p: [f32; 2], u: [f32; 2], pixel: usize) -> [f32; 4] {
     let mut transmittance = 1.0f32;
     for l in 0..pr.layers {
         let b = pr.bounds[l];
-        if b[2] == 0.0 || (pr.cull && pr.occupancy[l * pr.plane + pixel] == 0) {
+        if b[2] == 0.0 || (pr.cull && !pr.occupied(l, pixel)) {
             continue;
         }
         let t = intersect(pr, l, p, u, b[0], b[1]);

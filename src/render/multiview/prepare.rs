@@ -1,9 +1,18 @@
-//! What the multiview trace reads, built once on the host and shared by the CPU reference
-//! and the GPU path: per-layer disparity bounds, height fields, mip pyramids of the
-//! premultiplied RGBA (coverage in alpha), culling masks and the lens sample sets.
+//! What the multiview trace reads, built on the host and shared by the CPU reference and the
+//! GPU path: per-layer disparity bounds, culling masks and the lens sample sets for the frame,
+//! and, per window (a tile's reach; the whole frame for the CPU reference), the height fields
+//! and mip pyramids of the premultiplied RGBA (coverage in alpha).
+//!
+//! Windows keep tiles bit-identical to the whole frame: a window's origin is a multiple of
+//! 2^top (the highest mip level a ray reads) and it ends on such a multiple or at the frame's
+//! edge, so each of its levels up to `top` holds, texel for texel, the whole frame's level
+//! there (each texel the box filter of the same existing children). Reads clamp to the frame's
+//! edges and then index the window.
 use crate::render::lens_samples::LensSamples;
+use crate::render::tiling::crop;
 use crate::render::Lens;
 use crate::stack::LayerStack;
+use crate::tiling::Rect;
 use crate::{Error, Result};
 
 use super::MultiviewParams;
@@ -11,8 +20,6 @@ use super::MultiviewParams;
 pub(super) struct Prepared {
     pub width: usize,
     pub height: usize,
-    /// Pixels per layer plane (`width * height`).
-    pub plane: usize,
     pub layers: usize,
     pub k: f32,
     pub focus: f32,
@@ -23,18 +30,44 @@ pub(super) struct Prepared {
     pub samples: LensSamples,
     /// Per layer `[far disparity, near disparity, 1 if it has coverage, 0]`.
     pub bounds: Vec<[f32; 4]>,
-    /// Per layer plane: disparity, empty pixels at the layer's far bound.
-    pub heights: Vec<f32>,
-    /// Per layer plane: 1 when some covered pixel is within reach of the pixel's rays.
+    /// Per layer, a plane of `occupancy_words` words holding one bit per pixel (bit `i % 32`
+    /// of word `i / 32`): set when some covered pixel is within reach of the pixel's rays.
+    /// Bits, not words: the mask is read once per pixel and layer, and 32x smaller.
     pub occupancy: Vec<u32>,
-    /// Per mip level `[offset in a layer's pyramid, width, height, 0]`.
-    pub levels: Vec<[u32; 4]>,
-    /// Texels of one layer's pyramid; layer `l` starts at `l * pyramid_len`.
-    pub pyramid_len: usize,
+    pub occupancy_words: usize,
+    /// Mip levels of the whole frame (down to 1x1): the cone's level clamp.
+    pub level_count: usize,
+    /// The highest mip level any ray reads: windows align to 2^top_level.
+    pub top_level: usize,
+    /// Pixels from a pixel within which its rays read heights and pyramid texels (any layer).
+    pub margin: usize,
+    /// The CPU reference's window, the whole frame ([`Prepared::with_planes`]), and its
+    /// height fields and pyramids; the GPU path streams each tile's into device memory instead.
+    pub window: Window,
+    pub heights: Vec<f32>,
     pub pyramid: Vec<[f32; 4]>,
 }
 
+/// The part of the layers that a tile's rays read: `rect` (frame pixels) and its mip levels up
+/// to the top level read, `[offset in a layer's pyramid, width, height, 0]` each.
+pub(super) struct Window {
+    pub rect: Rect,
+    pub levels: Vec<[u32; 4]>,
+    /// Texels of one layer's pyramid of the window; layer `l` starts at `l * pyramid_len`.
+    pub pyramid_len: usize,
+}
+
+impl Window {
+    fn new(rect: Rect, level_count: usize) -> Self {
+        let levels = level_sizes(rect.width(), rect.height(), level_count);
+        let pyramid_len = levels.last().map_or(0, |l| (l[0] + l[1] * l[2]) as usize);
+        Self { rect, levels, pyramid_len }
+    }
+}
+
 impl Prepared {
+    /// Everything but the height fields and pyramids, which the caller streams from `stack`
+    /// per window ([`Self::window_heights`], [`Self::window_pyramids`]).
     pub fn new(stack: &LayerStack, lens: &Lens, params: &MultiviewParams) -> Result<Self> {
         params.validate()?;
         let (width, height) = (stack.width, stack.height);
@@ -44,12 +77,10 @@ impl Prepared {
         let samples = LensSamples::new(&lens.aperture, params.samples, params.patterns, params.seed)?;
         let (k, focus) = (lens.coc.k_px, lens.coc.focus_disparity);
         let cone = samples.spacing * params.cone_scale * k;
-        let levels = mip_levels(width, height);
-        let pyramid_len = levels.last().map_or(0, |l| (l[0] + l[1] * l[2]) as usize);
+        let level_count = mip_level_count(width, height);
         let mut pr = Prepared {
             width,
             height,
-            plane: width * height,
             layers: stack.layers.len(),
             k,
             focus,
@@ -58,14 +89,18 @@ impl Prepared {
             cull: params.cull,
             samples,
             bounds: Vec::new(),
-            heights: Vec::new(),
             occupancy: Vec::new(),
-            levels,
-            pyramid_len,
+            occupancy_words: (width * height).div_ceil(32),
+            level_count,
+            top_level: 0,
+            margin: 0,
+            window: Window::new(Rect { x0: 0, y0: 0, x1: width, y1: height }, level_count),
+            heights: Vec::new(),
             pyramid: Vec::new(),
         };
+        let mut widest = 0.0f32;
         for layer in &stack.layers {
-            let covered: Vec<bool> = layer.rgba.pixels.iter().map(|p| p[3] > 0.0).collect();
+            let covered: Vec<bool> = layer.rgba.pixels.iter().map(is_covered).collect();
             let (lo, hi) = covered.iter().zip(&layer.disparity).filter(|(&c, _)| c).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), (_, &d)| (lo.min(d), hi.max(d)));
             let active = lo.is_finite() && hi.is_finite();
             if !active && covered.iter().any(|&c| c) {
@@ -73,25 +108,98 @@ impl Prepared {
             }
             let (lo, hi) = if active { (lo, hi) } else { (0.0, 0.0) };
             pr.bounds.push([lo, hi, if active { 1.0 } else { 0.0 }, 0.0]);
-            pr.heights.extend(covered.iter().zip(&layer.disparity).map(|(&c, &d)| if c { d } else { lo }));
+            // Inactive layers are never traced, so their (zero) bounds widen nothing.
+            if active {
+                widest = widest.max(pr.relative_reach(lo, hi));
+            }
             let reach = pr.reach(lo, hi);
             pr.occupancy.extend(dilate(&covered, width, height, reach));
-            pr.pyramid.extend(build_pyramid(&layer.rgba.pixels, &pr.levels));
         }
+        (pr.top_level, pr.margin) = pr.read_extent(widest);
         Ok(pr)
+    }
+
+    /// [`Self::new`] with the whole frame's height fields and pyramids on the host (the CPU
+    /// reference), read through the same window indexing as a GPU tile's.
+    pub fn with_planes(stack: &LayerStack, lens: &Lens, params: &MultiviewParams) -> Result<Self> {
+        let mut pr = Self::new(stack, lens, params)?;
+        pr.heights = pr.window_heights(stack, &pr.window).collect();
+        pr.pyramid = pr.window_pyramids(stack, &pr.window).collect();
+        Ok(pr)
+    }
+
+    /// The window a tile with this `core` reads: the core grown by [`Self::margin`], then out
+    /// to multiples of 2^top_level (or the frame's edge), with levels up to the top level.
+    pub fn window(&self, core: Rect) -> Window {
+        let grown = core.grown(self.margin, self.width, self.height);
+        let align = 1usize << self.top_level;
+        let rect = Rect {
+            x0: grown.x0 / align * align,
+            y0: grown.y0 / align * align,
+            x1: (grown.x1.div_ceil(align) * align).min(self.width),
+            y1: (grown.y1.div_ceil(align) * align).min(self.height),
+        };
+        Window::new(rect, self.top_level + 1)
+    }
+
+    /// Bound of how far a window reaches past its core: the margin, plus the alignment.
+    pub fn window_halo(&self) -> usize {
+        self.margin + (1 << self.top_level) - 1
+    }
+
+    /// The largest window of a `tile`-sided core (for the tile's memory footprint).
+    pub fn largest_window(&self, tile: usize) -> Window {
+        let side = |size: usize| (tile + 2 * self.window_halo()).min(size);
+        Window::new(Rect { x0: 0, y0: 0, x1: side(self.width), y1: side(self.height) }, self.top_level + 1)
+    }
+
+    /// Every layer's height field over `window`, in order (`layers * area` texels): the
+    /// disparity, empty pixels at the layer's far bound so that rays pass through holes.
+    pub fn window_heights<'a>(&'a self, stack: &'a LayerStack, window: &'a Window) -> impl Iterator<Item = f32> + 'a {
+        stack.layers.iter().zip(&self.bounds).flat_map(move |(layer, &[far, ..])| {
+            let rgba = crop(&layer.rgba.pixels, self.width, window.rect);
+            rgba.zip(crop(&layer.disparity, self.width, window.rect)).map(move |(p, d)| if is_covered(&p) { d } else { far })
+        })
+    }
+
+    /// Every layer's pyramid over `window`, in order (`layers * pyramid_len` texels), built
+    /// level by level as it is consumed ([`PyramidTexels`]).
+    pub fn window_pyramids<'a>(&'a self, stack: &'a LayerStack, window: &'a Window) -> impl Iterator<Item = [f32; 4]> + 'a {
+        stack.layers.iter().flat_map(move |layer| PyramidTexels::new(&layer.rgba.pixels, self.width, window.rect, &window.levels))
+    }
+
+    /// Whether layer `l` has coverage within reach of `pixel`'s rays (the culling mask).
+    pub fn occupied(&self, l: usize, pixel: usize) -> bool {
+        bit(&self.occupancy[l * self.occupancy_words..], pixel)
     }
 
     /// Pixels from `x` within which a ray of `x` can read layer texels with disparity in
     /// [lo, hi]: the largest CoC, plus the widest cone's trilinear footprint, plus a bilinear tap.
     fn reach(&self, lo: f32, hi: f32) -> usize {
-        let rel = (lo - self.focus).abs().max((hi - self.focus).abs());
+        let rel = self.relative_reach(lo, hi);
         let level = self.level_for(self.cone * rel).ceil();
         (self.k * rel + 2.0f32.powf(level + 1.0) + 1.0).ceil() as usize
     }
 
+    /// The largest |relative disparity| in [lo, hi].
+    fn relative_reach(&self, lo: f32, hi: f32) -> f32 {
+        (lo - self.focus).abs().max((hi - self.focus).abs())
+    }
+
+    /// For rays whose |relative disparity| is at most `rel`: the highest mip level they read
+    /// (the trilinear read's upper level, one above the cone's; the ceiling and the extra pixel
+    /// below absorb the ulps a computed disparity may stray past its bounds) and the pixels
+    /// from the ray's pixel within which they read: the CoC, plus a level-L bilinear tap's
+    /// texels (within 1.5 * 2^L + 0.5 of its position), plus the height lookup's rounding.
+    fn read_extent(&self, rel: f32) -> (usize, usize) {
+        let top = (self.level_for(self.cone * rel).ceil() as usize + 1).min(self.level_count - 1);
+        let margin = (self.k * rel + 1.0 + 1.5 * (1u64 << top) as f32 + 0.5).ceil() as usize + 1;
+        (top, margin)
+    }
+
     /// Mip level of a cone `diameter` pixels wide (level 0 below one pixel).
     pub fn level_for(&self, diameter: f32) -> f32 {
-        diameter.max(1.0).log2().min(self.levels.len() as f32 - 1.0)
+        diameter.max(1.0).log2().min(self.level_count as f32 - 1.0)
     }
 
     /// The layer's height at the ray's position for disparity `t` (nearest texel, edge clamped).
@@ -99,7 +207,8 @@ impl Prepared {
         let rel = t - self.focus;
         let x = nearest(p[0] + u[0] * rel, self.width);
         let y = nearest(p[1] + u[1] * rel, self.height);
-        self.heights[l * self.plane + y * self.width + x]
+        let rect = self.window.rect;
+        self.heights[l * rect.area() + (y - rect.y0) * rect.width() + (x - rect.x0)]
     }
 
     /// Trilinear read of layer `l`'s pyramid at level-0 position `pos` for a cone `diameter`.
@@ -108,24 +217,26 @@ impl Prepared {
         let l0 = level.floor();
         let frac = level - l0;
         let l0 = l0 as usize;
-        let l1 = (l0 + 1).min(self.levels.len() - 1);
+        let l1 = (l0 + 1).min(self.level_count - 1);
         let a = self.bilinear(l, l0, pos);
         let b = self.bilinear(l, l1, pos);
         [0, 1, 2, 3].map(|c| a[c] + (b[c] - a[c]) * frac)
     }
 
     fn bilinear(&self, l: usize, level: usize, pos: [f32; 2]) -> [f32; 4] {
-        let [offset, w, h, _] = self.levels[level];
+        let [offset, w, _, _] = self.window.levels[level];
+        let (frame_w, frame_h) = (level_size(self.width, level), level_size(self.height, level));
+        let (x_origin, y_origin) = (self.window.rect.x0 >> level, self.window.rect.y0 >> level);
         let scale = 1.0 / (1u32 << level) as f32;
         let cx = (pos[0] + 0.5) * scale - 0.5;
         let cy = (pos[1] + 0.5) * scale - 0.5;
         let (x0, y0) = (cx.floor(), cy.floor());
         let (fx, fy) = (cx - x0, cy - y0);
-        let base = l * self.pyramid_len + offset as usize;
+        let base = l * self.window.pyramid_len + offset as usize;
         let texel = |x: f32, y: f32| {
-            let xi = x.clamp(0.0, w as f32 - 1.0) as usize;
-            let yi = y.clamp(0.0, h as f32 - 1.0) as usize;
-            self.pyramid[base + yi * w as usize + xi]
+            let xi = x.clamp(0.0, frame_w as f32 - 1.0) as usize;
+            let yi = y.clamp(0.0, frame_h as f32 - 1.0) as usize;
+            self.pyramid[base + (yi - y_origin) * w as usize + (xi - x_origin)]
         };
         let (t00, t10, t01, t11) = (texel(x0, y0), texel(x0 + 1.0, y0), texel(x0, y0 + 1.0), texel(x0 + 1.0, y0 + 1.0));
         [0, 1, 2, 3].map(|c| {
@@ -142,44 +253,127 @@ fn nearest(x: f32, size: usize) -> usize {
     (x + 0.5).floor().clamp(0.0, size as f32 - 1.0) as usize
 }
 
-/// Mip chain down to 1x1: `[offset, width, height, 0]`, each level half the previous (ceil).
-fn mip_levels(width: usize, height: usize) -> Vec<[u32; 4]> {
-    let (mut w, mut h, mut offset) = (width, height, 0usize);
-    let mut levels = vec![[0, w as u32, h as u32, 0]];
-    while w > 1 || h > 1 {
-        offset += w * h;
-        w = w.div_ceil(2);
-        h = h.div_ceil(2);
-        levels.push([offset as u32, w as u32, h as u32, 0]);
-    }
-    levels
+/// Texels across mip level `level` of a side of `size` pixels: each level half the previous,
+/// rounded up (`ceil(size / 2^level)`), as the shader computes it.
+fn level_size(size: usize, level: usize) -> usize {
+    ((size - 1) >> level) + 1
 }
 
-/// Box-filtered pyramid: each texel is the mean of its (up to four) existing children, so
-/// alpha at level L is the coverage of its 2^L x 2^L footprint.
+/// Mip levels of a `width x height` image down to 1x1.
+fn mip_level_count(width: usize, height: usize) -> usize {
+    (0..).find(|&level| level_size(width, level) == 1 && level_size(height, level) == 1).unwrap_or(0) + 1
+}
+
+/// The first `count` mip levels of a `width x height` image: `[offset, width, height, 0]`.
+/// Levels past 1x1 stay 1x1 (a window at the frame's corner may be 1x1 below its top level).
+fn level_sizes(width: usize, height: usize, count: usize) -> Vec<[u32; 4]> {
+    let mut offset = 0;
+    (0..count)
+        .map(|level| {
+            let (w, h) = (level_size(width, level), level_size(height, level));
+            let entry = [offset as u32, w as u32, h as u32, 0];
+            offset += w * h;
+            entry
+        })
+        .collect()
+}
+
+/// Mip chain of a `width x height` image down to 1x1: `[offset, width, height, 0]`.
+#[cfg(test)]
+fn mip_levels(width: usize, height: usize) -> Vec<[u32; 4]> {
+    level_sizes(width, height, mip_level_count(width, height))
+}
+
+/// Box-filtered pyramid of a whole image.
+#[cfg(test)]
 fn build_pyramid(base: &[[f32; 4]], levels: &[[u32; 4]]) -> Vec<[f32; 4]> {
-    let mut out = base.to_vec();
-    for pair in levels.windows(2) {
-        let ([po, pw, ph, _], [_, w, h, _]) = (pair[0], pair[1]);
-        let (po, pw, ph) = (po as usize, pw as usize, ph as usize);
-        for y in 0..h as usize {
-            for x in 0..w as usize {
-                let (mut sum, mut n) = ([0.0f32; 4], 0.0f32);
-                for (cx, cy) in [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)] {
-                    if cx < pw && cy < ph {
-                        let t = out[po + cy * pw + cx];
-                        (0..4).for_each(|c| sum[c] += t[c]);
-                        n += 1.0;
-                    }
+    let (width, height) = (levels[0][1] as usize, levels[0][2] as usize);
+    PyramidTexels::new(base, width, Rect { x0: 0, y0: 0, x1: width, y1: height }, levels).collect()
+}
+
+/// The texels of a box-filtered pyramid of `rect` of a row-major image `base_width` wide
+/// (each texel the mean of its up to four existing children; alpha at level L is the coverage
+/// of its 2^L x 2^L footprint), level after level, each level computed from the previous one
+/// when the iterator reaches it. Only that previous level is held (a quarter of the rect at
+/// most): a device buffer fills from this with no host copy of the pyramid beside it.
+struct PyramidTexels<'a> {
+    base: &'a [[f32; 4]],
+    base_width: usize,
+    rect: Rect,
+    levels: &'a [[u32; 4]],
+    /// Index in `levels` of the level being yielded.
+    level: usize,
+    /// That level's texels, once past level 0 (which is `rect` of `base`).
+    texels: Vec<[f32; 4]>,
+    /// The next texel of that level to yield.
+    next: usize,
+}
+
+impl<'a> PyramidTexels<'a> {
+    fn new(base: &'a [[f32; 4]], base_width: usize, rect: Rect, levels: &'a [[u32; 4]]) -> Self {
+        Self { base, base_width, rect, levels, level: 0, texels: Vec::new(), next: 0 }
+    }
+
+    /// Texel (x, y) of level 0: pixel (x, y) of `rect`.
+    fn base_texel(&self, x: usize, y: usize) -> [f32; 4] {
+        self.base[(self.rect.y0 + y) * self.base_width + self.rect.x0 + x]
+    }
+}
+
+impl Iterator for PyramidTexels<'_> {
+    type Item = [f32; 4];
+
+    fn next(&mut self) -> Option<[f32; 4]> {
+        let [_, pw, ph, _] = self.levels[self.level];
+        let (pw, ph) = (pw as usize, ph as usize);
+        if self.next == pw * ph {
+            let &[_, w, h, _] = self.levels.get(self.level + 1)?;
+            self.texels = if self.level == 0 {
+                downsample(|x, y| self.base_texel(x, y), pw, ph, w as usize, h as usize)
+            } else {
+                downsample(|x, y| self.texels[y * pw + x], pw, ph, w as usize, h as usize)
+            };
+            (self.level, self.next) = (self.level + 1, 0);
+            return self.next();
+        }
+        let (x, y) = (self.next % pw, self.next / pw);
+        self.next += 1;
+        Some(if self.level == 0 { self.base_texel(x, y) } else { self.texels[y * pw + x] })
+    }
+}
+
+/// The `w x h` level above a `pw x ph` one whose texel (x, y) is `previous(x, y)`: each texel
+/// the mean of its existing children.
+fn downsample(previous: impl Fn(usize, usize) -> [f32; 4], pw: usize, ph: usize, w: usize, h: usize) -> Vec<[f32; 4]> {
+    let mut out = Vec::with_capacity(w * h);
+    for y in 0..h {
+        for x in 0..w {
+            let (mut sum, mut n) = ([0.0f32; 4], 0.0f32);
+            for (cx, cy) in [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)] {
+                if cx < pw && cy < ph {
+                    let t = previous(cx, cy);
+                    (0..4).for_each(|c| sum[c] += t[c]);
+                    n += 1.0;
                 }
-                out.push(sum.map(|s| s / n));
             }
+            out.push(sum.map(|s| s / n));
         }
     }
     out
 }
 
-/// 1 where some covered pixel lies in the square of half-size `reach` (summed-area table).
+/// A pixel with any coverage: it sets the layer's disparity bounds and its height field.
+fn is_covered(pixel: &[f32; 4]) -> bool {
+    pixel[3] > 0.0
+}
+
+/// Bit `i` of a bit plane (bit `i % 32` of word `i / 32`), as the shader reads it.
+fn bit(words: &[u32], i: usize) -> bool {
+    (words[i / 32] >> (i % 32)) & 1 == 1
+}
+
+/// Bit plane ([`bit`]): set where some covered pixel lies in the square of half-size `reach`
+/// (summed-area table).
 fn dilate(covered: &[bool], width: usize, height: usize, reach: usize) -> Vec<u32> {
     let stride = width + 1;
     let mut table = vec![0u32; stride * (height + 1)];
@@ -189,13 +383,14 @@ fn dilate(covered: &[bool], width: usize, height: usize, reach: usize) -> Vec<u3
                 u32::from(covered[y * width + x]) + table[y * stride + x + 1] + table[(y + 1) * stride + x] - table[y * stride + x];
         }
     }
-    let mut out = Vec::with_capacity(width * height);
+    let mut out = vec![0u32; (width * height).div_ceil(32)];
     for y in 0..height {
         let (y0, y1) = (y.saturating_sub(reach), (y + reach + 1).min(height));
         for x in 0..width {
             let (x0, x1) = (x.saturating_sub(reach), (x + reach + 1).min(width));
             let count = table[y1 * stride + x1] + table[y0 * stride + x0] - table[y0 * stride + x1] - table[y1 * stride + x0];
-            out.push(u32::from(count > 0));
+            let i = y * width + x;
+            out[i / 32] |= u32::from(count > 0) << (i % 32);
         }
     }
     out
@@ -219,16 +414,121 @@ mod tests {
         assert!((pyramid.last().unwrap()[3] - 0.25).abs() < 1e-6);
     }
 
+    /// The packed mask has exactly the bits of a brute-force square search, across word
+    /// boundaries and on a plane whose size is no multiple of 32 (13 x 7 = 91 pixels).
     #[test]
     fn dilation_reaches_exactly_the_square() {
-        let mut covered = vec![false; 9 * 9];
-        covered[4 * 9 + 4] = true;
-        let mask = dilate(&covered, 9, 9, 2);
-        for y in 0..9usize {
-            for x in 0..9usize {
-                let inside = x.abs_diff(4) <= 2 && y.abs_diff(4) <= 2;
-                assert_eq!(mask[y * 9 + x] == 1, inside, "({x}, {y})");
+        let (w, h) = (13usize, 7usize);
+        let points = [(4usize, 4usize), (12, 0)];
+        let mut covered = vec![false; w * h];
+        points.iter().for_each(|&(x, y)| covered[y * w + x] = true);
+        let mask = dilate(&covered, w, h, 2);
+        assert_eq!(mask.len(), 3);
+        assert_eq!(mask[2] >> (w * h - 64), 0, "no bit past the plane");
+        for y in 0..h {
+            for x in 0..w {
+                let inside = points.iter().any(|&(px, py)| x.abs_diff(px) <= 2 && y.abs_diff(py) <= 2);
+                assert_eq!(bit(&mask, y * w + x), inside, "({x}, {y})");
             }
         }
+    }
+
+    /// The streamed pyramid is the eager one: every level downsampled from the whole previous
+    /// level (the eager construction, written out here), in the same texel order.
+    #[test]
+    fn streamed_pyramid_equals_the_levels_built_one_by_one() {
+        let (w, h) = (11usize, 6usize);
+        let base = texels(w, h);
+        let levels = mip_levels(w, h);
+        let mut eager = base.clone();
+        let mut previous = base.clone();
+        for pair in levels.windows(2) {
+            let pw = pair[0][1] as usize;
+            let next = downsample(|x, y| previous[y * pw + x], pw, pair[0][2] as usize, pair[1][1] as usize, pair[1][2] as usize);
+            assert_eq!(eager.len(), pair[1][0] as usize, "level offsets");
+            eager.extend_from_slice(&next);
+            previous = next;
+        }
+        let streamed = build_pyramid(&base, &levels);
+        assert_eq!(streamed.len(), levels.last().map(|l| (l[0] + l[1] * l[2]) as usize).unwrap());
+        assert_eq!(bits_of(&streamed), bits_of(&eager));
+    }
+
+    /// A window whose origin is a multiple of 2^top and that ends on such a multiple or at the
+    /// frame's edge holds, level by level up to `top`, the whole frame's texels over it: what
+    /// keeps a tile's trace bit-identical to the whole frame's. Frame 23 x 13 (odd sides, so
+    /// partial texels at the edges), tops 0 to 4 (4: the window's corner is 1x1 below it).
+    #[test]
+    fn an_aligned_window_pyramid_equals_the_frames_over_it() {
+        let (w, h) = (23usize, 13usize);
+        let base = texels(w, h);
+        let frame_levels = mip_levels(w, h);
+        let frame = build_pyramid(&base, &frame_levels);
+        for top in 0..=4usize {
+            let align = 1 << top;
+            for (x0, y0, x1, y1) in [(0, 0, w, h), (align, 0, 2 * align, h), (align, align, w, h), (0, 0, align, align)] {
+                let (x1, y1) = (x1.min(w), y1.min(h));
+                if x0 >= x1 || y0 >= y1 {
+                    continue;
+                }
+                let rect = Rect { x0, y0, x1, y1 };
+                let window = Window::new(rect, top + 1);
+                let pyramid: Vec<[f32; 4]> = PyramidTexels::new(&base, w, rect, &window.levels).collect();
+                assert_eq!(pyramid.len(), window.pyramid_len);
+                for (level, &[offset, ww, wh, _]) in window.levels.iter().enumerate() {
+                    let [frame_offset, fw, _, _] = frame_levels[level];
+                    for y in 0..wh as usize {
+                        for x in 0..ww as usize {
+                            let ours = pyramid[offset as usize + y * ww as usize + x];
+                            let (fx, fy) = (x + (x0 >> level), y + (y0 >> level));
+                            let theirs = frame[frame_offset as usize + fy * fw as usize + fx];
+                            assert_eq!(bits_of(&[ours]), bits_of(&[theirs]), "top {top} {rect:?} level {level} ({x}, {y})");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Every tile's window starts on a multiple of 2^top, ends on one or at the frame's edge,
+    /// holds its core grown by the margin, and stays within the halo the tiler is told of.
+    #[test]
+    fn windows_are_aligned_and_cover_the_reach() {
+        use crate::camera::{Aperture, CocModel};
+        use crate::image::Image;
+        use crate::stack::Layer;
+        let (w, h) = (97usize, 61usize);
+        let layer = Layer { name: "l".into(), rgba: Image::from_fn(w, h, |_, _| [1.0; 4]), disparity: vec![0.9; w * h] };
+        let stack = LayerStack::new(w, h, vec![layer]).unwrap();
+        let lens = Lens { coc: CocModel::new(14.0, 0.5).unwrap(), aperture: Aperture::Disk };
+        let params = MultiviewParams { samples: 16, cone_scale: 2.0, ..MultiviewParams::default() };
+        let pr = Prepared::new(&stack, &lens, &params).unwrap();
+        assert!(pr.top_level >= 3 && pr.margin > 1 << pr.top_level, "top {} margin {}", pr.top_level, pr.margin);
+        let align = 1 << pr.top_level;
+        for tile in [7, 20, 33] {
+            for y0 in (0..h).step_by(tile) {
+                for x0 in (0..w).step_by(tile) {
+                    let core = Rect { x0, y0, x1: (x0 + tile).min(w), y1: (y0 + tile).min(h) };
+                    let window = pr.window(core);
+                    let (r, reach) = (window.rect, core.grown(pr.margin, w, h));
+                    assert!(r.x0 % align == 0 && r.y0 % align == 0, "{core:?}: {r:?}");
+                    assert!(r.x1 % align == 0 || r.x1 == w, "{core:?}: {r:?}");
+                    assert!(r.y1 % align == 0 || r.y1 == h, "{core:?}: {r:?}");
+                    assert!(r.x0 <= reach.x0 && r.y0 <= reach.y0 && r.x1 >= reach.x1 && r.y1 >= reach.y1, "{core:?}: {r:?}");
+                    let halo = core.grown(pr.window_halo(), w, h);
+                    assert!(r.x0 >= halo.x0 && r.y0 >= halo.y0 && r.x1 <= halo.x1 && r.y1 <= halo.y1, "{core:?}: {r:?}");
+                    assert!(window.pyramid_len <= pr.largest_window(tile).pyramid_len);
+                }
+            }
+        }
+    }
+
+    /// Distinct, non-dyadic texel values, so a misplaced child changes the mean.
+    fn texels(w: usize, h: usize) -> Vec<[f32; 4]> {
+        (0..w * h).map(|i| [i as f32 * 0.37, (i * 7 % 5) as f32, 0.25, (i % 3) as f32 / 3.0]).collect()
+    }
+
+    fn bits_of(texels: &[[f32; 4]]) -> Vec<u32> {
+        texels.iter().flatten().map(|v| v.to_bits()).collect()
     }
 }
