@@ -108,7 +108,9 @@ fn ellipse_axes(base: &[f64; 4]) -> [[f64; 2]; 2] {
     [[c, s], [-s * base[2], c * base[2]]]
 }
 
-/// The rows of the unit base aperture in closed form (f64).
+/// The rows of the unit base aperture in closed form (f64). Fixed arrays: nothing allocated
+/// per tile.
+#[allow(clippy::large_enum_variant)]
 enum BaseRows {
     Polygon([[f64; 2]; MAX_BLADES], usize),
     Ellipse([[f64; 2]; 2]),
@@ -174,6 +176,7 @@ pub struct Eye {
 }
 
 #[derive(Clone, Debug, PartialEq)]
+#[allow(clippy::large_enum_variant)]
 enum EyeBase {
     /// `n_i / (1 - n_i . c)`: `B - c` is `n_i . q <= 1 - n_i . c`.
     Polygon([[f64; 2]; MAX_BLADES], usize),

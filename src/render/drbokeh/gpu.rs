@@ -28,7 +28,8 @@ pub(crate) const VEC4: u64 = 16;
 pub struct DrBokehGpu {
     ctx: Context,
     kernel: LayerKernel,
-    sources: ComputePipeline,
+    /// Specialized by whether the lens is vignetted (`SOURCES_VIGNETTED`), made on first use.
+    sources: PipelineVariants,
     /// Row block sums of the prepass for the disk path's interior spans.
     blocks: ComputePipeline,
     layer: ComputePipeline,
@@ -128,7 +129,7 @@ impl DrBokehGpu {
         Ok(Self {
             ctx: ctx.clone(),
             kernel,
-            sources: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_SOURCES, &SOURCES_SLOTS, push)?,
+            sources: PipelineVariants::new(ctx, &shaders::DRBOKEH_LAYER_SOURCES, &SOURCES_SLOTS, push)?,
             blocks: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_BLOCKS, &BLOCKS_SLOTS, push)?,
             layer,
             layer_disk,
@@ -231,7 +232,8 @@ impl DrBokehGpu {
         if self.kernel != LayerKernel::Baseline {
             let extent = [b.read.width() as u32, b.read.height() as u32, params.layer_count as u32];
             let bindings = [b.rgba.all(), b.disparity.all(), b.area_lut.all(), b.source_pa.all(), b.source_sa.all()];
-            batch.dispatch(&self.sources, &bindings, &push, self.sources.groups_for(extent))?;
+            let sources = self.sources.get(&[params.lens.is_vignetted() as u32])?;
+            batch.dispatch(&sources, &bindings, &push, sources.groups_for(extent))?;
         }
         if self.kernel == LayerKernel::Optimised && spans {
             // One invocation per global 16-px block (of those the read rect touches) and row.
