@@ -18,6 +18,12 @@
 
 layout(local_size_x = 16, local_size_y = 16, local_size_z = 1) in;
 
+// Whether the lens is vignetted (shape -2, default model only: each source normalised by its
+// own position's shape, drbokeh_area_at). A specialization constant, not the push constant's
+// shape: the vignetted polygon's and ellipse's direction and four tables, even never run,
+// slowed every other lens's prepass by ~40% on lavapipe (195 -> 280 ms, 1024^2 frame).
+layout(constant_id = 0) const bool SOURCES_VIGNETTED = false;
+
 // Inputs are uniform texel buffers (texelFetch): see Slot::Texels in src/vk/pipeline.rs.
 layout(set = 0, binding = 0) uniform samplerBuffer rgba;
 layout(set = 0, binding = 1) uniform samplerBuffer disparity;
@@ -43,9 +49,8 @@ void main() {
     int i = drbokeh_read_index(layer, pc.read.xy + local);
     vec4 p = texelFetch(rgba, i);
     float s = pc.k_px * (texelFetch(disparity, i).x - pc.focus_disparity);
-    // A vignetted lens (shape -2, default model only) normalises by the source's own shape.
     ivec2 position = pc.read.xy + local;
-    float area = pc.aperture.x < -1.5 ? drbokeh_area_at(abs(s), position) : drbokeh_area_for(abs(s));
+    float area = SOURCES_VIGNETTED ? drbokeh_area_at(abs(s), position) : drbokeh_area_for(abs(s));
     source_pa[i] = p.w > 0.0 ? p / area : vec4(0.0);
     source_sa[i] = vec2(s, p.w);
 }

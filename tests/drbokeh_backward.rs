@@ -366,11 +366,14 @@ fn leaky_gradient_reaches_nearly_in_focus_layers() {
     assert!(leaky > 1e-2, "leaky gradient {leaky} must reach the nearly in-focus layer");
 }
 
-/// The vignetted disk (one-pass `--cats-eye`) has a shape per receiver tile, which the
-/// backward's gauge paths do not take: refused with a message, never a silently wrong gradient.
+/// A vignetted aperture (one-pass `--cats-eye` of a disk, a straight-bladed polygon or the
+/// ellipse) has a shape per receiver tile, which the backward's gauge paths do not take:
+/// refused with a message, never a silently wrong gradient.
 #[test]
-fn backward_refuses_the_vignetted_disk() {
-    let lens = Lens { aperture: Aperture::Vignetted { strength: 0.6 }, ..lens(6.0, 0.5) };
-    let error = backward_cpu(&stack(), &lens, Model::DrBokeh, BackwardOptions::exact(), &grad_output()).unwrap_err();
-    assert!(error.to_string().contains("no backward pass"), "{error}");
+fn backward_refuses_vignetted_apertures() {
+    for base in [Aperture::Disk, Aperture::polygon(6, 0.0, 0.0).unwrap(), Aperture::anamorphic(1.8, 0.0).unwrap()] {
+        let lens = Lens { aperture: Aperture::vignetted(&base, 0.6).unwrap(), ..lens(6.0, 0.5) };
+        let error = backward_cpu(&stack(), &lens, Model::DrBokeh, BackwardOptions::exact(), &grad_output()).unwrap_err();
+        assert!(error.to_string().contains("no backward pass"), "{base:?}: {error}");
+    }
 }

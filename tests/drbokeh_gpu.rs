@@ -298,13 +298,19 @@ fn ring_path_matches_per_tap_evaluation_and_is_bit_identical_tiled_or_not() {
     finish(ctx);
 }
 
-/// The vignetted disk (one-pass `--cats-eye`: the cat's-eye of each 16 px receiver tile, each
-/// source's area from its own position) against its f64 CPU reference, which evaluates every
-/// tap with the same shapes, and against the same shader evaluating every tap (no interior
-/// sums, no trimmed rows), with its near layer crossing focus and at the limit strength 1.5
-/// (corner eyes with |a| = 0.75, 14% of the disk) as well as 0.6.
+/// The vignetted apertures (one-pass `--cats-eye`) against their f64 CPU reference, which
+/// evaluates every tap with the same shapes, and against the same shader evaluating every tap
+/// (no interior sums, no trimmed rows), bit-identical across tile sizes, with the near layer
+/// crossing focus (both orientations bound the rows) and at the limit strength 1.5 as well as
+/// 0.6:
+/// - the disk: the cat's-eye of each 16 px receiver tile, each source's area from its own
+///   position (corner eyes at 1.5 with |a| = 0.75, 14% of the disk);
+/// - straight-bladed polygons and the ellipse: each tile's base clipped by its vignetting disk
+///   and recentred on the centroid from the host's table (src/camera/vignetted.rs), rows from
+///   the base's table intersected with the disks', each source's area from the tables around
+///   its own shift (the corners' eyes at 1.5 keep a sliver of the base).
 #[test]
-fn vignetted_disk_matches_cpu_reference_and_per_tap_evaluation() {
+fn vignetted_apertures_match_cpu_reference_and_per_tap_evaluation() {
     let ctx = gpu();
     let fast = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
     let full = DrBokehGpu::with_kernel(&ctx, LayerKernel::OptimisedNoInterior).unwrap();
@@ -313,16 +319,27 @@ fn vignetted_disk_matches_cpu_reference_and_per_tap_evaluation() {
         stack.layers[0].disparity = (0..w * h).map(|i| 0.3 + 0.006 * (i % w) as f32).collect();
         stack
     };
-    for strength in [0.6, 1.5] {
-        let aperture = Aperture::Vignetted { strength };
-        // 3x3 tiles at K = 25 (the CPU reference is slow): the same bound as every aperture's.
-        let small = crossing(45, 37);
-        let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: aperture.clone() };
-        let worst = worst_relative(&fast.render(&small, &lens, Model::DrBokeh).unwrap(), &render_cpu(&small, &lens, Model::DrBokeh).unwrap());
-        assert!(worst < 5e-5, "strength {strength}: worst relative difference {worst} from the CPU reference");
-        let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture };
-        assert_span_path_matches(&fast, &full, &crossing(70, 53), &lens);
+    let bases = [
+        Aperture::Disk,
+        Aperture::polygon(6, 0.0, 0.0).unwrap(),
+        Aperture::polygon(5, 17.0, 0.0).unwrap(),
+        Aperture::anamorphic(1.8, 0.0).unwrap(),
+        Aperture::anamorphic(1.8, 70.0).unwrap(),
+    ];
+    for base in &bases {
+        for strength in [0.6, 1.5] {
+            let aperture = Aperture::vignetted(base, strength).unwrap();
+            // 3x3 tiles at K = 25 (the CPU reference is slow): the same bound as every aperture's.
+            let small = crossing(45, 37);
+            let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: aperture.clone() };
+            let worst = worst_relative(&fast.render(&small, &lens, Model::DrBokeh).unwrap(), &render_cpu(&small, &lens, Model::DrBokeh).unwrap());
+            assert!(worst < 5e-5, "{base:?} strength {strength}: worst relative difference {worst} from the CPU reference");
+            let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture };
+            assert_span_path_matches(&fast, &full, &crossing(70, 53), &lens);
+        }
     }
+    assert!(Aperture::vignetted(&Aperture::polygon(6, 0.0, 0.2).unwrap(), 0.6).is_none(), "rounded blades keep the node grid");
+    assert!(Aperture::vignetted(&Aperture::ring(0.5).unwrap(), 0.6).is_none(), "the ring keeps the node grid");
     drop((fast, full));
     finish(ctx);
 }

@@ -116,9 +116,33 @@ vec2 drbokeh_vignette_centre(vec2 p) {
     return (0.5 * pc.aperture.y / max(length(c), 1.0)) * (p - c);
 }
 
+const int DRBOKEH_VIGNETTE_BASE_AREA_LEVELS = 9; // VIGNETTE_BASE_AREA_LEVELS in src/render/drbokeh/mod.rs
+const int DRBOKEH_VIGNETTE_AREA_DIRECTIONS = 9; // VIGNETTE_AREA_DIRECTIONS
+const float DRBOKEH_PI = 3.14159265358979;
+
 // Area of a source of radius r at pixel p of a vignetted render: linear between the area
-// tables of the two cat's-eyes around its |a| (`Params::area_at`).
+// tables of the two cat's-eyes around its |a| (`Params::area_at`). A vignetted polygon or
+// ellipse (base shape pc.aperture.z, rotation .w): bilinear in |s| and the shift's direction
+// folded into half a symmetry sector (`vignette_area_coordinates`).
 float drbokeh_area_at(float r, ivec2 p) {
+    if (pc.aperture.z > 0.5) {
+        vec2 s = 2.0 * drbokeh_vignette_centre(vec2(p));
+        float len = length(s);
+        float level = pc.aperture.y > 0.0 ? len / pc.aperture.y * float(DRBOKEH_VIGNETTE_BASE_AREA_LEVELS - 1) : 0.0;
+        float sector = 2.0 * DRBOKEH_PI / (pc.aperture.z >= 3.0 ? pc.aperture.z : 2.0);
+        float angle = len > 0.0 ? mod(atan(s.y, s.x) - pc.aperture.w, sector) : 0.0;
+        float folded = clamp(min(angle, sector - angle), 0.0, 0.5 * sector);
+        float direction = folded / (0.5 * sector) * float(DRBOKEH_VIGNETTE_AREA_DIRECTIONS - 1);
+        int l = min(int(floor(level)), DRBOKEH_VIGNETTE_BASE_AREA_LEVELS - 2);
+        int d = min(int(floor(direction)), DRBOKEH_VIGNETTE_AREA_DIRECTIONS - 2);
+        float tl = level - float(l);
+        float td = direction - float(d);
+        int at = l * DRBOKEH_VIGNETTE_AREA_DIRECTIONS + d;
+        float near = drbokeh_area_in(r, at) * (1.0 - td) + drbokeh_area_in(r, at + 1) * td;
+        at += DRBOKEH_VIGNETTE_AREA_DIRECTIONS;
+        float far = drbokeh_area_in(r, at) * (1.0 - td) + drbokeh_area_in(r, at + 1) * td;
+        return near * (1.0 - tl) + far * tl;
+    }
     float top = 0.5 * pc.aperture.y;
     float f = top > 0.0 ? length(drbokeh_vignette_centre(vec2(p))) / top * float(DRBOKEH_VIGNETTE_AREA_LEVELS - 1) : 0.0;
     int level = min(int(floor(f)), DRBOKEH_VIGNETTE_AREA_LEVELS - 2);

@@ -50,9 +50,12 @@ layout(set = 0, binding = 12) uniform samplerBuffer block_alpha;
 // Texel 0: the constants of the gauge's closed form (closed_form_gauge); then two per segment
 // of v = oy / c in [-1, 1]: (interior lo, hi, outer lo, hi) of the unit shape's rows for both
 // orientations and for the aperture alone, conservative over the segment and its neighbours
-// (aperture_row_table; both in src/camera/aperture_rows.rs).
+// (aperture_row_table; both in src/camera/aperture_rows.rs). A vignetted polygon or ellipse:
+// its base's, then from APERTURE_ROW_EYES the centroid (.xy) of each 16 px tile's clipped base
+// (Params::eyes), row-major over the frame's tiles.
 layout(set = 0, binding = 13) uniform samplerBuffer aperture_rows;
 const int APERTURE_ROW_SEGMENTS = 2048; // APERTURE_ROW_SEGMENTS in src/camera/aperture_rows.rs
+const int APERTURE_ROW_EYES = 1 + 2 * APERTURE_ROW_SEGMENTS;
 // Relative room for the f32 rounding of the gauge (a few dot products, ~1e-6) and of the
 // levels: the interior level shrinks by it, the outer level grows by it.
 const float GAUGE_MARGIN = 1.0 / 4096.0;
@@ -225,10 +228,7 @@ vec4 cats_eye_row(float v) {
 // hi, outer lo, hi) at unit level. Orientation 1 (every source and centre nearer than focus):
 // the aperture's own rows; -1 (every one farther): its mirror's, the entry of -v negated;
 // 0: both orientations'.
-vec4 aperture_row(float v, int orientation) {
-    if (GAUGE_VIGNETTED) {
-        return cats_eye_row(v);
-    }
+vec4 aperture_table_row(float v, int orientation) {
     float w = orientation < 0 ? -v : v;
     float f = (clamp(w, -2.0, 2.0) + 1.0) * 0.5 * float(APERTURE_ROW_SEGMENTS);
     int segment = int(floor(f));
@@ -237,6 +237,57 @@ vec4 aperture_row(float v, int orientation) {
     }
     vec4 row = texelFetch(aperture_rows, 1 + 2 * segment + (orientation != 0 ? 1 : 0));
     return orientation < 0 ? -row.yxwz : row;
+}
+
+// A vignetted base's tile (gauge_setup_rows): the shift s and the centroid c.
+vec2 eye_shift;
+vec2 eye_centroid;
+
+// The row of a vignetted base's K = ((B ∩ D(s)) - c) ∩ D(0) at height v, as the table's: the
+// base's own row (the table's, conservative) at v + c.y intersected with the clipping disk's
+// there (closed form, exact), moved by -c.x, and with the unit disk's at v. f32 errors as in
+// cats_eye_row.
+vec4 eye_row(float v) {
+    float w = v + eye_centroid.y;
+    float room_clip = 1.0 - (w - eye_shift.y) * (w - eye_shift.y);
+    float room_unit = 1.0 - v * v;
+    if (room_clip < 0.0 || room_unit < 0.0) {
+        return vec4(1.0, -1.0, 1.0, -1.0);
+    }
+    float half_clip = sqrt(room_clip);
+    float half_unit = sqrt(room_unit);
+    float lo = max(eye_shift.x - half_clip - eye_centroid.x, -half_unit);
+    float hi = min(eye_shift.x + half_clip - eye_centroid.x, half_unit);
+    vec4 base = aperture_table_row(w, 1) - eye_centroid.x;
+    return vec4(max(base.x, lo), min(base.y, hi), max(base.z, lo), min(base.w, hi));
+}
+
+// The aperture's row at v for `orientation` (see aperture_table_row).
+vec4 aperture_row(float v, int orientation) {
+    if (GAUGE_VIGNETTED) {
+        return cats_eye_row(v);
+    }
+    if (!GAUGE_VIGNETTED_BASE) {
+        return aperture_table_row(v, orientation);
+    }
+    // K is not centrally symmetric: the mirror's row is K's at -v negated, and both
+    // orientations take the interior of K ∩ -K and the hull of K ∪ -K (of the non-empty ones).
+    vec4 own = eye_row(v);
+    if (orientation > 0) {
+        return own;
+    }
+    vec4 mirrored = -eye_row(-v).yxwz;
+    if (orientation < 0) {
+        return mirrored;
+    }
+    vec4 both = vec4(max(own.x, mirrored.x), min(own.y, mirrored.y), min(own.z, mirrored.z), max(own.w, mirrored.w));
+    if (own.z > own.w) {
+        both.zw = mirrored.zw;
+    }
+    if (mirrored.z > mirrored.w) {
+        both.zw = own.zw;
+    }
+    return both;
 }
 
 // Taps at gauge >= outer (in their orientation) add exact zeros (see outer_half_width_disk):
@@ -269,6 +320,17 @@ ivec2 interior_span(float t, int oy, ivec2 outer, int orientation) {
 // the cat's-eye at the middle of the tile's in-frame part (`LensView::at_receiver`), so the
 // whole workgroup shares one shape and closed-form rows (cats_eye_row) instead of a table.
 void gauge_setup_rows(ivec2 x0) {
+    if (GAUGE_VIGNETTED_BASE) {
+        // The base's normals (roundness 0), then the tile's K (Params::receiver_lens).
+        ivec2 tile = x0 / DRBOKEH_TILE;
+        ivec2 first = tile * DRBOKEH_TILE;
+        ivec2 last = min(first + DRBOKEH_TILE - 1, ivec2(pc.width, pc.height) - 1);
+        eye_shift = 2.0 * drbokeh_vignette_centre(vec2(first + last) * 0.5);
+        eye_centroid = texelFetch(aperture_rows, APERTURE_ROW_EYES + tile.y * pc.tiles_x + tile.x).xy;
+        gauge_setup(vec4(0.0), texelFetch(aperture_rows, 0));
+        gauge_vignette_setup(eye_shift, eye_centroid);
+        return;
+    }
     if (GAUGE_VIGNETTED) {
         ivec2 first = x0 / DRBOKEH_TILE * DRBOKEH_TILE;
         ivec2 last = min(first + DRBOKEH_TILE - 1, ivec2(pc.width, pc.height) - 1);

@@ -43,6 +43,8 @@ pub fn aperture_cases(kernel_png: &Path) -> Result<Vec<ApertureCase>> {
         case("ring:0.8", &["--aperture", "ring:0.8"], None),
         case("image:star", &["--aperture", &image], None),
         case("cats-eye 0.6 (disk)", &["--cats-eye", "0.6"], None),
+        case("cats-eye 0.6 (polygon:6)", &["--aperture", "polygon:6", "--cats-eye", "0.6"], None),
+        case("cats-eye 0.6 (anamorphic:1.8)", &["--aperture", "anamorphic:1.8", "--cats-eye", "0.6"], None),
     ])
 }
 

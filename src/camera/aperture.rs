@@ -44,14 +44,18 @@ pub enum Aperture {
     CatsEye {
         shift: [f32; 2],
     },
-    /// A disk vignetted into the cat's-eye of [`crate::character::CatsEye`] in one render: the
+    /// `base` vignetted into the cat's-eye of [`crate::character::CatsEye`] in one render: the
     /// shift varies over the frame (`strength * position / half-diagonal`), so the shape is
     /// not one gauge. Only Dr.Bokeh's default model renders it (its gauge path resolves the
-    /// [`Aperture::CatsEye`] of each 16 px receiver tile, `LensView::at_receiver`); the
-    /// character controls hand it to no other renderer. Position-free uses (`gauge`,
-    /// `relative_area`) see the frame centre's shape, the disk.
+    /// shape of each 16 px receiver tile: for the disk the [`Aperture::CatsEye`] of
+    /// `LensView::at_receiver`, for a straight-bladed polygon or the ellipse the clipped and
+    /// recentred base of [`super::vignetted`]); the character controls hand it to no other
+    /// renderer, and only bases that [`super::vignettes_in_one_pass`] (make one with
+    /// [`Aperture::vignetted`]). Position-free uses (`gauge`, `relative_area`) see the frame
+    /// centre's shape, the base.
     Vignetted {
         strength: f32,
+        base: Box<Aperture>,
     },
     /// A custom kernel image, sampled over the CoC disk.
     Kernel(KernelImage),
@@ -72,7 +76,9 @@ pub const KERNEL_FADE_PX: [f32; 2] = [0.5, 1.5];
 /// kernel (1 = sample the kernel buffer)]`, shape 0 = disk (or kernel image), 1 = ellipse
 /// (parameter = squeeze), 2 = ring (parameter = inner radius), >= 3 = polygon of that many
 /// blades (parameter = roundness), -1 = cat's-eye (`[-1, shift.x / 2, shift.y / 2, 0]`), -2 =
-/// vignetted disk (`[-2, strength, 0, 0]`).
+/// vignetted base (`[-2, strength, base shape, base rotation]`: the base's shape code, 0 for
+/// the disk, 1 the ellipse, else the polygon's blades; the ellipse's squeeze travels with the
+/// base's closed-form constants).
 pub type ApertureGpu = [f32; 4];
 
 /// The GPU form's shape code of [`Aperture::CatsEye`].
@@ -115,6 +121,12 @@ impl Aperture {
         // An ellipse is unchanged by a half turn (reduced as the polygon's rotation is).
         let rotation = (rotation_deg as f64).rem_euclid(180.0).to_radians() as f32;
         Ok(Aperture::Ellipse { squeeze, rotation })
+    }
+
+    /// `base` vignetted into a cat's-eye of `strength` in one render ([`Aperture::Vignetted`]),
+    /// or `None` for a base that keeps the node grid ([`super::vignettes_in_one_pass`]).
+    pub fn vignetted(base: &Aperture, strength: f32) -> Option<Self> {
+        super::vignettes_in_one_pass(base).then(|| Aperture::Vignetted { strength, base: Box::new(base.clone()) })
     }
 
     /// The catadioptric aperture: the disk less a central obstruction of `inner` x its radius.
@@ -210,6 +222,7 @@ impl Aperture {
             }
             Aperture::Ellipse { squeeze, rotation } => ellipse_gauge(u, v, squeeze, rotation),
             Aperture::CatsEye { shift } => cats_eye_gauge(u, v, [0.5 * shift[0], 0.5 * shift[1]]),
+            Aperture::Vignetted { ref base, .. } => base.gauge(u, v),
             _ => (u * u + v * v).sqrt(),
         }
     }
@@ -244,7 +257,7 @@ impl Aperture {
             // The ellipse's area pi * 1 * (1 / squeeze).
             &Aperture::Ellipse { squeeze, .. } => 1.0 / squeeze,
             &Aperture::Ring { inner } => 1.0 - inner * inner,
-            Aperture::Vignetted { .. } => 1.0,
+            Aperture::Vignetted { base, .. } => base.relative_area(),
             // Two unit disks whose centres are d apart overlap in 2 acos(d/2) - (d/2) sqrt(4 - d^2).
             &Aperture::CatsEye { shift } => {
                 let half = 0.5 * shift[0].hypot(shift[1]) as f64;
@@ -294,7 +307,10 @@ impl Aperture {
             Aperture::Ellipse { squeeze, rotation } => [1.0, rotation, squeeze, 0.0],
             Aperture::Ring { inner } => [2.0, 0.0, inner, 0.0],
             Aperture::CatsEye { shift } => [CATS_EYE_SHAPE, 0.5 * shift[0], 0.5 * shift[1], 0.0],
-            Aperture::Vignetted { strength } => [VIGNETTED_SHAPE, strength, 0.0, 0.0],
+            Aperture::Vignetted { strength, ref base } => {
+                let [shape, rotation, ..] = base.gpu_params();
+                [VIGNETTED_SHAPE, strength, shape, rotation]
+            }
             Aperture::Kernel(_) => [0.0, 0.0, 1.0, 1.0],
         }
     }

@@ -1,10 +1,11 @@
 //! Lens character and artist controls (issue 12), on top of any rendering method and without
 //! touching its shaders: every control is either a remap of the input (blur multipliers and
 //! clamp, focus pick, highlight bloom), a procedural aperture (the anamorphic ellipse, the
-//! ring and a vignetted disk's cat's-eye are shapes of [`crate::camera::Aperture`] with closed
-//! forms; the cat's-eye of any other aperture is a kernel image), or a combination of several
-//! renders (chromatic aberration: one per channel; cat's-eye: one per grid node, or one pass
-//! of [`crate::camera::Aperture::Vignetted`] for a disk under Dr.Bokeh). Each piece is a CPU
+//! ring and the cat's-eye of a disk, a straight-bladed polygon or the ellipse are shapes of
+//! [`crate::camera::Aperture`] with closed forms; the cat's-eye of any other aperture is a
+//! kernel image), or a combination of several renders (chromatic aberration: one per channel;
+//! cat's-eye: one per grid node, or one pass of [`crate::camera::Aperture::Vignetted`] for
+//! those closed-form bases under Dr.Bokeh). Each piece is a CPU
 //! function testable on its own.
 pub mod bloom;
 pub mod chromatic;
@@ -140,18 +141,20 @@ impl Character {
         Ok((image, prepared, lens))
     }
 
-    /// The controls and lens `method` renders: a cat's-eye of a disk under Dr.Bokeh's default
-    /// model is one render of [`Aperture::Vignetted`] (its gauge path takes each receiver
-    /// tile's shape), so the node grid is dropped; every other method, model or base aperture
-    /// keeps the grid ([`render_cats_eye`]). [`Self::render_count`] of the result counts what
-    /// [`Self::render`] does.
+    /// The controls and lens `method` renders: a cat's-eye of a disk, a straight-bladed
+    /// polygon or the anamorphic ellipse under Dr.Bokeh's default model is one render of
+    /// [`Aperture::Vignetted`] (its gauge path takes each receiver tile's shape), so the node
+    /// grid is dropped; every other method, model or base aperture (rounded blades, rings,
+    /// kernel images) keeps the grid ([`render_cats_eye`]). [`Self::render_count`] of the
+    /// result counts what [`Self::render`] does.
     pub fn for_method(&self, method: Method, lens: &Lens) -> (Character, Lens) {
-        match &self.cats_eye {
-            Some(eye) if method == Method::DrBokeh && lens.aperture == Aperture::Disk => (
-                Character { cats_eye: None, ..self.clone() },
-                Lens { aperture: Aperture::Vignetted { strength: eye.strength }, ..lens.clone() },
-            ),
-            _ => (self.clone(), lens.clone()),
+        let one_pass = match &self.cats_eye {
+            Some(eye) if method == Method::DrBokeh => Aperture::vignetted(&lens.aperture, eye.strength),
+            _ => None,
+        };
+        match one_pass {
+            Some(aperture) => (Character { cats_eye: None, ..self.clone() }, Lens { aperture, ..lens.clone() }),
+            None => (self.clone(), lens.clone()),
         }
     }
 }

@@ -1,8 +1,9 @@
 //! Optical vignetting (cat's-eye bokeh) as a position-dependent aperture, host-side.
 //!
-//! A disk under Dr.Bokeh's default model needs none of this: it renders in one pass as
-//! [`Aperture::Vignetted`] (each receiver tile's cat's-eye, `Character::for_method`). Every
-//! other aperture or method takes one shape per render, so the frame is rendered on a grid of `G x G`
+//! A disk, a straight-bladed polygon or the anamorphic ellipse under Dr.Bokeh's default model
+//! needs none of this: it renders in one pass as [`Aperture::Vignetted`] (each receiver tile's
+//! cat's-eye, `Character::for_method`). Every other aperture (rounded blades, rings, kernel
+//! images) or method takes one shape per render, so the frame is rendered on a grid of `G x G`
 //! nodes: node (i, j) sits at `(i / (G-1), j / (G-1))` of the frame (corners included) and
 //! gets the cat's-eye kernel of its own position. Each output pixel blends the renders of its
 //! four surrounding nodes with bilinear (tent) weights, which sum to 1. So the aperture is

@@ -193,13 +193,14 @@ fn blender_group(focuses: &[Focus], out: &Path, repeats: usize) -> anyhow::Resul
 fn apertures_group(out: &Path, repeats: usize, blender: bool, wanted: &dyn Fn(&str) -> bool) -> anyhow::Result<Vec<ApertureTiming>> {
     let exe = std::env::current_exe().context("finding the lensblur executable")?;
     println!("apertures: `lensblur render` of the 1024^2 five-layer frame (CoC up to 40 px, defocused), medians of {} processes", repeats.max(1));
-    println!("{:<26} {:>10} {:>8} {:>10} {:>11} {:>10}", "aperture", "lensblur s", "/ disk", "Blender", "Blender s", "/ Blender");
+    // Names up to "cats-eye 0.6 (anamorphic:1.8)".
+    println!("{:<30} {:>10} {:>8} {:>10} {:>11} {:>10}", "aperture", "lensblur s", "/ disk", "Blender", "Blender s", "/ Blender");
     let row = |t: &ApertureTiming| {
         let (bokeh, seconds, ratio) = match (t.blender_median_seconds, t.ratio_to_blender) {
             (Some(s), Some(r)) => (t.blender_bokeh.unwrap_or("-"), format!("{s:.3}"), format!("{r:.3}")),
             _ => ("-", "-".to_string(), "-".to_string()),
         };
-        println!("{:<26} {:>10.3} {:>8.2} {:>10} {:>11} {:>10}", t.name, t.lensblur_median_seconds, t.ratio_to_disk, bokeh, seconds, ratio);
+        println!("{:<30} {:>10.3} {:>8.2} {:>10} {:>11} {:>10}", t.name, t.lensblur_median_seconds, t.ratio_to_disk, bokeh, seconds, ratio);
     };
     compare_apertures(&exe, out, repeats, blender, wanted, &row).context("timing the aperture cases")
 }

@@ -35,7 +35,7 @@ use crate::stack::LayerStack;
 use crate::{Error, Result};
 
 /// What both backward passes (CPU reference and GPU) refuse: an output gradient of another
-/// size than the stack, and the vignetted disk, whose per-tile shape (forward only: the
+/// size than the stack, and a vignetted aperture (disk, polygon or ellipse), whose per-tile shape (forward only: the
 /// backward's gauge paths take one shape per render) has no adjoint here. `grad` has no
 /// `--cats-eye`, so no command reaches it.
 pub(crate) fn check_inputs(stack: &LayerStack, lens: &Lens, grad_output: &Image) -> Result<()> {
@@ -46,7 +46,7 @@ pub(crate) fn check_inputs(stack: &LayerStack, lens: &Lens, grad_output: &Image)
         )));
     }
     if matches!(lens.aperture, Aperture::Vignetted { .. }) {
-        return Err(Error::unsupported("the vignetted disk (one-pass --cats-eye) has no backward pass"));
+        return Err(Error::unsupported("a vignetted aperture (one-pass --cats-eye) has no backward pass"));
     }
     Ok(())
 }

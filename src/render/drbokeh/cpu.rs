@@ -92,8 +92,8 @@ pub fn layer_cpu(params: &Params, layer: &Layer, window: Vec<i32>) -> LayerTerms
 /// `[C.rgb, W]` and `V` of output pixel (x, y) over the square window of half-width `h`.
 fn layer_pixel(params: &Params, layer: &Layer, x: i64, y: i64, h: i64) -> ([f64; 4], f64) {
     let (width, height) = (params.width as i64, params.height as i64);
-    // A vignetted lens's shape is the receiver tile's (LensView::at_receiver).
-    let lens = &*params.lens.at_receiver(x as usize, y as usize, params.width, params.height);
+    // A vignetted lens's shape is the receiver tile's.
+    let lens = &*params.receiver_lens(x as usize, y as usize);
     let ix = (y * width + x) as usize;
     let rel_x = lens.rel(layer.disparity[ix]);
     let s_x = lens.k_px * rel_x;

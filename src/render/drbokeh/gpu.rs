@@ -28,7 +28,8 @@ pub(crate) const VEC4: u64 = 16;
 pub struct DrBokehGpu {
     ctx: Context,
     kernel: LayerKernel,
-    sources: ComputePipeline,
+    /// Specialized by whether the lens is vignetted (`SOURCES_VIGNETTED`), made on first use.
+    sources: PipelineVariants,
     /// Row block sums of the prepass for the disk path's interior spans.
     blocks: ComputePipeline,
     layer: ComputePipeline,
@@ -128,7 +129,7 @@ impl DrBokehGpu {
         Ok(Self {
             ctx: ctx.clone(),
             kernel,
-            sources: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_SOURCES, &SOURCES_SLOTS, push)?,
+            sources: PipelineVariants::new(ctx, &shaders::DRBOKEH_LAYER_SOURCES, &SOURCES_SLOTS, push)?,
             blocks: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_BLOCKS, &BLOCKS_SLOTS, push)?,
             layer,
             layer_disk,
@@ -203,7 +204,7 @@ impl DrBokehGpu {
     pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
         if self.kernel == LayerKernel::Baseline && params.lens.is_vignetted() {
             // The first kernel's per-tap lens knows one shape per render.
-            return Err(Error::unsupported("the baseline layer kernel cannot render the vignetted disk"));
+            return Err(Error::unsupported("the baseline layer kernel cannot render a vignetted aperture"));
         }
         let groups = self.composite.groups_for([b.core.width() as u32, b.core.height() as u32, 1]);
         // A layer workgroup covers one 16x16 search tile: the optimised kernels write a run of
@@ -231,7 +232,8 @@ impl DrBokehGpu {
         if self.kernel != LayerKernel::Baseline {
             let extent = [b.read.width() as u32, b.read.height() as u32, params.layer_count as u32];
             let bindings = [b.rgba.all(), b.disparity.all(), b.area_lut.all(), b.source_pa.all(), b.source_sa.all()];
-            batch.dispatch(&self.sources, &bindings, &push, self.sources.groups_for(extent))?;
+            let sources = self.sources.get(&[params.lens.is_vignetted() as u32])?;
+            batch.dispatch(&sources, &bindings, &push, sources.groups_for(extent))?;
         }
         if self.kernel == LayerKernel::Optimised && spans {
             // One invocation per global 16-px block (of those the read rect touches) and row.
@@ -360,6 +362,11 @@ impl<'a> ForwardFrame<'a> {
         interior: bool,
     ) -> Result<Self> {
         let rows = match (params.lens.path(params.model), aperture) {
+            // A vignetted polygon or ellipse: its base's table, then each tile's centroid.
+            (AperturePath::Gauge, Aperture::Vignetted { base, .. }) if params.lens.is_vignetted_base() => {
+                let eyes = params.eyes.iter().map(|&[x, y]| [x as f32, y as f32, 0.0, 0.0]);
+                aperture_rows(base).into_iter().chain(eyes).collect()
+            }
             (AperturePath::Gauge, _) => aperture_rows(aperture),
             (AperturePath::Kernel, Aperture::Kernel(kernel)) => kernel_run_table(kernel),
             _ => vec![EMPTY_APERTURE_ROW],
@@ -379,7 +386,7 @@ impl<'a> ForwardFrame<'a> {
 
 /// The `aperture_rows` buffer of `drbokeh_layer_gauge.comp`: the constants of the gauge's
 /// closed form ([`closed_form_gauge`]) followed by the row table ([`aperture_row_table`]), for
-/// polygons and ellipses. Built per render, and only for the gauge path: ~50 ms for a polygon,
+/// polygons and ellipses (a vignetted one's base's, then its tiles' centroids). Built per render, and only for the gauge path: ~50 ms for a polygon,
 /// which the CPU references and the other paths do not pay. One empty row otherwise (Vulkan
 /// buffers cannot be empty).
 fn aperture_rows(aperture: &Aperture) -> Vec<[f32; 4]> {

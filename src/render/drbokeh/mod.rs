@@ -27,7 +27,7 @@
 //! tiles the frame the same way, by the same policy, with the same guarantee.
 use std::borrow::Cow;
 
-use crate::camera::{Aperture, CocModel, CATS_EYE_SHAPE};
+use crate::camera::{Aperture, CocModel, Eye, CATS_EYE_SHAPE};
 
 pub mod backward;
 pub mod backward_cpu;
@@ -66,6 +66,25 @@ pub const AREA_TABLE_RADIUS_PX: f64 = 16.0;
 /// interpolation between 17 levels errs by ~2e-5 of it there (0.3% at the limit strength 1.5,
 /// where the corner's eye keeps 14% of the disk).
 pub const VIGNETTE_AREA_LEVELS: usize = 17;
+/// A vignetted polygon's or ellipse's area table (`Params::area_at`): its cat's-eye depends
+/// on the direction of the shift too, over half a symmetry sector (the base is symmetric about
+/// its first edge normal or long axis, and repeats every sector), so it has levels of |s| times
+/// directions: 9 x 9 tables (~5x the disk's 17 levels of lattice sums) interpolate the area
+/// of a source's own eye to ~1% at r = 12 px at strength 1 (0.9% for a pentagon, whose 36
+/// degree half sector 9 directions hold to 4.5 degrees; 5 erred by 2.5%). Small CoCs are
+/// lattice-limited, as the disk's levels are: a footprint of a few pixels gains or loses whole
+/// lattice points as its shape turns, which no interpolation between shapes follows (up to 17%
+/// for the ellipse at r = 2.3 px on a corner at strength 1, 12% for the disk's levels).
+pub const VIGNETTE_BASE_AREA_LEVELS: usize = 9;
+pub const VIGNETTE_AREA_DIRECTIONS: usize = 9;
+
+/// The middle of 16 px tile (tx, ty)'s part inside a `width` x `height` frame: where a
+/// vignetted lens's shape is taken for the whole tile (`glsl/common/drbokeh_layer.glsl`,
+/// `gauge_setup_rows`).
+pub(crate) fn tile_middle(tx: usize, ty: usize, width: usize, height: usize) -> [f64; 2] {
+    let middle = |t: usize, n: usize| (t * TILE + ((t + 1) * TILE - 1).min(n - 1)) as f64 * 0.5;
+    [middle(tx, width), middle(ty, height)]
+}
 
 /// Which formulas the renderer evaluates.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -134,6 +153,12 @@ pub struct LensView {
     pub aperture: [f64; 4],
     pub kernel: Vec<f64>,
     pub kernel_size: usize,
+    /// The GPU form of a vignetted lens's base ([`Aperture::gpu_params`]; zeros for every other
+    /// lens): the ellipse's squeeze is not in [`Self::aperture`].
+    pub base: [f64; 4],
+    /// A vignetted polygon's or ellipse's shape at one receiver tile (`Params::receiver_lens`):
+    /// its gauge is [`Eye::gauge`].
+    pub eye: Option<Eye>,
 }
 
 /// Which layer-pass variant renders a lens under a model.
@@ -167,19 +192,32 @@ impl LensView {
             aperture: aperture.gpu_params().map(|v| v as f64),
             kernel,
             kernel_size,
+            base: match aperture {
+                Aperture::Vignetted { base, .. } => base.gpu_params().map(|v| v as f64),
+                _ => [0.0; 4],
+            },
+            eye: None,
         }
     }
 
-    /// The specialization constants of the gauge paths' shaders (`GAUGE_BLADES` in
-    /// `glsl/common/gauge.glsl`): the polygon's blades, 0 for the ellipse, 1 for the cat's-eye,
-    /// 2 for the vignetted disk (a cat's-eye per receiver tile).
-    pub fn gauge_specialization(&self) -> [u32; 1] {
+    /// The specialization constants of the gauge paths' shaders (`GAUGE_BLADES` and
+    /// `GAUGE_VIGNETTED_BASE` in `glsl/common/gauge.glsl`): the polygon's blades, 0 for the
+    /// ellipse, 1 for the cat's-eye, 2 for the vignetted disk (a cat's-eye per receiver tile);
+    /// then 1 for a vignetted polygon or ellipse, whose blades (or 0) come first.
+    pub fn gauge_specialization(&self) -> [u32; 2] {
         match self.aperture[0] {
-            shape if shape >= 3.0 => [shape as u32],
-            _ if self.is_vignetted() => [2],
-            shape if shape < -0.5 => [1],
-            _ => [0],
+            shape if shape >= 3.0 => [shape as u32, 0],
+            _ if self.is_vignetted_base() => [if self.base[0] >= 3.0 { self.base[0] as u32 } else { 0 }, 1],
+            _ if self.is_vignetted() => [2, 0],
+            shape if shape < -0.5 => [1, 0],
+            _ => [0, 0],
         }
+    }
+
+    /// Whether the aperture is a vignetted polygon or ellipse (shape -2 with a base other
+    /// than the disk): its shape at a receiver tile is `Params::receiver_lens`'s.
+    pub fn is_vignetted_base(&self) -> bool {
+        self.is_vignetted() && self.base[0] > 0.5
     }
 
     /// Whether the aperture is [`Aperture::Vignetted`] (shape -2 of the GPU form): its shape
@@ -197,7 +235,13 @@ impl LensView {
         [scale * (x - cx), scale * (y - cy)]
     }
 
-    /// The lens a receiver pixel (x, y) of a vignetted render gathers through: the cat's-eye
+    /// The vignetting disk's shift at frame position (x, y): `character::CatsEye::shift` in
+    /// f64, twice [`Self::vignette_centre`].
+    pub fn vignette_shift(&self, x: f64, y: f64, width: usize, height: usize) -> [f64; 2] {
+        self.vignette_centre(x, y, width, height).map(|a| 2.0 * a)
+    }
+
+    /// The lens a receiver pixel (x, y) of a vignetted disk's render gathers through: the cat's-eye
     /// at the middle of its 16 px tile (the part inside the frame), so one workgroup of the
     /// layer pass shares one shape and its row bounds. Every other lens is its own.
     ///
@@ -210,11 +254,8 @@ impl LensView {
         if !self.is_vignetted() {
             return Cow::Borrowed(self);
         }
-        let middle = |p: usize, n: usize| {
-            let first = p / TILE * TILE;
-            (first + (first + TILE - 1).min(n - 1)) as f64 * 0.5
-        };
-        let [ax, ay] = self.vignette_centre(middle(x, width), middle(y, height), width, height);
+        let [mx, my] = tile_middle(x / TILE, y / TILE, width, height);
+        let [ax, ay] = self.vignette_centre(mx, my, width, height);
         Cow::Owned(LensView { aperture: [CATS_EYE_SHAPE as f64, ax, ay, 0.0], ..self.clone() })
     }
 
@@ -253,6 +294,9 @@ impl LensView {
     /// relative disparity `rel` (mirrors `drbokeh_lens` in `drbokeh.glsl`).
     pub fn lens(&self, dx: f64, dy: f64, r: f64, rel: f64) -> (f64, f64) {
         let (u, v) = math::to_aperture_coords(dx, dy, rel);
+        if let Some(eye) = &self.eye {
+            return (eye.gauge(u, v), 1.0);
+        }
         let g = math::gauge(&self.aperture, u, v);
         if self.is_ring() {
             return (g, math::ring_weight(g, r, self.aperture[2]));

@@ -1,8 +1,12 @@
 //! Host-side parameters of one render: validated sizes, the lens in f64, the global bound of
 //! the dilation loop, and the area table — everything both the CPU reference and the GPU
 //! host code derive from a stack and a lens, computed in one place.
-use super::{math, DrBokehPush, LensView, Model, AREA_STEP_PX, AREA_TABLE_RADIUS_PX, TILE, VIGNETTE_AREA_LEVELS};
-use crate::camera::CATS_EYE_SHAPE;
+use std::borrow::Cow;
+
+use rayon::prelude::*;
+
+use super::{math, tile_middle, DrBokehPush, LensView, Model, AREA_STEP_PX, AREA_TABLE_RADIUS_PX, TILE, VIGNETTE_AREA_DIRECTIONS, VIGNETTE_AREA_LEVELS, VIGNETTE_BASE_AREA_LEVELS};
+use crate::camera::{clipped_centroid, Aperture, Eye, CATS_EYE_SHAPE};
 use crate::render::tiling::{rect_push as rect, FrameTiling};
 use crate::render::Lens;
 use crate::tiling::Rect;
@@ -22,6 +26,10 @@ pub struct Params {
     pub max_support: f64,
     /// `A(r)` at `r = i * AREA_STEP_PX`: exact lattice sums of the default model's `S K`.
     pub area_lut: Vec<f64>,
+    /// A vignetted polygon or ellipse: the centroid of its clipped base at each 16 px tile
+    /// ([`clipped_centroid`] at the shift of the tile's middle, `LensView::at_receiver`'s),
+    /// row-major; empty for every other lens.
+    pub eyes: Vec<[f64; 2]>,
 }
 
 impl Params {
@@ -42,25 +50,51 @@ impl Params {
         lens.coc.check_renderable(lo, hi)?;
         let view = LensView::new(&lens.coc, &lens.aperture);
         if view.is_vignetted() && model != Model::DrBokeh {
-            return Err(Error::unsupported("the vignetted disk (one-pass --cats-eye) renders under the default model only"));
+            return Err(Error::unsupported("a vignetted aperture (one-pass --cats-eye) renders under the default model only"));
         }
         let max_radius = view.signed_radius(lo).abs().max(view.signed_radius(hi).abs());
         let max_support = match model {
             Model::DrBokeh => math::support(max_radius),
             Model::Compat => math::support_compat(max_radius),
         };
-        let area_lut = area_table(&view);
+        let (tiles_x, tiles_y) = (stack.width.div_ceil(TILE), stack.height.div_ceil(TILE));
+        let eyes = match &lens.aperture {
+            Aperture::Vignetted { base, .. } if view.is_vignetted_base() => (0..tiles_x * tiles_y)
+                .into_par_iter()
+                .map(|t| {
+                    let [x, y] = tile_middle(t % tiles_x, t / tiles_x, stack.width, stack.height);
+                    eye_centroid(base, view.vignette_shift(x, y, stack.width, stack.height))
+                })
+                .collect::<Result<_>>()?,
+            _ => Vec::new(),
+        };
+        let area_lut = area_table(&view, &lens.aperture);
         Ok(Self {
             model,
             width: stack.width,
             height: stack.height,
-            tiles_x: stack.width.div_ceil(TILE),
-            tiles_y: stack.height.div_ceil(TILE),
+            tiles_x,
+            tiles_y,
             layer_count: stack.layers.len(),
             lens: view,
             max_support,
             area_lut,
+            eyes,
         })
+    }
+
+    /// The lens receiver pixel (x, y) gathers through: for a vignetted lens the shape at the
+    /// middle of its 16 px tile (so one workgroup of the layer pass shares one shape and its
+    /// row bounds; `LensView::at_receiver` for the disk), every other lens its own.
+    pub fn receiver_lens(&self, x: usize, y: usize) -> Cow<'_, LensView> {
+        if !self.lens.is_vignetted_base() {
+            return self.lens.at_receiver(x, y, self.width, self.height);
+        }
+        let (tx, ty) = (x / TILE, y / TILE);
+        let [mx, my] = tile_middle(tx, ty, self.width, self.height);
+        let shift = self.lens.vignette_shift(mx, my, self.width, self.height);
+        let eye = Eye::new(&self.lens.base, shift, self.eyes[ty * self.tiles_x + tx]);
+        Cow::Owned(LensView { eye: Some(eye), ..self.lens.clone() })
     }
 
     /// Area normalisation of a source of CoC radius `r` under this model (for a vignetted
@@ -83,9 +117,24 @@ impl Params {
     /// the frame corner's shape: linear between the two levels around the source's |a| (its
     /// own position's shape, so each source spreads about its own energy). Mirrors
     /// `drbokeh_area_at` in `glsl/common/drbokeh.glsl`.
+    ///
+    /// A vignetted polygon or ellipse, whose eye depends on the shift's direction too, has
+    /// [`VIGNETTE_BASE_AREA_LEVELS`] levels of [`VIGNETTE_AREA_DIRECTIONS`] tables over half a
+    /// symmetry sector: bilinear in (|s|, the direction folded into the half sector).
     pub fn area_at(&self, r: f64, x: usize, y: usize) -> f64 {
         if self.model != Model::DrBokeh || !self.lens.is_vignetted() {
             return self.area(r);
+        }
+        if self.lens.is_vignetted_base() {
+            let shift = self.lens.vignette_shift(x as f64, y as f64, self.width, self.height);
+            let (level, direction) = vignette_area_coordinates(&self.lens, shift);
+            let (l, d) = (level.floor() as usize, direction.floor() as usize);
+            let (l, d) = (l.min(VIGNETTE_BASE_AREA_LEVELS - 2), d.min(VIGNETTE_AREA_DIRECTIONS - 2));
+            let (tl, td) = (level - l as f64, direction - d as f64);
+            let area = |l: usize, d: usize| math::area_from_lut(self.area_level(l * VIGNETTE_AREA_DIRECTIONS + d), AREA_STEP_PX, r);
+            let near = area(l, d) * (1.0 - td) + area(l, d + 1) * td;
+            let far = area(l + 1, d) * (1.0 - td) + area(l + 1, d + 1) * td;
+            return near * (1.0 - tl) + far * tl;
         }
         let [ax, ay] = self.lens.vignette_centre(x as f64, y as f64, self.width, self.height);
         let top = 0.5 * self.lens.aperture[1];
@@ -98,7 +147,7 @@ impl Params {
 
     /// Entries of one level of the area table.
     fn area_count(&self) -> usize {
-        self.area_lut.len() / if self.lens.is_vignetted() { VIGNETTE_AREA_LEVELS } else { 1 }
+        self.area_lut.len() / area_tables(&self.lens)
     }
 
     fn area_level(&self, level: usize) -> &[f64] {
@@ -160,9 +209,38 @@ impl Params {
 /// with |a| from 0 (the disk) to the frame corner's `strength / 2`, each with its centre on
 /// the u axis (the lattice's small anisotropy is ignored: the continuous areas are exactly
 /// rotation-invariant).
-fn area_table(lens: &LensView) -> Vec<f64> {
+///
+/// A vignetted polygon or ellipse gets [`VIGNETTE_BASE_AREA_LEVELS`] levels of
+/// [`VIGNETTE_AREA_DIRECTIONS`] tables: its
+/// clipped and recentred base ([`Eye`]) with the shift at |s| from 0 to the corner's
+/// `strength` and directions over half a symmetry sector from the first edge normal (or the
+/// long axis), level-major (`vignette_area_coordinates`).
+fn area_table(lens: &LensView, aperture: &Aperture) -> Vec<f64> {
     if !lens.is_vignetted() {
         return area_table_of(lens);
+    }
+    if let (true, Aperture::Vignetted { base, strength }) = (lens.is_vignetted_base(), aperture) {
+        let half_sector = std::f64::consts::PI / symmetry(lens);
+        let mut tables: Vec<Option<Vec<f64>>> = (0..VIGNETTE_BASE_AREA_LEVELS * VIGNETTE_AREA_DIRECTIONS)
+            .into_par_iter()
+            .map(|i| {
+                let (level, direction) = (i / VIGNETTE_AREA_DIRECTIONS, i % VIGNETTE_AREA_DIRECTIONS);
+                let length = *strength as f64 * level as f64 / (VIGNETTE_BASE_AREA_LEVELS - 1) as f64;
+                let angle = lens.base[1] + half_sector * direction as f64 / (VIGNETTE_AREA_DIRECTIONS - 1) as f64;
+                let shift = [length * angle.cos(), length * angle.sin()];
+                let centroid = clipped_centroid(base, shift)?.centroid;
+                Some(area_table_of(&LensView { eye: Some(Eye::new(&lens.base, shift, centroid)), ..lens.clone() }))
+            })
+            .collect();
+        // A shift that lets no light through (a narrow ellipse shifted across its short axis
+        // further than any frame position of this aspect ratio reaches: the tiles' own eyes
+        // are checked in `Params::new`) keeps the level below's table (level 0 is the base).
+        for i in VIGNETTE_AREA_DIRECTIONS..tables.len() {
+            if tables[i].is_none() {
+                tables[i] = tables[i - VIGNETTE_AREA_DIRECTIONS].clone();
+            }
+        }
+        return tables.into_iter().flatten().flatten().collect();
     }
     let top = 0.5 * lens.aperture[1];
     (0..VIGNETTE_AREA_LEVELS)
@@ -171,6 +249,41 @@ fn area_table(lens: &LensView) -> Vec<f64> {
             area_table_of(&LensView { aperture: [CATS_EYE_SHAPE as f64, a, 0.0, 0.0], ..lens.clone() })
         })
         .collect()
+}
+
+/// How many area tables a lens has: one, a vignetted disk's levels, or a vignetted polygon's or
+/// ellipse's levels times directions.
+fn area_tables(lens: &LensView) -> usize {
+    match (lens.is_vignetted(), lens.is_vignetted_base()) {
+        (_, true) => VIGNETTE_BASE_AREA_LEVELS * VIGNETTE_AREA_DIRECTIONS,
+        (true, false) => VIGNETTE_AREA_LEVELS,
+        _ => 1,
+    }
+}
+
+/// Turns of a vignetted base's symmetry: its blades, or 2 for the ellipse.
+fn symmetry(lens: &LensView) -> f64 {
+    if lens.base[0] >= 3.0 { lens.base[0] } else { 2.0 }
+}
+
+/// Where a shift falls in a vignetted polygon's or ellipse's area tables, as fractional
+/// (level, direction) indices: |s| over the corner's strength, and the direction from the first
+/// edge normal (or long axis) folded into half a symmetry sector (the base is symmetric about
+/// that axis and repeats every sector). Mirrors `drbokeh_area_at` in `glsl/common/drbokeh.glsl`.
+pub fn vignette_area_coordinates(lens: &LensView, shift: [f64; 2]) -> (f64, f64) {
+    let (length, top) = (shift[0].hypot(shift[1]), lens.aperture[1]);
+    let level = if top > 0.0 { length / top * (VIGNETTE_BASE_AREA_LEVELS - 1) as f64 } else { 0.0 };
+    let sector = std::f64::consts::TAU / symmetry(lens);
+    let angle = if length > 0.0 { (shift[1].atan2(shift[0]) - lens.base[1]).rem_euclid(sector) } else { 0.0 };
+    let folded = angle.min(sector - angle).clamp(0.0, 0.5 * sector);
+    (level, folded / (0.5 * sector) * (VIGNETTE_AREA_DIRECTIONS - 1) as f64)
+}
+
+/// [`clipped_centroid`], refused where no light passes.
+fn eye_centroid(base: &Aperture, shift: [f64; 2]) -> Result<[f64; 2]> {
+    clipped_centroid(base, shift)
+        .map(|shape| shape.centroid)
+        .ok_or_else(|| Error::invalid("cats-eye", "cat's-eye vignetting is so strong that no light passes the aperture"))
 }
 
 fn area_table_of(lens: &LensView) -> Vec<f64> {
