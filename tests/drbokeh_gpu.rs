@@ -368,8 +368,17 @@ fn kernel_path_matches_per_tap_evaluation_and_is_bit_identical_tiled_or_not() {
     let flat = scene(w, h);
     let mut crossing = flat.clone();
     crossing.layers[0].disparity = (0..w * h).map(|i| 0.3 + 0.006 * (i % w) as f32).collect();
+    // Layers of one disparity each (one kernel sample a tap serves source and centre, span_radii's
+    // fourth entry), and the same with one covered pixel moved off it (its tiles and every tile
+    // whose window holds it sample twice again).
+    let mut even = flat.clone();
+    for (layer, disparity) in even.layers.iter_mut().zip([0.9, 0.5, 0.12]) {
+        layer.disparity = vec![disparity; w * h];
+    }
+    let mut one_off = even.clone();
+    one_off.layers[0].disparity[14 * w + 15] = 0.93;
     let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture: kernel };
-    for stack in [&flat, &crossing] {
+    for stack in [&flat, &crossing, &even, &one_off] {
         assert_span_path_matches(&fast, &per_tap, stack, &lens);
     }
     drop((fast, per_tap));

@@ -142,6 +142,15 @@ Centre centre_at(int index) {
 #endif
 }
 
+#ifdef DRBOKEH_LAYER_KERNEL
+// The kernel image's sample for the centre at offset (o, oy) (source - centre): the kernel at
+// x - y, mirrored for a centre nearer than focus (aperture_coords), over its soft disk.
+float kernel_sample_for_centre(Centre centre, int o, int oy) {
+    vec2 p = vec2(float(o), float(oy));
+    return kernel_runs_sample((centre.s > 0.0 ? p : -p) / centre.support);
+}
+#endif
+
 // One tap of the span path: source (pa = P / A, sa = (s, alpha)) at gauge g_source as the
 // source sees the aperture and g_centre as the centre does (one Euclidean gauge on the disk
 // path). The source's coverage is that of a CoC `source_scale` times its own, the centre's
@@ -354,7 +363,9 @@ vec2 offset_gauges(int o, int oy) {
 // x order: centre k's gauges are the ones centre k - 1 had a column earlier. `span`: the row's
 // offsets that may add anything (centre k's tap at column ox has offset ox - k). `hole` (a
 // constant at each call; the ring only): the obstruction's taps, subtracted (see main).
-void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int oy, bool occlusion, bool hole) {
+// `one_sample` (a constant at each call; the kernel path only): every source with alpha > 0
+// has the centres' signed CoC (tile_radii.w), so one kernel sample serves both sides.
+void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int oy, bool occlusion, bool hole, bool one_sample) {
     if (from > to) {
         return;
     }
@@ -370,6 +381,16 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
         g[k] = sqrt(float((from - k) * (from - k)) + oy2);
     }
 #endif
+#ifdef DRBOKEH_LAYER_KERNEL
+    // With one_sample every centre has one signed CoC, so centre k's kernel sample at a column
+    // is the one centre k - 1 had a column earlier, as the gauges: one new sample a column.
+    float q[RUN];
+    if (one_sample) {
+        for (int k = 1; k < RUN; ++k) {
+            q[k] = kernel_sample_for_centre(c[k], from - k, oy);
+        }
+    }
+#endif
     for (int ox = from; ox <= to; ++ox) {
         vec4 pa = texelFetch(source_pa, row + ox);
         vec2 sa = texelFetch(source_sa, row + ox).xy;
@@ -377,6 +398,11 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
         g[0] = offset_gauges(ox, oy);
 #else
         g[0] = sqrt(float(ox * ox) + oy2);
+#endif
+#ifdef DRBOKEH_LAYER_KERNEL
+        if (one_sample) {
+            q[0] = kernel_sample_for_centre(c[0], ox, oy);
+        }
 #endif
         for (int k = 0; k < RUN; ++k) {
             int o = ox - k;
@@ -404,8 +430,13 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
             vec2 p = vec2(float(o), float(oy));
             float r = abs(sa.x);
             float blend = smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r);
-            float k_source = 1.0 + (kernel_runs_sample((sa.x > 0.0 ? p : -p) / (r + 0.5)) - 1.0) * blend;
-            float k_centre = 1.0 + (kernel_runs_sample((c[k].s > 0.0 ? p : -p) / c[k].support) - 1.0) * c[k].kernel_blend;
+            float q_centre = one_sample ? q[k] : kernel_sample_for_centre(c[k], o, oy);
+            // With one_sample a source of alpha > 0 has s = c[k].s, so the same sample bit for
+            // bit (r + 1/2 is the centre's support); a source of alpha 0 adds P / A = 0 exactly
+            // and its alpha 0 to V, whatever its weight.
+            float q_source = one_sample ? q_centre : kernel_runs_sample((sa.x > 0.0 ? p : -p) / (r + 0.5));
+            float k_source = 1.0 + (q_source - 1.0) * blend;
+            float k_centre = 1.0 + (q_centre - 1.0) * c[k].kernel_blend;
             span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, k_source, k_centre, inside, o == 0 && oy == 0, occlusion);
 #else
             span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
@@ -413,6 +444,9 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
         }
         for (int k = RUN - 1; k > 0; --k) {
             g[k] = g[k - 1];
+#ifdef DRBOKEH_LAYER_KERNEL
+            q[k] = q[k - 1];
+#endif
         }
     }
 }
@@ -496,7 +530,7 @@ int kernel_row_set(int w, float t, float outer) {
 // q = o (or -o mirrored) with q / c inside it for every scale c in [t, outer]; column ox is in
 // it for every centre k when ox - k is. `orientation` (tile_radii.z): 1 every source and
 // centre near (the kernel at (o, oy)), -1 every one far (its mirror), 0 both: no runs.
-void kernel_row(inout Centre c[RUN], int row, ivec2 x0, int ox0, int ox1, ivec2 span, int oy, ivec2 mid, float t, float outer, int orientation) {
+void kernel_row(inout Centre c[RUN], int row, ivec2 x0, int ox0, int ox1, ivec2 span, int oy, ivec2 mid, float t, float outer, int orientation, bool one_sample) {
     bool zeros = t - 0.5 >= APERTURE_KERNEL_FADE_END_PX;
     int set = orientation == 0 ? -1 : kernel_row_set(orientation * oy, t, outer);
     int pos = ox0;
@@ -522,14 +556,14 @@ void kernel_row(inout Centre c[RUN], int row, ivec2 x0, int ox0, int ox1, ivec2 
             if (a > b) {
                 continue;
             }
-            full_taps(c, row, pos, a - 1, span, oy, false, false);
+            full_taps(c, row, pos, a - 1, span, oy, false, false, one_sample);
             if (full) {
                 interior_sum(c, row, x0, a, b, false);
             }
             pos = b + 1;
         }
     }
-    full_taps(c, row, pos, ox1, span, oy, false, false);
+    full_taps(c, row, pos, ox1, span, oy, false, false, one_sample);
 }
 #endif
 
@@ -546,7 +580,7 @@ void kernel_row(inout Centre c[RUN], int row, ivec2 x0, int ox0, int ox1, ivec2 
 // middle columns of each row, interior for all RUN centres, add one span sum (span_sum) and
 // their count without any gauge. Another order than the full taps' (f32 rounding apart),
 // but the span is a function of global positions, so still the same bits for every tiling.
-void gather_span_run(ivec2 x0, int h, float t, float outer, int orientation, inout Centre c[RUN], bool occlusion, bool hole) {
+void gather_span_run(ivec2 x0, int h, float t, float outer, int orientation, inout Centre c[RUN], bool occlusion, bool hole, bool one_sample) {
     int oy0 = max(-h, -x0.y);
     int oy1 = min(h, pc.height - 1 - x0.y);
     for (int oy = oy0; oy <= oy1; ++oy) {
@@ -572,15 +606,15 @@ void gather_span_run(ivec2 x0, int h, float t, float outer, int orientation, ino
         }
 #ifdef DRBOKEH_LAYER_KERNEL
         if (!occlusion) {
-            kernel_row(c, row, x0, ox0, ox1, span, oy, ivec2(mid0, mid1), t, outer, orientation);
+            kernel_row(c, row, x0, ox0, ox1, span, oy, ivec2(mid0, mid1), t, outer, orientation, one_sample);
             continue;
         }
 #endif
-        full_taps(c, row, ox0, mid0 - 1, span, oy, occlusion, hole);
+        full_taps(c, row, ox0, mid0 - 1, span, oy, occlusion, hole, one_sample);
         if (mid0 <= mid1) {
             interior_sum(c, row, x0, mid0, mid1, hole);
         }
-        full_taps(c, row, mid1 + 1, ox1, span, oy, occlusion, hole);
+        full_taps(c, row, mid1 + 1, ox1, span, oy, occlusion, hole, one_sample);
     }
 }
 #endif
@@ -679,11 +713,27 @@ void main() {
         t -= t * (1.0 / 65536.0);
         // Branches are masks on lavapipe: only a lane group with an occluding centre pays for
         // the occlusion terms.
+#ifdef DRBOKEH_LAYER_KERNEL
+        // One value for the whole workgroup (its 16x16 tile): a true branch.
+        bool one_sample = radii.w > 0.5;
         if (occluding) {
-            gather_span_run(x0, h, t, radii.y, int(radii.z), c, true, false);
+            if (one_sample) {
+                gather_span_run(x0, h, t, radii.y, int(radii.z), c, true, false, true);
+            } else {
+                gather_span_run(x0, h, t, radii.y, int(radii.z), c, true, false, false);
+            }
+        } else if (one_sample) {
+            gather_span_run(x0, h, t, radii.y, int(radii.z), c, false, false, true);
         } else {
-            gather_span_run(x0, h, t, radii.y, int(radii.z), c, false, false);
+            gather_span_run(x0, h, t, radii.y, int(radii.z), c, false, false, false);
         }
+#else
+        if (occluding) {
+            gather_span_run(x0, h, t, radii.y, int(radii.z), c, true, false, false);
+        } else {
+            gather_span_run(x0, h, t, radii.y, int(radii.z), c, false, false, false);
+        }
+#endif
 #ifdef DRBOKEH_LAYER_RING
         // The ring's weight is S(r, g) (1 - blend(r) S(inner r, g)) (aperture_ring_weight: the
         // Hermite step's complement is the step of the reflected argument), so its gather is
@@ -698,9 +748,9 @@ void main() {
         float outer_hole = (inner * (radii.y - 0.5) + 0.5) * (1.0 + 1.0 / 4096.0) + 1.0 / 4096.0;
         int h_hole = outer_hole >= float(h + 1) ? h : int(ceil(outer_hole));
         if (occluding) {
-            gather_span_run(x0, h_hole, t_hole, outer_hole, int(radii.z), c, true, true);
+            gather_span_run(x0, h_hole, t_hole, outer_hole, int(radii.z), c, true, true, false);
         } else {
-            gather_span_run(x0, h_hole, t_hole, outer_hole, int(radii.z), c, false, true);
+            gather_span_run(x0, h_hole, t_hole, outer_hole, int(radii.z), c, false, true, false);
         }
 #endif
         for (int k = 0; k < RUN; ++k) {

@@ -107,6 +107,10 @@ pub fn grow_windows(mut windows: Vec<i32>, margin: i32) -> Vec<i32> {
 /// - orientation: 1 when every such source and every pixel of the tile is nearer than focus
 ///   (f32 `s > 0`), -1 when every one is not, 0 when both occur. The gauge path then bounds
 ///   its rows by the aperture alone (1) or its mirror alone (-1), not by both.
+/// - one disparity: 1 when every pixel of the tile and every such source hold the same
+///   disparity (bit for bit, so the shader's s is the same number at each), else 0. Then any
+///   source that adds something sees the aperture through the centre's own CoC, and the kernel
+///   path samples the kernel image once a tap for both.
 /// Tiles outside the core hold `[0, f32::MAX, 0, 0]`: no shortcut.
 pub fn span_radii(params: &Params, stack: &LayerStack, windows: &[i32], core: Rect) -> Vec<[f32; 4]> {
     let per_layer = params.tiles_x * params.tiles_y;
@@ -127,6 +131,7 @@ pub fn span_radii(params: &Params, stack: &LayerStack, windows: &[i32], core: Re
             let mut range = *tile_ranges[t].get_or_insert_with(|| abs_s_range(params, layer, tx, ty));
             let own_reach = range.all_max;
             let (mut near, mut far) = (range.all_near, range.all_far);
+            let mut one_disparity = range.all_disparity;
             for uy in cover(ty, params.height) {
                 for ux in cover(tx, params.width) {
                     let u = uy * params.tiles_x + ux;
@@ -135,6 +140,11 @@ pub fn span_radii(params: &Params, stack: &LayerStack, windows: &[i32], core: Re
                     range.source_max = range.source_max.max(other.source_max);
                     near |= other.source_near;
                     far |= other.source_far;
+                    one_disparity = match other.source_disparity {
+                        Disparities::None => one_disparity,
+                        theirs if theirs == one_disparity => one_disparity,
+                        _ => Disparities::Several,
+                    };
                 }
             }
             let m = range.source_min;
@@ -146,7 +156,8 @@ pub fn span_radii(params: &Params, stack: &LayerStack, windows: &[i32], core: Re
                 (false, true) => -1.0,
                 _ => 0.0,
             };
-            radii[l * per_layer + t] = [interior, outer, orientation, 0.0];
+            let one_disparity = if matches!(one_disparity, Disparities::One(_)) { 1.0 } else { 0.0 };
+            radii[l * per_layer + t] = [interior, outer, orientation, one_disparity];
         }
     }
     radii
@@ -170,6 +181,27 @@ struct AbsSRange {
     /// The same over every pixel (the centres: V's gauge takes their orientation).
     all_near: bool,
     all_far: bool,
+    /// The disparities of the sources with alpha > 0 and of every pixel.
+    source_disparity: Disparities,
+    all_disparity: Disparities,
+}
+
+/// The distinct disparities (f32 bits) of a set of pixels: none, one, or several.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Disparities {
+    None,
+    One(u32),
+    Several,
+}
+
+impl Disparities {
+    fn with(self, disparity: f32) -> Self {
+        match self {
+            Disparities::None => Disparities::One(disparity.to_bits()),
+            Disparities::One(bits) if bits == disparity.to_bits() => self,
+            _ => Disparities::Several,
+        }
+    }
 }
 
 fn abs_s_range(params: &Params, layer: &Layer, tx: usize, ty: usize) -> AbsSRange {
@@ -182,6 +214,8 @@ fn abs_s_range(params: &Params, layer: &Layer, tx: usize, ty: usize) -> AbsSRang
         source_far: false,
         all_near: false,
         all_far: false,
+        source_disparity: Disparities::None,
+        all_disparity: Disparities::None,
     };
     for py in ty * TILE..((ty + 1) * TILE).min(params.height) {
         for px in tx * TILE..((tx + 1) * TILE).min(params.width) {
@@ -193,7 +227,9 @@ fn abs_s_range(params: &Params, layer: &Layer, tx: usize, ty: usize) -> AbsSRang
             range.all_max = range.all_max.max(if finite { s } else { f32::INFINITY });
             range.all_near |= near;
             range.all_far |= !near;
+            range.all_disparity = range.all_disparity.with(layer.disparity[i]);
             if layer.rgba.pixels[i][3] > 0.0 {
+                range.source_disparity = range.source_disparity.with(layer.disparity[i]);
                 range.source_min = range.source_min.min(if finite { s } else { 0.0 });
                 range.source_max = range.source_max.max(if finite { s } else { f32::INFINITY });
                 range.source_near |= near;

@@ -125,14 +125,17 @@ fn span_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
     let abs_s = |layer: &Layer, i: usize| signed_s(layer, i).abs();
     let mut trimmed = 0;
     let mut orientations = std::collections::BTreeSet::new();
+    let mut one_disparity_tiles = [0; 2];
     for (l, layer) in stack.layers.iter().enumerate() {
         for t in 0..per_layer {
-            let (window, [interior, outer, orientation, _]) = (windows[l * per_layer + t], radii[l * per_layer + t]);
+            let (window, [interior, outer, orientation, one_disparity]) = (windows[l * per_layer + t], radii[l * per_layer + t]);
             if window < 0 {
                 continue;
             }
             orientations.insert(orientation as i32);
             let (tx, ty) = ((t % params.tiles_x) * 16, (t / params.tiles_x) * 16);
+            one_disparity_tiles[l] += usize::from(one_disparity == 1.0);
+            let tile_disparity = layer.disparity[ty * w + tx].to_bits();
             // Every source a pixel of the tile gathers from (the window square) and every
             // pixel of the tile itself (V's reach).
             for y in ty.saturating_sub(window as usize)..(ty + 16 + window as usize).min(h) {
@@ -141,6 +144,9 @@ fn span_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
                     let own = (tx..tx + 16).contains(&x) && (ty..ty + 16).contains(&y);
                     if layer.rgba.pixels[i][3] > 0.0 || own {
                         assert!(abs_s(layer, i) + 0.5 < outer, "layer {l} tile {t}: ({x},{y}) reaches past {outer}");
+                        // One kernel sample serves source and centre only where they share s.
+                        let same = layer.disparity[i].to_bits() == tile_disparity;
+                        assert!(one_disparity == 0.0 || same, "layer {l} tile {t}: ({x},{y}) has another disparity");
                         // One side of focus only where every source and centre is on it.
                         let near = signed_s(layer, i) > 0.0;
                         assert!(orientation == 0.0 || (orientation == 1.0) == near, "layer {l} tile {t}: ({x},{y}) not on side {orientation}");
@@ -157,6 +163,9 @@ fn span_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
         }
     }
     assert!(trimmed > 0, "the constant 10 px disc (window 10, reach 10.5) is trimmed");
+    // Every tile of the constant disc has one disparity; no tile of the tilted plane has.
+    let tiles = windows[..per_layer].iter().filter(|&&h| h >= 0).count();
+    assert_eq!(one_disparity_tiles, [tiles, 0], "tiles of one disparity per layer");
     // The plane is in focus (s = 0, not nearer) at its left edge only: both cases occur.
     assert_eq!(orientations, [0, 1].into_iter().collect(), "tiles of one side and of both");
 }
