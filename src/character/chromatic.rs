@@ -34,15 +34,19 @@ fn distinct_offsets(offsets_px: [f32; 3]) -> (Vec<f32>, [usize; 3]) {
     (distinct, index)
 }
 
-/// How many renders [`render_chromatic`] makes: one per distinct focal plane, so one when no
-/// channel differs (without blur, K = 0, every offset is the same plane: one render is the
-/// exact answer).
-pub fn chromatic_renders(lens: &Lens, offsets_px: [f32; 3]) -> usize {
+/// The focal planes a render with `offsets_px` needs (focus offsets in CoC pixels) and each
+/// channel's plane among them. Without blur (K = 0) every plane renders alike: one, unshifted.
+fn focal_planes(lens: &Lens, offsets_px: [f32; 3]) -> (Vec<f32>, [usize; 3]) {
     if lens.coc.k_px == 0.0 {
-        1
-    } else {
-        distinct_offsets(offsets_px).0.len()
+        return (vec![0.0], [0; 3]);
     }
+    distinct_offsets(offsets_px)
+}
+
+/// How many renders [`render_chromatic`] makes: one per distinct focal plane, so one when no
+/// channel differs (or without blur, where one render is the exact answer).
+pub fn chromatic_renders(lens: &Lens, offsets_px: [f32; 3]) -> usize {
+    focal_planes(lens, offsets_px).0.len()
 }
 
 /// Renders through `lens` with a per-channel focus offset (CoC pixels): one render per
@@ -58,21 +62,13 @@ pub fn render_chromatic(
     if offsets_px.iter().any(|o| !o.is_finite()) {
         return Err(Error::invalid("chromatic", "chromatic focus offsets must be finite"));
     }
-    if chromatic_renders(lens, offsets_px) == 1 {
-        let mut lens = lens.clone();
-        if lens.coc.k_px != 0.0 {
-            shift_focus(&mut lens, offsets_px[1])?;
-        }
-        return render(stack, &lens);
+    let (offsets, index) = focal_planes(lens, offsets_px);
+    // Every plane's lens first: an impossible shift is refused before any render.
+    let lenses = offsets.iter().map(|&offset| shifted_focus(lens, offset)).collect::<Result<Vec<_>>>()?;
+    if let [lens] = &lenses[..] {
+        return render(stack, lens);
     }
-    let (distinct, index) = distinct_offsets(offsets_px);
-    let mut shifted = Vec::with_capacity(distinct.len());
-    for offset in distinct {
-        let mut lens = lens.clone();
-        shift_focus(&mut lens, offset)?;
-        shifted.push(lens);
-    }
-    let planes = shifted.iter().map(|lens| render(stack, lens)).collect::<Result<Vec<_>>>()?;
+    let planes = lenses.iter().map(|lens| render(stack, lens)).collect::<Result<Vec<_>>>()?;
     // Alpha (coverage) comes from the green channel's plane.
     let mut out = planes[index[1]].clone();
     for (i, p) in out.pixels.iter_mut().enumerate() {
@@ -82,8 +78,12 @@ pub fn render_chromatic(
     Ok(out)
 }
 
-/// Moves `lens`'s focus by `offset` CoC pixels (`d_f + offset / K`).
-fn shift_focus(lens: &mut Lens, offset: f32) -> Result<()> {
+/// `lens` with its focus moved by `offset` CoC pixels (`d_f + offset / K`; unmoved for 0).
+fn shifted_focus(lens: &Lens, offset: f32) -> Result<Lens> {
+    let mut lens = lens.clone();
+    if offset == 0.0 {
+        return Ok(lens);
+    }
     lens.coc.focus_disparity += offset / lens.coc.k_px;
     // A tiny K turns a pixel of offset into an infinite focus shift: no focal plane moves
     // that far, so say which flag cannot work (before any render) instead of rendering
@@ -95,7 +95,7 @@ fn shift_focus(lens: &mut Lens, offset: f32) -> Result<()> {
             lens.coc.k_px
         )));
     }
-    Ok(())
+    Ok(lens)
 }
 
 #[cfg(test)]
