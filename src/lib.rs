@@ -56,6 +56,7 @@
 //! - [`character`]: lens character and artist controls layered on any method.
 //! - [`raytrace`] (feature `raytrace`): the thin-lens ground-truth ray tracer and the built-in scenes.
 //! - [`metrics`]: image quality metrics used by the benchmark.
+//! - [`selfcheck`]: every device pass against its CPU reference (the tests and the GPU kit).
 //! - [`bench`](mod@bench) (feature `bench`): the benchmark runner, report table and contact sheet.
 pub mod atomic_file;
 pub mod cache_dir;
@@ -71,6 +72,7 @@ pub mod optim;
 #[cfg(feature = "raytrace")]
 pub mod raytrace;
 pub mod render;
+pub mod selfcheck;
 pub mod sequence;
 pub mod shaders;
 pub mod stack;

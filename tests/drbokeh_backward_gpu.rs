@@ -1,154 +1,24 @@
-//! The Dr.Bokeh backward shaders against their f64 CPU reference, against finite differences
-//! of the GPU forward, and for determinism.
+//! The Dr.Bokeh backward shaders against finite differences of the GPU forward, for determinism
+//! and on tiles. Their comparison with the f64 CPU reference is in the self-check (src/selfcheck).
 mod common;
 
 use common::{finish, gpu};
-use lensblur::camera::{Aperture, CocModel, KernelImage};
+use lensblur::camera::{Aperture, CocModel};
 use lensblur::image::Image;
-use lensblur::render::drbokeh::{backward_cpu, BackwardOptions, DrBokehGpu, DrBokehGpuGrad, Model};
+use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpu, DrBokehGpuGrad, Model};
 use lensblur::render::grad::{Differentiable, StackGradients};
 use lensblur::render::Lens;
-use lensblur::stack::{Layer, LayerStack};
+use lensblur::stack::LayerStack;
 
-fn hash(i: usize) -> f32 {
-    let x = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x5851_F42D_4C95_7F2D;
-    let x = (x ^ (x >> 29)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    ((x >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
-}
-
-/// Three layers, sizes that do not divide the 16x16 tiles: a near blob with a soft alpha rim,
-/// a near-focus textured layer with holes, an opaque far layer. K = 12, focus 0.5: CoC up to
-/// `12 * max |d - 0.5|` px. Slopes keep radii off the compat box steps int((r + 1) / 2),
-/// where f32 and f64 could round to different integer boxes.
-fn scene(w: usize, h: usize, near_d: f32) -> LayerStack {
-    let (cx, cy) = (w as f32 * 0.4, h as f32 * 0.45);
-    let near = Layer {
-        name: "near".into(),
-        rgba: Image::from_fn(w, h, |x, y| {
-            let d = ((x as f32 - cx).powi(2) + (y as f32 - cy).powi(2)).sqrt() / (h as f32 * 0.25);
-            let a = if d < 0.8 {
-                1.0
-            } else if d < 1.1 {
-                0.5
-            } else {
-                0.0
-            };
-            [0.9 * a, (0.2 + 0.01 * x as f32) * a, 0.4 * a, a]
-        }),
-        disparity: (0..w * h)
-            .map(|i| near_d + 0.0013 * (i % w) as f32 / w as f32 * 16.0 - 0.0007 * (i / w) as f32 / h as f32 * 16.0)
-            .collect(),
-    };
-    let mid = Layer {
-        name: "mid".into(),
-        rgba: Image::from_fn(w, h, |x, y| {
-            let a = if (x + 2 * y) % 7 == 0 {
-                0.0
-            } else if x > w / 2 {
-                0.75
-            } else {
-                1.0
-            };
-            [(0.3 + 0.1 * (y % 3) as f32) * a, 0.7 * a, 2.0 * a, a]
-        }),
-        disparity: (0..w * h)
-            .map(|i| 0.5137 + 0.1 * (i % w) as f32 / w as f32 + 0.011 * (i / w) as f32 / h as f32)
-            .collect(),
-    };
-    let far = Layer {
-        name: "far".into(),
-        rgba: Image::from_fn(w, h, |x, y| {
-            let highlight = if (x * 7 + y * 13) % 53 == 0 { 8.0 } else { 0.0 };
-            let v = ((x * 5 + y * 3) % 7) as f32 / 7.0;
-            [v + highlight, 0.5 - 0.3 * v, 3.0 * v + 0.1, 1.0]
-        }),
-        disparity: (0..w * h)
-            .map(|i| 0.2113 + 0.03 * (i % w) as f32 / w as f32 + 0.021 * (i / w) as f32 / h as f32)
-            .collect(),
-    };
-    LayerStack::new(w, h, vec![near, mid, far]).unwrap()
-}
-
-fn grad_output(w: usize, h: usize) -> Image {
-    Image::from_fn(w, h, |x, y| std::array::from_fn(|c| hash((y * w + x) * 4 + c)))
-}
+use lensblur::selfcheck::scenes::{backward as scene, grad_output, hash};
 
 fn lens(aperture: Aperture) -> Lens {
     Lens { coc: CocModel::new(12.0, 0.5).unwrap(), aperture }
 }
 
-/// Largest |gpu - cpu| of a gradient family relative to the family's largest |cpu| entry.
-fn worst(gpu: impl Iterator<Item = f32>, cpu: impl Iterator<Item = f64>) -> f64 {
-    let pairs: Vec<(f64, f64)> = gpu.map(|v| v as f64).zip(cpu).collect();
-    let scale = pairs.iter().fold(0.0f64, |m, p| m.max(p.1.abs()));
-    pairs.iter().fold(0.0f64, |m, p| m.max((p.0 - p.1).abs())) / scale.max(f64::MIN_POSITIVE)
-}
+// The comparison with the f64 CPU reference for both models and every aperture, untiled and
+// tiled, is a self-check (src/selfcheck, run by tests/gpu_kit.rs and by the GPU kit).
 
-#[test]
-fn gpu_backward_matches_cpu_reference_for_both_models_and_apertures() {
-    let ctx = gpu();
-    let (w, h) = (37, 29);
-    let stack = scene(w, h, 0.83);
-    let gout = grad_output(w, h);
-    // Not point-symmetric: a near side's mirrored kernel differs from a far side's.
-    let kernel = KernelImage::from_weights(
-        4,
-        vec![0.2, 1.0, 1.0, 0.6, 1.0, 0.5, 0.3, 1.0, 1.0, 0.8, 0.5, 1.0, 0.0, 1.0, 0.9, 0.4],
-    )
-    .unwrap();
-    // Disk, the gauge path (even and odd polygons, an ellipse: passes 2 and 4 with the
-    // closed-form gauge, mirrored per side of focus), the ring's and the kernel image's paths.
-    let apertures = [
-        Aperture::Disk,
-        Aperture::polygon(6, 15.0, 0.2).unwrap(),
-        Aperture::polygon(5, 20.0, 0.0).unwrap(),
-        Aperture::anamorphic(1.7, 25.0).unwrap(),
-        Aperture::ring(0.5).unwrap(),
-        Aperture::Kernel(kernel),
-    ];
-    for model in [Model::DrBokeh, Model::Compat] {
-        for (a, aperture) in apertures.iter().enumerate() {
-            // The leak changes only dS/dr terms, the same code for every aperture: disk only.
-            let leaks: &[BackwardOptions] = if a == 0 {
-                &[BackwardOptions::exact(), BackwardOptions::leaky()]
-            } else {
-                &[BackwardOptions::exact()]
-            };
-            for &options in leaks {
-                let lens = lens(aperture.clone());
-                let renderer = DrBokehGpuGrad::new(&ctx, model, options).unwrap();
-                let got = renderer.backward(&stack, &lens, &gout).unwrap();
-                let want = backward_cpu(&stack, &lens, model, options, &gout).unwrap();
-                let label = format!("{model:?} aperture {a} leak {}", options.leaky_slope);
-                for (l, (g, c)) in got.layers.iter().zip(&want.layers).enumerate() {
-                    let rgba = worst(g.rgba.iter().flatten().copied(), c.rgba.iter().flatten().copied());
-                    let disparity = worst(g.disparity.iter().copied(), c.disparity.iter().copied());
-                    eprintln!("{label} layer {l}: rgba {rgba:e}, disparity {disparity:e}");
-                    // f32 sums of a few hundred terms per entry (plus the 1/W^2 of the colour
-                    // ratio): ~1e-5 of the largest entry; 1e-4 leaves margin for cancellation.
-                    assert!(
-                        rgba < 1e-4 && disparity < 1e-4,
-                        "{label} layer {l}: rgba {rgba:e}, disparity {disparity:e}"
-                    );
-                }
-                // The scalars sum ~3000 f32 shares of both signs.
-                let k = (got.k_px - want.k_px).abs() / want.k_px.abs().max(1.0);
-                let f = (got.focus_disparity - want.focus_disparity).abs() / want.focus_disparity.abs().max(1.0);
-                assert!(
-                    k < 1e-4 && f < 1e-4,
-                    "{label}: K {} vs {}, focus {} vs {}",
-                    got.k_px,
-                    want.k_px,
-                    got.focus_disparity,
-                    want.focus_disparity
-                );
-            }
-        }
-    }
-    finish(ctx);
-}
-
-/// `sum_x u(x) . out(x)` in f64 from the GPU forward.
 fn projected(renderer: &DrBokehGpu, stack: &LayerStack, lens: &Lens, model: Model, u: &Image) -> f64 {
     let out = renderer.render(stack, lens, model).unwrap();
     out.pixels.iter().zip(&u.pixels).map(|(o, g)| (0..4).map(|c| o[c] as f64 * g[c] as f64).sum::<f64>()).sum()
@@ -349,45 +219,5 @@ fn backward_out_of_device_memory_retries_with_smaller_tiles_and_the_same_gradien
     );
     assert_eq!(bits(&retried), bits(&whole), "gradients of the retried, smaller tiles are the untiled ones");
     drop(renderer);
-    finish(ctx);
-}
-
-#[test]
-fn tiled_gpu_backward_matches_cpu_reference() {
-    use lensblur::render::drbokeh::RenderOptions;
-    let ctx = gpu();
-    let (w, h) = (45, 37);
-    let stack = scene(w, h, 0.95);
-    let gout = grad_output(w, h);
-    let lens = lens(Aperture::polygon(5, 10.0, 0.1).unwrap());
-    for (model, options) in [
-        (Model::DrBokeh, BackwardOptions::exact()),
-        (Model::DrBokeh, BackwardOptions::leaky()),
-        (Model::Compat, BackwardOptions::exact()),
-    ] {
-        let renderer = DrBokehGpuGrad::new(&ctx, model, options).unwrap();
-        let (got, stats) = renderer
-            .backward_with(&stack, &lens, &gout, &RenderOptions { tile: Some(16), ..RenderOptions::default() })
-            .unwrap();
-        assert_eq!(stats.tiles, 9);
-        let want = backward_cpu(&stack, &lens, model, options, &gout).unwrap();
-        let label = format!("{model:?} leak {}", options.leaky_slope);
-        for (l, (g, c)) in got.layers.iter().zip(&want.layers).enumerate() {
-            let rgba = worst(g.rgba.iter().flatten().copied(), c.rgba.iter().flatten().copied());
-            let disparity = worst(g.disparity.iter().copied(), c.disparity.iter().copied());
-            // Same bound as the untiled comparison: the tiles sum the same f32 terms.
-            assert!(rgba < 1e-4 && disparity < 1e-4, "{label} layer {l}: rgba {rgba:e}, disparity {disparity:e}");
-        }
-        let k = (got.k_px - want.k_px).abs() / want.k_px.abs().max(1.0);
-        let f = (got.focus_disparity - want.focus_disparity).abs() / want.focus_disparity.abs().max(1.0);
-        assert!(
-            k < 1e-4 && f < 1e-4,
-            "{label}: K {} vs {}, focus {} vs {}",
-            got.k_px,
-            want.k_px,
-            got.focus_disparity,
-            want.focus_disparity
-        );
-    }
     finish(ctx);
 }

@@ -1,4 +1,6 @@
-//! The Dr.Bokeh shaders against their f64 CPU reference (src/render/drbokeh/cpu.rs).
+//! The Dr.Bokeh shaders: the optimised kernel against the baseline and further properties. The
+//! comparison of every aperture path with the f64 CPU reference is in the self-check
+//! (src/selfcheck, run by tests/gpu_kit.rs).
 mod common;
 
 use common::{finish, gpu};
@@ -6,48 +8,9 @@ use lensblur::camera::{Aperture, CocModel, KernelImage};
 use lensblur::image::Image;
 use lensblur::render::drbokeh::{render_cpu, DrBokehGpu, LayerKernel, Model};
 use lensblur::render::Lens;
-use lensblur::stack::{Layer, LayerStack};
+use lensblur::stack::LayerStack;
 
-/// A three-layer scene, sizes that do not divide the 16x16 tiles: a blurred near square with
-/// soft alpha, an in-focus textured ring, a far HDR background with highlights (up to 40).
-fn scene(w: usize, h: usize) -> LayerStack {
-    let near = Layer {
-        name: "near".into(),
-        rgba: Image::from_fn(w, h, |x, y| {
-            let a = if (8..24).contains(&x) && (6..22).contains(&y) {
-                1.0
-            } else if (6..26).contains(&x) && (4..24).contains(&y) {
-                0.4
-            } else {
-                0.0
-            };
-            [0.9 * a, 0.2 * a, 0.1 * a, a]
-        }),
-        // Slopes chosen so no pixel sits exactly on a compat box-size step (int((r + 1) / 2)), where
-        // f32 and f64 would legitimately round to different integer boxes.
-        disparity: (0..w * h).map(|i| 0.9 + 0.0021 * (i % w) as f32).collect(),
-    };
-    let ring = Layer {
-        name: "ring".into(),
-        rgba: Image::from_fn(w, h, |x, y| {
-            let d = ((x as f32 - 30.0).powi(2) + (y as f32 - 20.0).powi(2)).sqrt();
-            let a = if (6.0..12.0).contains(&d) { 1.0 } else { 0.0 };
-            let v = 0.5 + 0.4 * ((x + y) as f32 * 0.7).sin();
-            [v * a, (1.0 - v) * a, 0.3 * a, a]
-        }),
-        disparity: vec![0.5; w * h],
-    };
-    let far = Layer {
-        name: "far".into(),
-        rgba: Image::from_fn(w, h, |x, y| {
-            let highlight = if (x * 7 + y * 13) % 53 == 0 { 40.0 } else { 0.0 };
-            let v = ((x * 3 + y * 5) % 17) as f32 / 17.0;
-            [v + highlight, 0.5 * v, 1.0 - v, 1.0]
-        }),
-        disparity: (0..w * h).map(|i| 0.1 + 0.001 * (i / w) as f32).collect(),
-    };
-    LayerStack::new(w, h, vec![near, ring, far]).unwrap()
-}
+use lensblur::selfcheck::scenes::forward as scene;
 
 /// Largest difference relative to max(1, |cpu|) (HDR highlights reach ~40).
 fn worst_relative(gpu: &Image, cpu: &Image) -> f32 {
@@ -58,38 +21,8 @@ fn worst_relative(gpu: &Image, cpu: &Image) -> f32 {
         .fold(0.0, f32::max)
 }
 
-#[test]
-fn gpu_matches_cpu_reference_for_both_models_and_every_aperture() {
-    let ctx = gpu();
-    let renderer = DrBokehGpu::new(&ctx).unwrap();
-    let stack = scene(45, 37);
-    let kernel = KernelImage::from_weights(
-        4,
-        vec![0.2, 1.0, 1.0, 0.2, 1.0, 0.5, 0.5, 1.0, 1.0, 0.5, 0.5, 1.0, 0.2, 1.0, 1.0, 0.2],
-    )
-    .unwrap();
-    let apertures = [
-        Aperture::Disk,
-        Aperture::polygon(6, 15.0, 0.2).unwrap(),
-        Aperture::ring(0.5).unwrap(),
-        Aperture::cats_eye([-0.7, 0.4]).unwrap(),
-        Aperture::Kernel(kernel),
-    ];
-    for model in [Model::DrBokeh, Model::Compat] {
-        for aperture in &apertures {
-            // K = 25: CoC up to ~12 px in front, ~10 px behind.
-            let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: aperture.clone() };
-            let gpu_image = renderer.render(&stack, &lens, model).unwrap();
-            let cpu_image = render_cpu(&stack, &lens, model).unwrap();
-            // f32 against f64 over a few hundred taps: measured <= 6e-6 on lavapipe; 5e-5 leaves
-            // room for other drivers' transcendentals (tanh/exp/atan) without hiding real bugs.
-            let worst = worst_relative(&gpu_image, &cpu_image);
-            assert!(worst < 5e-5, "{model:?} {aperture:?}: worst relative difference {worst}");
-        }
-    }
-    drop(renderer);
-    finish(ctx);
-}
+// Every aperture path of both models against the CPU reference, untiled and tiled, is a
+// self-check (src/selfcheck, run by tests/gpu_kit.rs and by the GPU kit on real GPUs).
 
 #[test]
 fn optimised_kernel_matches_the_baseline_kernel_for_both_models_and_every_aperture() {
@@ -100,8 +33,12 @@ fn optimised_kernel_matches_the_baseline_kernel_for_both_models_and_every_apertu
     // 50 is not a multiple of the 8-pixel runs.
     let stack = scene(50, 40);
     let kernel = KernelImage::from_weights(2, vec![1.0, 0.5, 0.5, 1.0]).unwrap();
-    let apertures =
-        [Aperture::Disk, Aperture::polygon(5, 10.0, 0.0).unwrap(), Aperture::ring(0.4).unwrap(), Aperture::Kernel(kernel)];
+    let apertures = [
+        Aperture::Disk,
+        Aperture::polygon(5, 10.0, 0.0).unwrap(),
+        Aperture::ring(0.4).unwrap(),
+        Aperture::Kernel(kernel),
+    ];
     for model in [Model::DrBokeh, Model::Compat] {
         for aperture in &apertures {
             let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: aperture.clone() };
@@ -332,13 +269,22 @@ fn vignetted_apertures_match_cpu_reference_and_per_tap_evaluation() {
             // 3x3 tiles at K = 25 (the CPU reference is slow): the same bound as every aperture's.
             let small = crossing(45, 37);
             let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: aperture.clone() };
-            let worst = worst_relative(&fast.render(&small, &lens, Model::DrBokeh).unwrap(), &render_cpu(&small, &lens, Model::DrBokeh).unwrap());
-            assert!(worst < 5e-5, "{base:?} strength {strength}: worst relative difference {worst} from the CPU reference");
+            let worst = worst_relative(
+                &fast.render(&small, &lens, Model::DrBokeh).unwrap(),
+                &render_cpu(&small, &lens, Model::DrBokeh).unwrap(),
+            );
+            assert!(
+                worst < 5e-5,
+                "{base:?} strength {strength}: worst relative difference {worst} from the CPU reference"
+            );
             let lens = Lens { coc: CocModel::new(50.0, 0.5).unwrap(), aperture };
             assert_span_path_matches(&fast, &full, &crossing(70, 53), &lens);
         }
     }
-    assert!(Aperture::vignetted(&Aperture::polygon(6, 0.0, 0.2).unwrap(), 0.6).is_none(), "rounded blades keep the node grid");
+    assert!(
+        Aperture::vignetted(&Aperture::polygon(6, 0.0, 0.2).unwrap(), 0.6).is_none(),
+        "rounded blades keep the node grid"
+    );
     assert!(Aperture::vignetted(&Aperture::ring(0.5).unwrap(), 0.6).is_none(), "the ring keeps the node grid");
     drop((fast, full));
     finish(ctx);
@@ -360,7 +306,11 @@ fn kernel_path_matches_per_tap_evaluation_and_is_bit_identical_tiled_or_not() {
             let (u, v) = ((i % n) as f32 / (n - 1) as f32 * 2.0 - 1.0, (i / n) as f32 / (n - 1) as f32 * 2.0 - 1.0);
             let (r, theta) = (u.hypot(v), v.atan2(u));
             let arm = 0.45 + 0.5 * (2.5 * theta).cos().abs();
-            if r < 0.15 { 0.0 } else { ((arm - r) * 8.0).clamp(0.0, 1.0) }
+            if r < 0.15 {
+                0.0
+            } else {
+                ((arm - r) * 8.0).clamp(0.0, 1.0)
+            }
         })
         .collect();
     let kernel = Aperture::Kernel(KernelImage::from_weights(n, star).unwrap());

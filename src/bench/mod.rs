@@ -7,6 +7,7 @@
 //! Vulkan renderers, [`all_methods`] both. [`run`] produces a [`BenchReport`] (JSON via serde, a
 //! text table via `Display`), [`contact_sheet`] a labelled PNG of all renders and errors.
 pub mod gt_cache;
+pub mod device_timings;
 pub mod large;
 mod methods;
 pub mod apertures;

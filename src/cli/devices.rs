@@ -29,9 +29,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             if d.memory_budget_extension { "the driver's budget (VK_EXT_memory_budget)" } else { "the heap size" }
         );
         println!(
-            "      workgroup: {} invocations max, size {:?}; storage buffer range {} MiB; push constants {} B; shared memory {} KiB",
+            "      workgroup: {} invocations max, size {:?}, subgroup {}; storage buffer range {} MiB; push constants {} B; shared memory {} KiB",
             d.max_workgroup_invocations,
             d.max_workgroup_size,
+            d.subgroup_size,
             d.max_storage_buffer_range >> 20,
             d.max_push_constants_size,
             d.max_shared_memory_bytes >> 10

@@ -13,6 +13,7 @@ mod devices;
 mod example;
 mod farm_template;
 mod fit_depth;
+mod gpu_kit;
 mod grad;
 mod info;
 mod input_args;
@@ -75,6 +76,12 @@ enum Command {
     BenchPerf(bench_perf::Args),
     /// Frames/s of a shot rendered by one process against one process per frame.
     BenchSequence(bench_sequence::Args),
+    /// Every device pass against its CPU reference, and the sequence path (the GPU kit).
+    #[command(hide = true)]
+    SelfCheck(gpu_kit::SelfCheckArgs),
+    /// Device timings of the GPU kit's fixed cases (256^2 to 8K, forward, backward, multiview, vdslr).
+    #[command(hide = true)]
+    GpuTimings(gpu_kit::TimingsArgs),
 }
 
 pub fn main() -> std::process::ExitCode {
@@ -87,7 +94,10 @@ pub fn main() -> std::process::ExitCode {
             [] => eprintln!("lensblur: interrupted; no output written"),
             done => {
                 let done: Vec<String> = done.iter().map(|p| p.display().to_string()).collect();
-                eprintln!("lensblur: interrupted; complete before the interrupt: {}; nothing else written", done.join(", "));
+                eprintln!(
+                    "lensblur: interrupted; complete before the interrupt: {}; nothing else written",
+                    done.join(", ")
+                );
             }
         }
         std::process::exit(130);
@@ -111,6 +121,8 @@ pub fn main() -> std::process::ExitCode {
         Command::BenchDepth(args) => bench_depth::run(args),
         Command::BenchPerf(args) => bench_perf::run(args),
         Command::BenchSequence(args) => bench_sequence::run(args),
+        Command::SelfCheck(args) => gpu_kit::self_check(args),
+        Command::GpuTimings(args) => gpu_kit::timings(args),
     };
     // Validation messages raised while contexts were torn down fail the command too.
     let result = result.and_then(|()| Ok(lensblur::vk::validation::check_unreported()?));

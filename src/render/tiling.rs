@@ -57,6 +57,10 @@ pub struct RenderOptions<'a> {
     /// smaller-tile retry runs on any device. `None` in every real render.
     #[doc(hidden)]
     pub device_memory_limit: Option<u64>,
+    /// Testing aid, not a user setting: the work per tile that a GPU's watchdog bound would
+    /// allow, on any device (a CPU device has none), so tile growth runs on lavapipe.
+    #[doc(hidden)]
+    pub max_tile_work: Option<u64>,
 }
 
 /// What one render measured.
@@ -73,6 +77,12 @@ pub struct RenderStats {
     pub peak_device_bytes: u64,
     /// Source pixels gathered (sum over layers and pixels of the window area): the work.
     pub taps: u64,
+    /// Host time in the tile loop: allocating, filling and recording tiles; waiting for their
+    /// submissions; reading their results back. The rest of a render's wall time is the
+    /// method's own preparation of the frame.
+    pub host_record_ns: f64,
+    pub host_wait_ns: f64,
+    pub host_collect_ns: f64,
 }
 
 /// What a method declares about its frame so the service can cut it.
@@ -132,10 +142,16 @@ impl FrameTiling {
 
     /// `tile x tile` cores in row-major order, the last row and column cut by the frame.
     pub fn cores(&self, tile: usize) -> Vec<Rect> {
+        self.cores_in(Rect { x0: 0, y0: 0, x1: self.width, y1: self.height }, tile)
+    }
+
+    /// `tile x tile` cores of `region` (whose corner is aligned) in row-major order, the last
+    /// row and column cut by the region.
+    fn cores_in(&self, region: Rect, tile: usize) -> Vec<Rect> {
         let mut cores = Vec::new();
-        for y0 in (0..self.height).step_by(tile) {
-            for x0 in (0..self.width).step_by(tile) {
-                cores.push(Rect { x0, y0, x1: (x0 + tile).min(self.width), y1: (y0 + tile).min(self.height) });
+        for y0 in (region.y0..region.y1).step_by(tile) {
+            for x0 in (region.x0..region.x1).step_by(tile) {
+                cores.push(Rect { x0, y0, x1: (x0 + tile).min(region.x1), y1: (y0 + tile).min(region.y1) });
             }
         }
         cores
@@ -178,6 +194,39 @@ impl Footprint {
 pub(crate) struct TilePlan {
     pub tile: usize,
     pub tiles_per_batch: usize,
+    /// Where the side was bounded by the work per dispatch on a GPU (not by memory or the
+    /// caller): what [`run_batches`] needs to cut the rest of the frame into larger tiles once
+    /// the first batch has shown how fast the device is.
+    pub growth: Option<Growth>,
+}
+
+/// What the tiler knew when it planned, for growing the tiles after the first batch.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Growth {
+    /// The work bound the plan's side was cut to.
+    pub work_bound: u64,
+    /// Footprint of one tile of the plan's side, and the bytes a batch may hold.
+    pub tile_bytes: u64,
+    pub tile_binding: u64,
+    pub batch_bytes: u64,
+    pub largest_binding: u64,
+}
+
+/// Device seconds one tile's dispatches may take once the device's speed is measured: the work
+/// bound counts every tap of the largest window (span paths do far less), so a tile of another
+/// frame or aperture may run several times longer and still stay inside display watchdogs.
+const TILE_SECONDS: f64 = 0.1;
+/// Most the measured speed may raise the work bound over [`MAX_WORK_PER_TILE`].
+const MAX_WORK_GROWTH: u64 = 64;
+
+/// The work bound a device that did `work` in `device_ns` earns: [`TILE_SECONDS`] of it, between
+/// `bound` (never lower) and [`MAX_WORK_GROWTH`] times [`MAX_WORK_PER_TILE`].
+pub(crate) fn measured_work_bound(bound: u64, work: u64, device_ns: f64) -> u64 {
+    if device_ns <= 0.0 || work == 0 {
+        return bound;
+    }
+    let earned = work as f64 / (device_ns * 1e-9) * TILE_SECONDS;
+    (earned.min((MAX_WORK_PER_TILE * MAX_WORK_GROWTH) as f64) as u64).max(bound)
 }
 
 /// Bytes a render may plan to hold on the device at once: half of what this process may still
@@ -241,7 +290,12 @@ pub(crate) fn run_tiled<T>(
             .min(info.max_allocation_bytes)
             .min(u64::from(info.max_texel_buffer_elements) * 16),
         bytes: device_bytes(planning_bytes(ctx.memory_budget()), info.kind == "CPU", frame, options)?,
-        max_tile_work: if info.kind == "CPU" { u64::MAX } else { MAX_WORK_PER_TILE },
+        // A GPU's bound starts where earlier renders on this context measured it.
+        max_tile_work: match options.max_tile_work {
+            Some(work) => work,
+            None if info.kind == "CPU" => u64::MAX,
+            None => ctx.learned_tile_work().max(MAX_WORK_PER_TILE),
+        },
     };
     // Never more per batch than the frame has tiles: a retry then starts from what really ran.
     let tiles_per_batch = |tile: usize| {
@@ -255,7 +309,8 @@ pub(crate) fn run_tiled<T>(
         Some(tile) => frame.round(tile),
         None => limits.tile_size(frame, &footprint),
     };
-    let mut plan = TilePlan { tile, tiles_per_batch: tiles_per_batch(tile) };
+    let growth = if options.tile.is_none() { limits.growth(frame, tile, &footprint) } else { None };
+    let mut plan = TilePlan { tile, tiles_per_batch: tiles_per_batch(tile), growth };
     loop {
         match attempt(plan) {
             // Drivers report a budget they cannot always honour: retry smaller.
@@ -270,7 +325,8 @@ pub(crate) fn run_tiled<T>(
                     smaller.tile,
                     smaller.tiles_per_batch
                 );
-                plan = smaller;
+                // Tiles grown from a measured speed are not tried again.
+                plan = TilePlan { growth: None, ..smaller };
             }
             result => return result,
         }
@@ -284,9 +340,9 @@ impl TilePlan {
     fn smaller(self, frame: &FrameTiling, tiles_per_batch: impl Fn(usize) -> usize) -> Option<TilePlan> {
         if self.tile > frame.min_tile() {
             let tile = frame.round(self.tile / 2).max(frame.min_tile());
-            Some(TilePlan { tile, tiles_per_batch: self.tiles_per_batch.min(tiles_per_batch(tile)) })
+            Some(TilePlan { tile, tiles_per_batch: self.tiles_per_batch.min(tiles_per_batch(tile)), growth: None })
         } else if self.tiles_per_batch > 1 {
-            Some(TilePlan { tile: self.tile, tiles_per_batch: self.tiles_per_batch / 2 })
+            Some(TilePlan { tile: self.tile, tiles_per_batch: self.tiles_per_batch / 2, growth: None })
         } else {
             None
         }
@@ -325,6 +381,21 @@ impl Limits {
         tile
     }
 
+    /// What a plan of `tile`-sided tiles needs to grow after its first batch, where the work
+    /// bound (a GPU's) cut the frame and one tile fits the budget; `None` elsewhere (a CPU
+    /// device, a frame the bound does not cut, tiles cut by memory alone).
+    fn growth(&self, frame: &FrameTiling, tile: usize, footprint: &impl Fn(usize) -> Footprint) -> Option<Growth> {
+        let whole = frame.round(frame.width.max(frame.height));
+        let cut_by_work = self.max_tile_work != u64::MAX && frame.work(whole) > self.max_tile_work;
+        (cut_by_work && self.fits(footprint(tile), self.bytes)).then(|| Growth {
+            work_bound: self.max_tile_work,
+            tile_bytes: footprint(tile).total,
+            tile_binding: footprint(tile).largest_binding,
+            batch_bytes: self.bytes,
+            largest_binding: self.largest_binding,
+        })
+    }
+
     /// As many tiles as fit the budget together, at least one, at most [`MAX_TILES_PER_BATCH`].
     fn tiles_per_batch(&self, footprint: Footprint) -> usize {
         let fitting = self.bytes / footprint.total.max(1);
@@ -332,21 +403,27 @@ impl Limits {
     }
 }
 
-/// Renders `cores` in batches of `plan.tiles_per_batch`: `record` allocates a tile's buffers
-/// and records its passes into the batch, returning what to read back; after the batch's one
-/// submission has completed, `collect` takes each tile's read-back in order, and progress is
-/// reported per tile. The batch is reused: its command and descriptor pools are reset after
-/// each submission, and a tile's buffers are freed once its batch is collected. The stats
-/// leave `taps` to the caller.
+/// Renders the frame's `plan.tile`-sided cores in batches of `plan.tiles_per_batch`: `record`
+/// allocates a tile's buffers and records its passes into the batch, returning what to read
+/// back; after the batch's one submission has completed, `collect` takes each tile's read-back
+/// in order, and progress is reported per tile. The batch is reused: its command and descriptor
+/// pools and staging arena are reset after each submission, and a tile's buffers are freed once
+/// its batch is collected. Where the plan allows growth, the first batch's device time measures
+/// the device, and the rest of the frame is cut into tiles as large as that speed allows
+/// ([`measured_work_bound`], remembered by the context for later renders): on a fast GPU the
+/// conservative first bound would cut an 8K frame into hundreds of tiles, each paying
+/// allocations, uploads of its halo and a share of a submission. Returns the stats (`taps` left
+/// to the caller) and the cores rendered, in order.
 pub(crate) fn run_batches<T>(
     ctx: &Context,
-    cores: &[Rect],
+    frame: &FrameTiling,
     plan: TilePlan,
     options: &RenderOptions,
     mut record: impl FnMut(&mut CommandBatch, Rect) -> Result<T>,
     mut collect: impl FnMut(Rect, T) -> Result<()>,
-) -> Result<RenderStats> {
+) -> Result<(RenderStats, Vec<Rect>)> {
     let baseline = ctx.allocated_bytes();
+    let mut cores = frame.cores(plan.tile);
     let mut stats = RenderStats {
         device_ns: Some(0.0),
         tiles: cores.len(),
@@ -355,10 +432,12 @@ pub(crate) fn run_batches<T>(
         ..RenderStats::default()
     };
     let mut batch = CommandBatch::new(ctx)?;
-    let mut done = 0;
-    for batch_cores in cores.chunks(plan.tiles_per_batch.max(1)) {
+    let (mut done, mut growth) = (0, plan.growth);
+    while done < cores.len() {
+        let batch_cores: Vec<Rect> = cores[done..(done + stats.tiles_per_batch.max(1)).min(cores.len())].to_vec();
         let mut tiles = Vec::with_capacity(batch_cores.len());
-        for &core in batch_cores {
+        let recording = std::time::Instant::now();
+        for &core in &batch_cores {
             tiles.push((core, record(&mut batch, core)?));
             let held = ctx.allocated_bytes().saturating_sub(baseline);
             if options.device_memory_limit.is_some_and(|limit| held > limit) {
@@ -367,7 +446,11 @@ pub(crate) fn run_batches<T>(
             }
             stats.peak_device_bytes = stats.peak_device_bytes.max(held);
         }
+        let waiting = std::time::Instant::now();
+        stats.host_record_ns += (waiting - recording).as_nanos() as f64;
         batch.submit_and_wait()?;
+        let collecting = std::time::Instant::now();
+        stats.host_wait_ns += (collecting - waiting).as_nanos() as f64;
         stats.device_ns = stats.device_ns.zip(batch.last_device_time_ns()).map(|(a, b)| a + b);
         for (core, tile) in tiles {
             collect(core, tile)?;
@@ -376,8 +459,61 @@ pub(crate) fn run_batches<T>(
                 progress(done, cores.len());
             }
         }
+        stats.host_collect_ns += collecting.elapsed().as_nanos() as f64;
+        if let (Some(g), Some(device_ns)) = (growth.take(), batch.last_device_time_ns()) {
+            let work = batch_cores.iter().map(|c| c.area() as u64 * frame.work_per_pixel).sum();
+            let bound = measured_work_bound(g.work_bound, work, device_ns);
+            ctx.learn_tile_work(bound);
+            if let Some(mut grown) = grown_plan(frame, plan.tile, &g, bound) {
+                // The caller's batch size holds for the grown tiles too.
+                grown.tiles_per_batch = options.tiles_per_batch.map_or(grown.tiles_per_batch, |n| n.max(1));
+                if let Some(rest) = remaining_regions(frame, &cores[..done], plan.tile) {
+                    cores.truncate(done);
+                    cores.extend(rest.into_iter().flat_map(|region| frame.cores_in(region, grown.tile)));
+                    (stats.tiles, stats.tile_size, stats.tiles_per_batch) =
+                        (cores.len(), grown.tile, grown.tiles_per_batch);
+                }
+            }
+        }
     }
-    Ok(stats)
+    Ok((stats, cores))
+}
+
+/// The larger tiles a work bound of `bound` allows after a first batch of `tile`-sided ones:
+/// the largest aligned side within the bound whose footprint (scaled from the first side's by
+/// area, an over-estimate: the halo's share shrinks) fits the batch budget and the largest
+/// binding; `None` unless it is at least twice the side.
+fn grown_plan(frame: &FrameTiling, tile: usize, g: &Growth, bound: u64) -> Option<TilePlan> {
+    let scale = |side: usize| ((side * side) as f64 / (tile * tile) as f64).max(1.0);
+    let fits = |side: usize| {
+        let s = scale(side);
+        (g.tile_bytes as f64 * s) <= g.batch_bytes as f64 && (g.tile_binding as f64 * s) <= g.largest_binding as f64
+    };
+    let mut side = frame.round(frame.width.max(frame.height));
+    while side > tile && (frame.work(side) > bound || !fits(side)) {
+        side = frame.shrink(side);
+    }
+    if side < 2 * tile {
+        return None;
+    }
+    let per_batch = (g.batch_bytes as f64 / (g.tile_bytes as f64 * scale(side))) as usize;
+    Some(TilePlan { tile: side, tiles_per_batch: per_batch.clamp(1, MAX_TILES_PER_BATCH), growth: None })
+}
+
+/// The frame less the first cores of its `tile`-sided grid (row-major), as aligned rectangles:
+/// the rest of their row of tiles and everything below it. `None` when the done cores span
+/// more than one row of tiles.
+fn remaining_regions(frame: &FrameTiling, done: &[Rect], tile: usize) -> Option<Vec<Rect>> {
+    let last = done.last()?;
+    if last.y0 != 0 {
+        return None;
+    }
+    let strip = tile.min(frame.height);
+    let regions = [
+        Rect { x0: last.x1, y0: 0, x1: frame.width, y1: strip },
+        Rect { x0: 0, y0: strip, x1: frame.width, y1: frame.height },
+    ];
+    Some(regions.into_iter().filter(|r| r.x1 > r.x0 && r.y1 > r.y0).collect())
 }
 
 /// The whole service for a method whose tiles each write one RGBA float32 pixel per core pixel
@@ -393,14 +529,13 @@ pub(crate) fn render_image_tiles(
     mut record: impl FnMut(&mut CommandBatch, Rect, Rect) -> Result<Buffer>,
 ) -> Result<(Image, RenderStats)> {
     run_tiled(ctx, frame, options, footprint, |plan| {
-        let cores = frame.cores(plan.tile);
         let mut image = Image::new(frame.width, frame.height);
         let record = |batch: &mut CommandBatch, core: Rect| {
             let read = core.grown(halo(core), frame.width, frame.height);
             record(batch, core, read)
         };
         let collect = |core: Rect, result: Buffer| store_core(ctx, &mut image, core, &result);
-        let stats = run_batches(ctx, &cores, plan, options, record, collect)?;
+        let (stats, _) = run_batches(ctx, frame, plan, options, record, collect)?;
         Ok((image, stats))
     })
 }
@@ -423,7 +558,12 @@ pub(crate) fn rect_push(rect: Rect) -> [i32; 4] {
 
 /// The pixels of `rect` from a row-major image `width` wide.
 pub(crate) fn crop<T: Copy>(pixels: &[T], width: usize, rect: Rect) -> impl Iterator<Item = T> + '_ {
-    (rect.y0..rect.y1).flat_map(move |y| pixels[y * width + rect.x0..y * width + rect.x1].iter().copied())
+    crop_rows(pixels, width, rect).flat_map(|row| row.iter().copied())
+}
+
+/// The rows of `rect` in a row-major frame `width` wide, for uploads that copy whole rows.
+pub(crate) fn crop_rows<T>(pixels: &[T], width: usize, rect: Rect) -> impl Iterator<Item = &[T]> + '_ {
+    (rect.y0..rect.y1).map(move |y| &pixels[y * width + rect.x0..y * width + rect.x1])
 }
 
 #[cfg(test)]
@@ -512,13 +652,21 @@ mod tests {
     #[test]
     fn out_of_memory_halves_the_tile_then_the_batch_then_gives_up() {
         let f = frame(1000, 1000);
-        let plan = TilePlan { tile: 96, tiles_per_batch: 4 };
+        let plan = TilePlan { tile: 96, tiles_per_batch: 4, growth: None };
         let next = plan.smaller(&f, |_| 8).unwrap();
-        assert_eq!(next, TilePlan { tile: 48, tiles_per_batch: 4 }, "never more tiles per batch after a failure");
-        assert_eq!(next.smaller(&f, |_| 3).unwrap(), TilePlan { tile: 32, tiles_per_batch: 3 }, "24 rounds up to 32");
-        let smallest = TilePlan { tile: ALIGN, tiles_per_batch: 3 };
-        assert_eq!(smallest.smaller(&f, |_| 8), Some(TilePlan { tile: ALIGN, tiles_per_batch: 1 }));
-        assert_eq!(TilePlan { tile: ALIGN, tiles_per_batch: 1 }.smaller(&f, |_| 8), None);
+        assert_eq!(
+            next,
+            TilePlan { tile: 48, tiles_per_batch: 4, growth: None },
+            "never more tiles per batch after a failure"
+        );
+        assert_eq!(
+            next.smaller(&f, |_| 3).unwrap(),
+            TilePlan { tile: 32, tiles_per_batch: 3, growth: None },
+            "24 rounds up to 32"
+        );
+        let smallest = TilePlan { tile: ALIGN, tiles_per_batch: 3, growth: None };
+        assert_eq!(smallest.smaller(&f, |_| 8), Some(TilePlan { tile: ALIGN, tiles_per_batch: 1, growth: None }));
+        assert_eq!(TilePlan { tile: ALIGN, tiles_per_batch: 1, growth: None }.smaller(&f, |_| 8), None);
     }
 
     #[test]
@@ -571,5 +719,70 @@ mod tests {
             }
             assert!(covered.iter().all(|&c| c == 1), "tile {tile}");
         }
+    }
+
+    /// After the first batch of a row of tiles, the rest of that row and the rows below cover
+    /// the frame exactly once with the grown side, aligned.
+    #[test]
+    fn remaining_regions_and_grown_cores_cover_the_rest_once() {
+        let f = FrameTiling::new(300, 200, 1, ALIGN);
+        let first = f.cores(32);
+        for done in [1, 3, 10] {
+            let rest = remaining_regions(&f, &first[..done], 32).expect("within the first row");
+            let mut covered = vec![0u8; 300 * 200];
+            let grown = rest.iter().flat_map(|&r| f.cores_in(r, 96));
+            for core in first[..done].iter().copied().chain(grown) {
+                assert!(core.x0 % ALIGN == 0 && core.y0 % ALIGN == 0, "{core:?}");
+                for y in core.y0..core.y1 {
+                    for x in core.x0..core.x1 {
+                        covered[y * 300 + x] += 1;
+                    }
+                }
+            }
+            assert!(covered.iter().all(|&c| c == 1), "{done} done");
+        }
+        assert!(remaining_regions(&f, &first[..11], 32).is_none(), "a second row of done tiles is not regrown");
+    }
+
+    /// Growth is offered wherever the work bound cut the frame, also when the side it settled on
+    /// is a 3/4 step below the bound (one alignment step larger would still fit it), and not on
+    /// a CPU device, nor for a frame the bound leaves whole.
+    #[test]
+    fn growth_is_offered_where_the_work_bound_cut_the_frame() {
+        let f = FrameTiling::new(4096, 4096, 1, ALIGN).with_work(100);
+        let gpu = Limits { largest_binding: u64::MAX, bytes: u64::MAX / 4, max_tile_work: 100 * 300 * 300 };
+        let tile = gpu.tile_size(&f, &per_pixel(4));
+        assert!(f.work(f.round(tile + 1)) <= gpu.max_tile_work, "the case of a side below the bound: {tile}");
+        let growth = gpu.growth(&f, tile, &per_pixel(4)).expect("the bound cut the frame");
+        assert_eq!((growth.work_bound, growth.tile_bytes), (gpu.max_tile_work, (tile * tile) as u64 * 4));
+        let cpu = Limits { max_tile_work: u64::MAX, ..gpu };
+        assert!(cpu.growth(&f, cpu.tile_size(&f, &per_pixel(4)), &per_pixel(4)).is_none());
+        let small = FrameTiling::new(64, 64, 1, ALIGN).with_work(100);
+        assert!(gpu.growth(&small, gpu.tile_size(&small, &per_pixel(4)), &per_pixel(4)).is_none(), "one tile");
+    }
+
+    /// The measured bound is the device's speed times TILE_SECONDS, never below the bound it
+    /// measured under nor above MAX_WORK_GROWTH times the default; the grown side keeps both the
+    /// bound and the memory budget, or is refused when not twice the side.
+    #[test]
+    fn grown_tiles_respect_the_measured_bound_and_the_budget() {
+        assert_eq!(measured_work_bound(100, 1_000, 1e6), 100_000, "1e9 work/s for 0.1 s");
+        assert_eq!(measured_work_bound(200_000, 1_000, 1e6), 200_000);
+        assert_eq!(measured_work_bound(100, u64::MAX / 2, 1.0), MAX_WORK_PER_TILE * MAX_WORK_GROWTH);
+        let f = FrameTiling::new(4096, 4096, 1, ALIGN).with_work(100);
+        let g = Growth {
+            work_bound: 100 * 64 * 64,
+            tile_bytes: 64 * 64 * 10,
+            tile_binding: 1,
+            batch_bytes: u64::MAX / 4,
+            largest_binding: u64::MAX / 4,
+        };
+        let grown = grown_plan(&f, 64, &g, 100 * 512 * 512).expect("grows");
+        // The sides are tried in 3/4 steps from the frame's, as the first plan's are.
+        assert!(f.work(grown.tile) <= 100 * 512 * 512 && grown.tile * 4 / 3 > 512, "{grown:?}");
+        let tight = Growth { batch_bytes: 256 * 256 * 10, ..g };
+        let grown = grown_plan(&f, 64, &tight, 100 * 512 * 512).expect("grows within memory");
+        assert!(grown.tile <= 256 && grown.tile >= 128 && grown.tiles_per_batch == 1, "{grown:?}");
+        assert!(grown_plan(&f, 64, &g, 100 * 100 * 100).is_none(), "less than twice the side");
     }
 }

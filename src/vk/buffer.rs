@@ -59,7 +59,10 @@ const USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
 
 impl Buffer {
     fn create(ctx: &Context, name: &str, size: u64, location: MemoryLocation) -> Result<Self> {
-        let device = &ctx.device;
+        Self::create_on(&ctx.device, name, size, location)
+    }
+
+    pub(crate) fn create_on(device: &Arc<Device>, name: &str, size: u64, location: MemoryLocation) -> Result<Self> {
         // Zero-sized buffers are invalid in Vulkan; a 4-byte one keeps callers branch-free.
         let size = size.max(4);
         let info = vk::BufferCreateInfo::default().size(size).usage(USAGE).sharing_mode(vk::SharingMode::EXCLUSIVE);
@@ -147,9 +150,9 @@ impl Buffer {
     }
 
     /// A device-local buffer holding the items of `data` (exactly `len` of them), written
-    /// straight into host-visible memory, else through a staging buffer whose copy is recorded
-    /// into `batch` (which keeps the staging alive until its fence). No submission of its own,
-    /// and no host copy of the data beside the mapping.
+    /// straight into host-visible memory, else through the batch's staging arena and a copy
+    /// recorded into `batch` (see [`CommandBatch::staging`]). No submission of its own, and no
+    /// host copy of the data beside the mapping.
     pub fn from_iter_in<T: bytemuck::Pod>(
         ctx: &Context,
         batch: &mut CommandBatch,
@@ -157,26 +160,78 @@ impl Buffer {
         len: usize,
         data: impl IntoIterator<Item = T>,
     ) -> Result<Self> {
+        Self::filled_in(ctx, batch, name, len, |target: *mut T| {
+            let mut written = 0;
+            for item in data.into_iter().take(len) {
+                // SAFETY: `target` holds `len` items of T (checked by `take`) and
+                // `write_unaligned` needs no alignment.
+                unsafe { target.add(written).write_unaligned(item) };
+                written += 1;
+            }
+            written
+        })
+    }
+
+    /// [`Self::from_iter_in`] from contiguous runs (a tile's rows of a frame), each copied with
+    /// one memory copy: element-wise writes of a tile's inputs into write-combined staging
+    /// memory were the largest host cost of large frames on a discrete GPU.
+    pub fn from_slices_in<'a, T: bytemuck::Pod>(
+        ctx: &Context,
+        batch: &mut CommandBatch,
+        name: &str,
+        len: usize,
+        slices: impl IntoIterator<Item = &'a [T]>,
+    ) -> Result<Self> {
+        Self::filled_in(ctx, batch, name, len, |target: *mut T| {
+            let mut written = 0;
+            for slice in slices {
+                let count = slice.len().min(len - written);
+                // SAFETY: `target` holds `len` items of T and `written + count <= len`; the
+                // source is a distinct host slice. Byte copies need no alignment.
+                unsafe {
+                    std::ptr::copy_nonoverlapping(
+                        slice.as_ptr().cast::<u8>(),
+                        target.add(written).cast::<u8>(),
+                        count * std::mem::size_of::<T>(),
+                    )
+                };
+                written += count;
+                if count < slice.len() {
+                    // More items than `len`: report one more, which fails the length check.
+                    return written + 1;
+                }
+            }
+            written
+        })
+    }
+
+    /// A device-local buffer of `len` items of T, filled by `fill` (given where to write them;
+    /// it returns how many it wrote), in place where the host may map it, else in the batch's
+    /// staging arena with a copy recorded into `batch`.
+    fn filled_in<T: bytemuck::Pod>(
+        ctx: &Context,
+        batch: &mut CommandBatch,
+        name: &str,
+        len: usize,
+        fill: impl FnOnce(*mut T) -> usize,
+    ) -> Result<Self> {
         let bytes = (len * std::mem::size_of::<T>()) as u64;
         let buffer = Self::create(ctx, name, bytes, MemoryLocation::GpuOnly)?;
-        let staging = match buffer.mapped() {
-            Some(_) => None,
-            None => Some(Self::create(ctx, "staging upload", bytes, MemoryLocation::CpuToGpu)?),
+        // Device memory the host cannot map (discrete GPUs) is filled from the batch's staging
+        // arena, reused by every submission of the batch.
+        let (target, offset) = match buffer.host_access() {
+            Some(_) => (buffer.clone(), 0),
+            None => batch.staging(bytes)?,
         };
-        let target = staging.as_ref().unwrap_or(&buffer);
         let ptr = target.mapped().ok_or_else(|| Error::internal("staging memory is not host-visible"))?;
-        let mut written = 0;
-        for item in data.into_iter().take(len) {
-            // SAFETY: the mapping holds `len` items of T (`bytes` bytes, checked by `take`), is
-            // not in use by the GPU (just created), and `write_unaligned` needs no alignment.
-            unsafe { ptr.cast::<T>().add(written).write_unaligned(item) };
-            written += 1;
-        }
+        // SAFETY: the mapping holds `bytes` bytes from `offset` (a new buffer, or arena space
+        // handed out since the batch's last wait), which no GPU work uses now.
+        let written = fill(unsafe { ptr.add(offset as usize) }.cast::<T>());
         if written != len {
             return Err(Error::internal(format!("buffer '{name}': {written} items given, {len} expected")));
         }
-        if let Some(staging) = &staging {
-            batch.copy(staging, &buffer, bytes)?;
+        if target.raw() != buffer.raw() {
+            batch.copy_region(&target, offset, &buffer, 0, bytes)?;
         }
         Ok(buffer)
     }
@@ -185,7 +240,7 @@ impl Buffer {
     /// and waited for: this buffer itself where its memory is host-visible, else a staging copy
     /// recorded into the batch. Read it with [`Buffer::read`] (a plain memory copy then).
     pub fn readable_in(&self, ctx: &Context, batch: &mut CommandBatch) -> Result<Self> {
-        if self.mapped().is_some() {
+        if self.host_access().is_some() {
             return Ok(self.clone());
         }
         let staging = Self::create(ctx, "staging read-back", self.size(), MemoryLocation::GpuToCpu)?;
@@ -218,6 +273,13 @@ impl Buffer {
 
     /// Host-coherent mapped memory, if the device memory is host-visible (lavapipe, ReBAR,
     /// integrated GPUs): uploads and read-backs then skip the staging copy.
+    /// [`Self::mapped`], unless the device moves every transfer through staging memory
+    /// ([`super::ContextOptions::staged_transfers`]): whether the host may fill or read this
+    /// buffer in place.
+    fn host_access(&self) -> Option<*mut u8> {
+        self.mapped().filter(|_| !self.0.device.staged_transfers)
+    }
+
     fn mapped(&self) -> Option<*mut u8> {
         let allocation = self.0.allocation.as_ref()?;
         let coherent = allocation.memory_properties().contains(vk::MemoryPropertyFlags::HOST_COHERENT);
@@ -227,7 +289,7 @@ impl Buffer {
     /// Copies `bytes` to the start of the buffer. Waits: no submission uses the buffer after.
     pub fn write(&self, ctx: &Context, bytes: &[u8]) -> Result<()> {
         self.check_len(bytes.len())?;
-        if let Some(ptr) = self.mapped() {
+        if let Some(ptr) = self.host_access() {
             // SAFETY: the mapping covers `size` bytes, `bytes` fits (checked), and no GPU work
             // uses this buffer now: every batch waits for its fence before returning.
             unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), ptr, bytes.len()) };
@@ -247,7 +309,7 @@ impl Buffer {
         let count = self.size() as usize / std::mem::size_of::<T>();
         let mut out = vec![T::zeroed(); count];
         let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut out);
-        if let Some(ptr) = self.mapped() {
+        if let Some(ptr) = self.host_access() {
             // SAFETY: mapped, coherent, `bytes` is within the buffer, and the writing batch has
             // waited on its fence after a shader-write -> host-read barrier.
             unsafe { std::ptr::copy_nonoverlapping(ptr, bytes.as_mut_ptr(), bytes.len()) };

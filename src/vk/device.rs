@@ -24,6 +24,11 @@ pub struct ContextOptions {
     pub device: Option<String>,
     /// Folder of the on-disk pipeline cache; `None` keeps compiled pipelines in memory only.
     pub pipeline_cache: Option<PathBuf>,
+    /// Testing aid, not a user setting: move every upload and read-back through host-visible
+    /// staging memory and a copy, as on discrete GPUs whose device-local memory the host cannot
+    /// map, also on a device whose memory it can (lavapipe, integrated GPUs).
+    #[doc(hidden)]
+    pub staged_transfers: bool,
 }
 
 impl ContextOptions {
@@ -38,7 +43,7 @@ impl ContextOptions {
             Some(v) if !v.is_empty() => Some(PathBuf::from(v)),
             _ => pipeline_cache::default_dir(),
         };
-        Self { validation, device, pipeline_cache }
+        Self { validation, device, pipeline_cache, staged_transfers: false }
     }
 }
 
@@ -63,6 +68,9 @@ pub struct DeviceInfo {
     pub min_texel_buffer_offset_alignment: u64,
     pub max_push_constants_size: u32,
     pub max_shared_memory_bytes: u32,
+    /// Invocations per subgroup (8 on lavapipe's 256-bit build, 32 on NVIDIA): no shader relies
+    /// on it, the GPU kit reports it beside the timings.
+    pub subgroup_size: u32,
     pub has_compute_queue: bool,
     /// Nanoseconds per timestamp tick, if the compute queue supports timestamps.
     pub timestamp_period_ns: Option<f32>,
@@ -140,7 +148,8 @@ fn describe(instance: &Instance, index: usize, device: vk::PhysicalDevice) -> De
         (instance.raw.get_physical_device_memory_properties(device), props2.properties)
     };
     let mut maintenance3 = vk::PhysicalDeviceMaintenance3Properties::default();
-    let mut props2b = vk::PhysicalDeviceProperties2::default().push_next(&mut maintenance3);
+    let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut props2b = vk::PhysicalDeviceProperties2::default().push_next(&mut maintenance3).push_next(&mut subgroup);
     // SAFETY: as above.
     unsafe { instance.raw.get_physical_device_properties2(device, &mut props2b) };
     let limits = props.limits;
@@ -169,6 +178,7 @@ fn describe(instance: &Instance, index: usize, device: vk::PhysicalDevice) -> De
         min_texel_buffer_offset_alignment: limits.min_texel_buffer_offset_alignment,
         max_push_constants_size: limits.max_push_constants_size,
         max_shared_memory_bytes: limits.max_compute_shared_memory_size,
+        subgroup_size: subgroup.subgroup_size,
         has_compute_queue: queue.is_some(),
         timestamp_period_ns: queue
             .filter(|&(_, bits)| bits > 0 && limits.timestamp_period > 0.0)
@@ -234,6 +244,11 @@ pub(crate) struct Device {
     pub(crate) queue_family: u32,
     pub(crate) info: DeviceInfo,
     pub(crate) instance: Arc<Instance>,
+    /// [`ContextOptions::staged_transfers`].
+    pub(crate) staged_transfers: bool,
+    /// The largest work per tile a render on this device has measured it can take in time
+    /// (the tiler's, `crate::render::tiling`); 0 until one has.
+    learned_tile_work: std::sync::atomic::AtomicU64,
 }
 
 impl Device {
@@ -343,6 +358,8 @@ impl Context {
             queue_family,
             info: infos[index].clone(),
             instance,
+            staged_transfers: options.staged_transfers,
+            learned_tile_work: Default::default(),
         };
         device.check_validation()?;
         log::info!("Vulkan device: {} ({})", device.info.name, device.info.driver);
@@ -356,6 +373,17 @@ impl Context {
 
     pub fn info(&self) -> &DeviceInfo {
         &self.device.info
+    }
+
+    /// The work per tile that renders on this context measured the device can take (0: none
+    /// has): later renders start their tiles there.
+    pub(crate) fn learned_tile_work(&self) -> u64 {
+        self.device.learned_tile_work.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Remembers a measured work bound (the largest yet is kept).
+    pub(crate) fn learn_tile_work(&self, work: u64) {
+        self.device.learned_tile_work.fetch_max(work, std::sync::atomic::Ordering::Relaxed);
     }
 
     pub fn validation_enabled(&self) -> bool {

@@ -5,11 +5,13 @@
 //! in the same order whatever the tiling, so the output is bit-identical for every tile size and
 //! batch size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
 //! lens, area table, push constants) and the search windows are shared with it.
+use std::sync::{Arc, Mutex};
+
 use super::bounds::{search_tiles, search_windows, span_radii, NO_SPAN_RADII};
 use super::{AperturePath, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
-use crate::render::tiling::{crop, run_batches, run_tiled, store_core, Footprint, TilePlan};
+use crate::render::tiling::{crop_rows, run_batches, run_tiled, store_core, Footprint, FrameTiling, TilePlan};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
@@ -124,7 +126,9 @@ impl DrBokehGpu {
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_RING, &LAYER_SLOTS, push)?),
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_KERNEL, &LAYER_GAUGE_SLOTS, push)?),
             ),
-            LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None, None, None),
+            LayerKernel::Baseline => {
+                (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None, None, None)
+            }
         };
         Ok(Self {
             ctx: ctx.clone(),
@@ -136,7 +140,12 @@ impl DrBokehGpu {
             layer_gauge,
             layer_ring,
             layer_kernel,
-            composite: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_COMPOSITE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage], push)?,
+            composite: ComputePipeline::with_slots(
+                ctx,
+                &shaders::DRBOKEH_COMPOSITE,
+                &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage],
+                push,
+            )?,
         })
     }
 
@@ -173,7 +182,7 @@ impl DrBokehGpu {
         // Work bound: every layer's square of the largest search window (span paths do less).
         let work = params.layer_count as u64 * (2 * max_window.max(0) as u64 + 1).pow(2);
         let tiling = params.tiling().with_work(work);
-        run_tiled(&self.ctx, &tiling, options, footprint, |plan| self.render_tiles(&frame, plan, options))
+        run_tiled(&self.ctx, &tiling, options, footprint, |plan| self.render_tiles(&frame, &tiling, plan, options))
     }
 
     /// One attempt at the frame: its tiles in batches of `plan.tiles_per_batch`, each tile's
@@ -181,11 +190,11 @@ impl DrBokehGpu {
     fn render_tiles(
         &self,
         frame: &ForwardFrame,
+        tiling: &FrameTiling,
         plan: TilePlan,
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
         let (ctx, params) = (&self.ctx, frame.params);
-        let cores = params.tiling().cores(plan.tile);
         let mut image = Image::new(params.width, params.height);
         let record = |batch: &mut CommandBatch, core: Rect| {
             let read = core.grown(halo(params, frame.windows, core), params.width, params.height);
@@ -194,7 +203,7 @@ impl DrBokehGpu {
             buffers.result.readable_in(ctx, batch)
         };
         let collect = |core: Rect, result: Buffer| store_core(ctx, &mut image, core, &result);
-        let mut stats = run_batches(ctx, &cores, plan, options, record, collect)?;
+        let (mut stats, cores) = run_batches(ctx, tiling, plan, options, record, collect)?;
         stats.taps = cores.iter().map(|&core| taps(params, frame.windows, core)).sum();
         Ok((image, stats))
     }
@@ -260,7 +269,12 @@ impl DrBokehGpu {
                 b.block_alpha.all(),
                 b.aperture_rows.all(),
             ];
-            batch.dispatch(layer_pipeline, &bindings[..binding_count], &params.push_tile(layer, b.core, b.read), layer_groups)?;
+            batch.dispatch(
+                layer_pipeline,
+                &bindings[..binding_count],
+                &params.push_tile(layer, b.core, b.read),
+                layer_groups,
+            )?;
         }
         batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
     }
@@ -309,8 +323,8 @@ impl ForwardBuffers {
         let core_pixels = core.area() as u64;
         let read_pixels = read.area() as u64;
         let read_n = params.layer_count * read.area();
-        let rgba = stack.layers.iter().flat_map(|l| crop(&l.rgba.pixels, params.width, read));
-        let disparity = stack.layers.iter().flat_map(|l| crop(&l.disparity, params.width, read));
+        let rgba = stack.layers.iter().flat_map(|l| crop_rows(&l.rgba.pixels, params.width, read));
+        let disparity = stack.layers.iter().flat_map(|l| crop_rows(&l.disparity, params.width, read));
         // Every pass writes its whole output before a later one reads it (the layer pass every
         // core pixel of every layer, sources and blocks every read pixel, composite every core
         // pixel; kernels that skip sources or blocks never read them): no fills.
@@ -326,8 +340,8 @@ impl ForwardBuffers {
             block_prefix: intermediate("drbokeh block_prefix", layers * read_pixels * VEC4)?,
             block_suffix: intermediate("drbokeh block_suffix", layers * read_pixels * VEC4)?,
             block_alpha: intermediate("drbokeh block_alpha", layers * read_pixels * 8)?,
-            rgba: Buffer::from_iter_in(ctx, batch, "drbokeh rgba", read_n, rgba)?,
-            disparity: Buffer::from_iter_in(ctx, batch, "drbokeh disparity", read_n, disparity)?,
+            rgba: Buffer::from_slices_in(ctx, batch, "drbokeh rgba", read_n, rgba)?,
+            disparity: Buffer::from_slices_in(ctx, batch, "drbokeh disparity", read_n, disparity)?,
             tile_radii: Buffer::from_iter_in(ctx, batch, "drbokeh tile_radii", tile_radii.len(), tile_radii)?,
             tile_window: frame.tile_window.clone(),
             area_lut: frame.area_lut.clone(),
@@ -365,9 +379,9 @@ impl<'a> ForwardFrame<'a> {
             // A vignetted polygon or ellipse: its base's table, then each tile's centroid.
             (AperturePath::Gauge, Aperture::Vignetted { base, .. }) if params.lens.is_vignetted_base() => {
                 let eyes = params.eyes.iter().map(|&[x, y]| [x as f32, y as f32, 0.0, 0.0]);
-                aperture_rows(base).into_iter().chain(eyes).collect()
+                aperture_rows(base).iter().copied().chain(eyes).collect()
             }
-            (AperturePath::Gauge, _) => aperture_rows(aperture),
+            (AperturePath::Gauge, _) => aperture_rows(aperture).to_vec(),
             (AperturePath::Kernel, Aperture::Kernel(kernel)) => kernel_run_table(kernel),
             _ => vec![EMPTY_APERTURE_ROW],
         };
@@ -386,14 +400,27 @@ impl<'a> ForwardFrame<'a> {
 
 /// The `aperture_rows` buffer of `drbokeh_layer_gauge.comp`: the constants of the gauge's
 /// closed form ([`closed_form_gauge`]) followed by the row table ([`aperture_row_table`]), for
-/// polygons and ellipses (a vignetted one's base's, then its tiles' centroids). Built per render, and only for the gauge path: ~50 ms for a polygon,
-/// which the CPU references and the other paths do not pay. One empty row otherwise (Vulkan
-/// buffers cannot be empty).
-fn aperture_rows(aperture: &Aperture) -> Vec<[f32; 4]> {
-    match (closed_form_gauge(aperture), aperture_row_table(aperture)) {
+/// polygons and ellipses (a vignetted one's base's, then its tiles' centroids). One empty row
+/// otherwise (Vulkan buffers cannot be empty). Building a polygon's table takes ~50-90 ms, as
+/// long as the GPU's whole render of a 1024^2 five-layer frame, so the last few apertures'
+/// tables are kept for the process: every frame of a shot, and every render of a benchmark,
+/// shares its aperture's.
+fn aperture_rows(aperture: &Aperture) -> Arc<Vec<[f32; 4]>> {
+    const KEPT: usize = 4;
+    static TABLES: Mutex<Vec<(Aperture, Arc<Vec<[f32; 4]>>)>> = Mutex::new(Vec::new());
+    if let Some((_, rows)) = TABLES.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(a, _)| a == aperture) {
+        return rows.clone();
+    }
+    let rows = Arc::new(match (closed_form_gauge(aperture), aperture_row_table(aperture)) {
         (Some(gauge), Some(rows)) => std::iter::once(gauge).chain(rows).collect(),
         _ => vec![EMPTY_APERTURE_ROW],
+    });
+    let mut tables = TABLES.lock().unwrap_or_else(|e| e.into_inner());
+    if tables.len() == KEPT {
+        tables.remove(0);
     }
+    tables.push((aperture.clone(), rows.clone()));
+    rows
 }
 
 /// Pixels around `core` its gathers read: the largest window over its search tiles and layers.

@@ -19,7 +19,7 @@ use super::gpu::{halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL,
 use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
-use crate::render::tiling::{crop, run_batches, run_tiled, Footprint, TilePlan};
+use crate::render::tiling::{crop_rows, run_batches, run_tiled, Footprint, FrameTiling, TilePlan};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
@@ -117,7 +117,12 @@ impl DrBokehGpuGrad {
             own_ring: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_RING, &OWN_SLOTS, push)?,
             source_ring: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_RING, &SOURCE_SLOTS, push)?,
             own_kernel: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_KERNEL, &OWN_SLOTS, push)?,
-            source_kernel: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_KERNEL, &SOURCE_SLOTS, push)?,
+            source_kernel: ComputePipeline::with_slots(
+                ctx,
+                &shaders::DRBOKEH_BACKWARD_SOURCE_KERNEL,
+                &SOURCE_SLOTS,
+                push,
+            )?,
             model,
             options,
         })
@@ -171,7 +176,7 @@ impl DrBokehGpuGrad {
         let side = |r: Option<&i32>| 2 * r.copied().unwrap_or(0).max(0) as u64 + 1;
         let work = params.layer_count as u64 * (side(max_window).pow(2) + side(max_reach).pow(2));
         let tiling = params.tiling().with_work(work);
-        run_tiled(ctx, &tiling, options, footprint, |plan| self.backward_tiles(&frame, plan, options))
+        run_tiled(ctx, &tiling, options, footprint, |plan| self.backward_tiles(&frame, &tiling, plan, options))
     }
 
     /// One attempt at the frame: its tiles in batches of `plan.tiles_per_batch`, each tile's
@@ -179,12 +184,12 @@ impl DrBokehGpuGrad {
     fn backward_tiles(
         &self,
         frame: &Frame,
+        tiling: &FrameTiling,
         plan: TilePlan,
         options: &RenderOptions,
     ) -> Result<(StackGradients, RenderStats)> {
         let ctx = self.context();
         let params = frame.forward.params;
-        let cores = params.tiling().cores(plan.tile);
         let mut grads = FrameGradients::new(params);
         let record = |batch: &mut CommandBatch, core: Rect| {
             let receivers = frame.receivers(core);
@@ -200,7 +205,7 @@ impl DrBokehGpuGrad {
             })
         };
         let collect = |core: Rect, tile: TileGradients| grads.store(ctx, params, &tile, core);
-        let mut stats = run_batches(ctx, &cores, plan, options, record, collect)?;
+        let (mut stats, cores) = run_batches(ctx, tiling, plan, options, record, collect)?;
         stats.taps = cores.iter().map(|&core| taps(params, frame.forward.windows, frame.receivers(core))).sum();
         Ok((grads.finish(params), stats))
     }
@@ -218,7 +223,7 @@ impl DrBokehGpuGrad {
         let params = frame.forward.params;
         let layers = params.layer_count as u64;
         let (read_n, core_n) = (layers * read.area() as u64, layers * core.area() as u64);
-        let gout = crop(&frame.grad_output.pixels, params.width, receivers);
+        let gout = crop_rows(&frame.grad_output.pixels, params.width, receivers);
         let mut zeroed = |name: &str, bytes: u64| Buffer::zeroed_in(ctx, batch, name, bytes);
         Ok(BackwardBuffers {
             adj_cw: zeroed("drbokeh adj_cw", read_n * VEC4)?,
@@ -228,7 +233,7 @@ impl DrBokehGpuGrad {
             grad_rgba: zeroed("drbokeh grad_rgba", core_n * VEC4)?,
             grad_disparity: zeroed("drbokeh grad_disparity", core_n * 4)?,
             k_partial: zeroed("drbokeh k_partial", core_n * 4)?,
-            grad_output: Buffer::from_iter_in(ctx, batch, "drbokeh grad_output", receivers.area(), gout)?,
+            grad_output: Buffer::from_slices_in(ctx, batch, "drbokeh grad_output", receivers.area(), gout)?,
             tile_reach: frame.tile_reach.clone(),
         })
     }

@@ -3,7 +3,9 @@
 //! its core, reads back.
 use super::EDGE_WIDTH;
 use crate::image::Image;
-use crate::render::tiling::{crop, rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats};
+use crate::render::tiling::{
+    crop_rows, rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats,
+};
 use crate::render::Lens;
 use crate::shaders;
 use crate::tiling::{MaxPyramid, Rect};
@@ -139,10 +141,10 @@ impl ImagePass<'_> {
         // RGBA + disparity per read pixel, RGBA per core pixel; the RGBA is the largest binding.
         let footprint = |tile| Footprint::per_pixel(&frame, tile, max_halo, 20, 16, 16);
         render_image_tiles(ctx, &frame, options, footprint, halo, |batch, core, read| {
-            let rgba = crop(&self.image.pixels, width, read);
-            let source = Buffer::from_iter_in(ctx, batch, &format!("{name} image"), read.area(), rgba)?;
-            let disparity = crop(self.disparity, width, read);
-            let depth = Buffer::from_iter_in(ctx, batch, &format!("{name} disparity"), read.area(), disparity)?;
+            let rgba = crop_rows(&self.image.pixels, width, read);
+            let source = Buffer::from_slices_in(ctx, batch, &format!("{name} image"), read.area(), rgba)?;
+            let disparity = crop_rows(self.disparity, width, read);
+            let depth = Buffer::from_slices_in(ctx, batch, &format!("{name} disparity"), read.area(), disparity)?;
             // The shader writes every core pixel.
             let result = Buffer::uninitialised(ctx, &format!("{name} result"), core.area() as u64 * 16)?;
             let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);

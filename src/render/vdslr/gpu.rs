@@ -4,7 +4,9 @@
 //! `glsl/vdslr_trace.comp` over its core, reads back.
 use super::{prepare, VdslrParams};
 use crate::image::Image;
-use crate::render::tiling::{crop, rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats};
+use crate::render::tiling::{
+    crop, crop_rows, rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats,
+};
 use crate::render::Lens;
 use crate::shaders;
 use crate::vk::{Buffer, ComputePipeline, Context, Slot, TexelFormat};
@@ -43,7 +45,8 @@ impl Vdslr {
         // image, relative, disparity, samples, edges, result: the bindings of vdslr_trace.comp.
         let (vec4, float) = (Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float));
         let slots = [vec4, float, float, Slot::Storage, vec4, Slot::Storage];
-        let pipeline = ComputePipeline::with_slots(ctx, &shaders::VDSLR_TRACE, &slots, std::mem::size_of::<VdslrPush>())?;
+        let pipeline =
+            ComputePipeline::with_slots(ctx, &shaders::VDSLR_TRACE, &slots, std::mem::size_of::<VdslrPush>())?;
         Ok(Self { ctx: ctx.clone(), pipeline })
     }
 
@@ -85,15 +88,26 @@ impl Vdslr {
             footprint,
             |_| halo,
             |batch, core, read| {
-                let source =
-                    Buffer::from_iter_in(ctx, batch, "vdslr image", read.area(), crop(&image.pixels, width, read))?;
+                let source = Buffer::from_slices_in(
+                    ctx,
+                    batch,
+                    "vdslr image",
+                    read.area(),
+                    crop_rows(&image.pixels, width, read),
+                )?;
                 let relative = crop(&prepared.relative, width, read);
                 let relative = Buffer::from_iter_in(ctx, batch, "vdslr relative disparity", read.area(), relative)?;
-                let true_disparity =
-                    Buffer::from_iter_in(ctx, batch, "vdslr disparity", read.area(), crop(disparity, width, read))?;
+                let true_disparity = Buffer::from_slices_in(
+                    ctx,
+                    batch,
+                    "vdslr disparity",
+                    read.area(),
+                    crop_rows(disparity, width, read),
+                )?;
                 // The core's edge records, classified now: a whole frame's would outweigh the image.
                 let edge_records = prepared.edges_in(image, disparity, lens.coc.k_px, core);
-                let edges = Buffer::from_iter_in(ctx, batch, "vdslr mixed edges", core.area(), edge_records.into_iter())?;
+                let edges =
+                    Buffer::from_iter_in(ctx, batch, "vdslr mixed edges", core.area(), edge_records.into_iter())?;
                 // The shader writes every core pixel.
                 let result = Buffer::uninitialised(ctx, "vdslr result", core.area() as u64 * 16)?;
                 let push = VdslrPush {
@@ -112,7 +126,8 @@ impl Vdslr {
                     core: rect_push(core),
                     read: rect_push(read),
                 };
-                let bindings = [source.all(), relative.all(), true_disparity.all(), samples.all(), edges.all(), result.all()];
+                let bindings =
+                    [source.all(), relative.all(), true_disparity.all(), samples.all(), edges.all(), result.all()];
                 let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
                 batch.dispatch(&self.pipeline, &bindings, &push, groups)?;
                 result.readable_in(ctx, batch)

@@ -1,0 +1,75 @@
+//! The GPU kit (`gpu-kit/run`) on this machine's Vulkan device (lavapipe in CI) with its small
+//! timing cases: the same script, the same self-check and the same report a lent GPU produces,
+//! so the kit cannot rot between the sessions that are lent one. The self-check is the one copy
+//! of the GPU-against-CPU-reference comparisons (src/selfcheck): every method's forward pass and
+//! every backward pass, untiled and tiled, each aperture path and the sequence path.
+mod common;
+
+use std::process::Command;
+
+use common::temp_dir;
+
+#[test]
+fn the_kit_passes_every_self_check_and_times_every_case_on_this_device() {
+    let dir = temp_dir("gpu_kit", "run");
+    let out = dir.join("out");
+    let run = Command::new("bash")
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/gpu-kit/run"))
+        .args(["--small", "--repeats", "2", "--bin", env!("CARGO_BIN_EXE_lensblur"), "--out"])
+        .arg(&out)
+        .env_remove("LENSBLUR_DEVICE")
+        .output()
+        .unwrap();
+    let log = std::fs::read_to_string(out.join("kit.log")).unwrap_or_default();
+    let report: serde_json::Value = match std::fs::read_to_string(out.join("report.json")) {
+        Ok(text) => serde_json::from_str(&text)
+            .unwrap_or_else(|e| panic!("report.json is not JSON ({e}):\n{text}\nlog:\n{log}")),
+        Err(e) => panic!(
+            "no report.json ({e}); the kit printed:\n{}{}",
+            String::from_utf8_lossy(&run.stdout),
+            String::from_utf8_lossy(&run.stderr)
+        ),
+    };
+
+    // Every check ran and passed, with validation on and silent.
+    let checks =
+        report["self_check"]["checks"].as_array().unwrap_or_else(|| panic!("no checks in the report; log:\n{log}"));
+    let failed: Vec<String> = checks.iter().filter(|c| c["passed"] != true).map(|c| c.to_string()).collect();
+    assert!(failed.is_empty(), "failed self-checks:\n{}\nlog:\n{log}", failed.join("\n"));
+    assert!(report["self_check"]["validation_error"].is_null(), "{}", report["self_check"]["validation_error"]);
+    let names: Vec<&str> = checks.iter().filter_map(|c| c["name"].as_str()).collect();
+    let has = |parts: &[&str]| names.iter().any(|n| parts.iter().all(|p| n.contains(p)));
+    for method in lensblur::render::Method::ALL.iter().filter(|m| m.uses_gpu()) {
+        let forward = format!("forward {method} ");
+        assert!(
+            has(&[&forward, "untiled"]) && has(&[&forward, "tiles"]),
+            "{method}: forward untiled and tiled checks: {names:?}"
+        );
+    }
+    for (aperture, _) in lensblur::selfcheck::apertures() {
+        assert!(has(&["forward drbokeh ", aperture, "tiles"]), "forward {aperture} tiled: {names:?}");
+    }
+    for aperture in ["disk", "polygon:6", "anamorphic", "ring", "image"] {
+        for model in ["DrBokeh", "Compat"] {
+            assert!(
+                has(&["backward", model, aperture, "untiled"]) && has(&["backward", model, aperture, "tiles"]),
+                "backward {model} {aperture}: {names:?}"
+            );
+        }
+    }
+    assert!(has(&["sequence"]), "the sequence path: {names:?}");
+
+    // Every timing case has positive wall and device times (lavapipe has timestamp queries).
+    let cases = report["timings"]["cases"].as_array().unwrap_or_else(|| panic!("no timings; log:\n{log}"));
+    assert_eq!(cases.len(), lensblur::bench::device_timings::timing_cases(true).len());
+    for case in cases {
+        let positive = |key: &str| case[key].as_f64().is_some_and(|v| v > 0.0 && v.is_finite());
+        assert!(positive("wall_ms") && positive("device_ms") && positive("effective_taps_per_second"), "{case}");
+        assert_eq!(case["device_ms_runs"].as_array().map(Vec::len), Some(2), "{case}");
+    }
+    assert!(report["timings"]["backward_over_forward"].as_f64().is_some_and(|r| r > 0.0), "{}", report["timings"]);
+    assert!(report["devices"]["devices"].as_array().is_some_and(|d| !d.is_empty()), "{}", report["devices"]);
+    assert_eq!(report["passed"], true, "log:\n{log}");
+    assert!(run.status.success(), "the kit exited with {}; log:\n{log}", run.status);
+    assert!(log.contains("== lensblur devices") && log.contains("self-check:"), "log:\n{log}");
+}
