@@ -43,14 +43,16 @@ pub const IMAGE_METRIC: &str = "max |gpu - cpu| / max(1, |cpu|) over pixels and 
 pub const GRADIENT_METRIC: &str =
     "max |gpu - cpu| / max |cpu| per gradient family (layer rgba, layer disparity, K, focus)";
 
-/// Forward tolerance of a method, from the f32-against-reference error measured on lavapipe:
-/// Dr.Bokeh sums a few hundred f32 taps against f64 (<= 6e-6 measured; 5e-5 leaves room for
-/// other drivers' tanh/exp/atan); the lens-sampling renderers march rays whose f32 steps land
-/// on neighbouring texels (2e-4); gather and scatter sum plain f32 weights (2e-5).
+/// Forward tolerance of a method, from the f32-against-reference error measured on lavapipe and
+/// on an NVIDIA H200 (docs/gpu/): Dr.Bokeh sums a few hundred f32 taps against f64 (<= 6e-6
+/// on lavapipe, 1.6e-6 on the H200; 5e-5 leaves room for other drivers' tanh/exp/atan); the
+/// lens-sampling renderers march rays whose f32 steps land on neighbouring texels (2e-4);
+/// gather and scatter weigh every tap with a tanh, which NVIDIA's driver evaluates less
+/// precisely than lavapipe's (scatter: 1.0e-6 on lavapipe, 1.8e-5 on the H200), so 1e-4.
 pub fn forward_tolerance(method: Method) -> f64 {
     match method.name() {
         "vdslr" | "multiview" => 2e-4,
-        "gather" | "scatter" => 2e-5,
+        "gather" | "scatter" => 1e-4,
         _ => 5e-5,
     }
 }
