@@ -8,7 +8,7 @@ use lensblur::bench::cycles::{cycles_truths, CyclesSettings, CYCLES_SCENES};
 use lensblur::bench::{all_methods, run, select_methods};
 
 /// CI's rendering of the set: 128^2 with a 256-sample truth (the benchmark's is 192^2, 512):
-/// about 10 minutes of Blender on 2 cores when the cache is cold.
+/// 3.6 minutes of Blender on 2 shared cores when the cache is cold (measured).
 const CI: CyclesSettings = CyclesSettings::with_truth_spp(128, 256);
 
 /// Measured on lavapipe (`lensblur bench --single-image --cycles --cycles-size 128

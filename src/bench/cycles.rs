@@ -47,8 +47,8 @@ pub struct CyclesSettings {
 }
 
 impl CyclesSettings {
-    /// The benchmark: 192^2 (a whole set renders in about half an hour on 2 shared cores;
-    /// 256^2 would take twice as long), 512-sample truth.
+    /// The benchmark: 192^2 (the whole set rendered in 31 minutes on 2 shared cores; 256^2
+    /// would take nearly twice as long), 512-sample truth.
     pub const BENCH: Self = Self::with_truth_spp(192, 512);
 
     /// `size`^2 with `truth_spp` samples of truth, a quarter of them for the pinhole input
