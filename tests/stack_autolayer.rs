@@ -310,3 +310,39 @@ fn a_light_cut_by_an_in_focus_edge_continues_under_it_only_a_few_pixels() {
     assert!(back.get(26, 15)[0] < 1.0, "far under the square: {:?}", back.get(26, 15));
     assert!(back.pixels.iter().all(|p| (0.0..=1.0).contains(&p[3])));
 }
+
+/// Issue 35's ghost fence: a blurred wire (disparity 1, CoC 15 px, focus on the wall at 0.25)
+/// lit by the sky to 1.4 (HDR) crosses an in-focus wall of 0.45 along row 16 as two rows of
+/// mixed pixels, 70% and 30% wire, their one-sample depth on the wire in even columns and on
+/// the wall in odd ones. No pixel of the wire is unmixed. The wall layer must show the wall
+/// under every wire pixel (a wire's share left in it stays sharp: a ghost of the fence), and
+/// the wire's light must go to the wire's layer, by its coverage from the colours.
+#[test]
+fn an_hdr_lit_blurred_wire_leaves_no_ghost_in_the_in_focus_back() {
+    const WIRE: [f32; 4] = [1.4, 1.4, 1.3, 1.0];
+    const WALL: [f32; 4] = [0.45, 0.4, 0.35, 1.0];
+    let cover = |y: usize| match y {
+        16 => 0.7,
+        17 => 0.3,
+        _ => 0.0,
+    };
+    let image = Image::from_fn(32, 32, |_, y| mix(WIRE, WALL, cover(y)));
+    let on_wire = |x: usize, y: usize| cover(y) > 0.0 && x % 2 == 0;
+    let disparity: Vec<f32> = (0..32 * 32).map(|i| if on_wire(i % 32, i / 32) { 1.0 } else { 0.25 }).collect();
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+    assert_eq!(stack.layers.len(), 2);
+    let (front, back) = (&stack.layers[0].rgba, &stack.layers[1].rgba);
+    for x in 4..28 {
+        for y in [16, 17] {
+            let b = back.get(x, y);
+            // 0.02: the wall is flat, so its local colour is exact; the wire's share would add 0.28 to 0.67.
+            assert!((0..3).all(|k| (b[k] - WALL[k]).abs() < 0.02), "wall under the wire at ({x}, {y}): {b:?}");
+            // Coverage from the colours (linear mixing), whichever side the depth sample hit,
+            // relative to the wire's most covered pixel (its own colour is that pixel's: a
+            // wire that never fills a pixel cannot show more): 1 on row 16, 3/7 on row 17.
+            let (a, expected) = (front.get(x, y)[3], cover(y) / 0.7);
+            assert!((a - expected).abs() < 0.05, "wire coverage at ({x}, {y}): {a}, expected {expected}");
+        }
+    }
+    assert!(max_diff(&composite(&stack), &image) < 1e-4, "over gives the input");
+}

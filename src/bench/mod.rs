@@ -12,6 +12,7 @@ pub mod large;
 mod methods;
 pub mod apertures;
 pub mod blender;
+pub mod cycles;
 pub mod end_to_end;
 pub mod perf;
 pub mod perf_backward;

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
+use lensblur::bench::cycles::{cycles_truths, CyclesSettings, CYCLES_SCENES};
 use lensblur::bench::{all_methods, contact_sheet, cpu_methods, run_single_image, run_with_progress, scenes, select_methods, write_png, HEAT_MAX, SINGLE_IMAGE_METHODS};
 use lensblur::vk::Context as GpuContext;
 
@@ -50,6 +51,18 @@ pub struct Args {
     /// seconds per scene.
     #[arg(long)]
     single_image: bool,
+    /// With --single-image: also the Cycles scenes (src/bench/cycles_scenes.py, built and
+    /// rendered by Blender headless, cached under the --cache folder; a cold cache takes
+    /// Blender about half an hour on 2 cores). Fails if Blender is missing.
+    #[arg(long, requires = "single_image")]
+    cycles: bool,
+    /// Side of the Cycles renders in pixels (the CoC radii scale with it).
+    #[arg(long, value_name = "PX", default_value_t = CyclesSettings::BENCH.size, requires = "cycles")]
+    cycles_size: usize,
+    /// Samples per pixel of the Cycles thin-lens truth; the pinhole input gets a quarter, the
+    /// per-group layers a 32nd (at least 1).
+    #[arg(long, value_name = "SPP", default_value_t = CyclesSettings::BENCH.truth_spp, requires = "cycles")]
+    cycles_spp: u32,
     #[command(flatten, next_help_heading = "Performance (with --perf)")]
     perf_flags: super::bench_perf::PerfFlags,
 }
@@ -93,10 +106,25 @@ fn run_single_image_table(args: Args) -> anyhow::Result<()> {
     let gpu = GpuContext::from_env().context("the single-image table needs a Vulkan device")?;
     let names: Vec<String> = if args.methods.is_empty() { SINGLE_IMAGE_METHODS.map(String::from).to_vec() } else { args.methods.clone() };
     let methods = select_methods(all_methods(Some(&gpu))?, &names)?;
-    let tracing = bar("ray tracing {msg}", "rows")?;
-    let truths = scenes::single_image_truths(&args.scenes, args.quick, Some(tracing.clone()), (!args.no_cache).then_some(args.cache.as_path()))
-        .context("ray tracing the single-image scenes")?;
-    tracing.finish_and_clear();
+    // --scenes may name scenes of both sets; a set none of whose scenes is named is left out.
+    let (cycles_names, traced_names): (Vec<String>, Vec<String>) = args.scenes.iter().cloned().partition(|n| CYCLES_SCENES.contains(&n.as_str()));
+    let mut truths = Vec::new();
+    if args.scenes.is_empty() || !traced_names.is_empty() {
+        let tracing = bar("ray tracing {msg}", "rows")?;
+        truths = scenes::single_image_truths(&traced_names, args.quick, Some(tracing.clone()), (!args.no_cache).then_some(args.cache.as_path()))
+            .context("ray tracing the single-image scenes")?;
+        tracing.finish_and_clear();
+    }
+    if !cycles_names.is_empty() && !args.cycles {
+        anyhow::bail!("scene '{}' is a Cycles scene: add --cycles", cycles_names[0]);
+    }
+    if args.cycles && (args.scenes.is_empty() || !cycles_names.is_empty()) {
+        let cache = args.cache.join("cycles");
+        let settings = CyclesSettings::with_truth_spp(args.cycles_size, args.cycles_spp);
+        let rendered = cycles_truths(&cycles_names, &settings, &cache, &|name| eprintln!("Blender rendered {name}"))
+            .context("rendering the Cycles scenes with Blender")?;
+        truths.extend(rendered);
+    }
     let progress = bar("{msg}", "renders")?;
     let table = run_single_image(&truths, &methods, &progress)?;
     println!("{table}");
