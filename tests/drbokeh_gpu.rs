@@ -5,21 +5,15 @@ mod common;
 
 use common::{finish, gpu};
 use lensblur::camera::{Aperture, CocModel, KernelImage};
-use lensblur::image::Image;
 use lensblur::render::drbokeh::{render_cpu, DrBokehGpu, LayerKernel, Model};
 use lensblur::render::Lens;
 use lensblur::stack::LayerStack;
 
 use lensblur::selfcheck::scenes::forward as scene;
 
-/// Largest difference relative to max(1, |cpu|) (HDR highlights reach ~40).
-fn worst_relative(gpu: &Image, cpu: &Image) -> f32 {
-    gpu.pixels
-        .iter()
-        .zip(&cpu.pixels)
-        .flat_map(|(g, c)| (0..4).map(move |i| (g[i] - c[i]).abs() / c[i].abs().max(1.0)))
-        .fold(0.0, f32::max)
-}
+// Largest difference relative to max(1, |cpu|) (HDR highlights reach ~40): the self-check's
+// metric.
+use lensblur::selfcheck::image_difference as worst_relative;
 
 // Every aperture path of both models against the CPU reference, untiled and tiled, is a
 // self-check (src/selfcheck, run by tests/gpu_kit.rs and by the GPU kit on real GPUs).

@@ -10,7 +10,6 @@ use lensblur::camera::{Aperture, CocModel};
 use lensblur::image::Image;
 use lensblur::render::drbokeh::RenderOptions;
 use lensblur::render::multiview::{render_multiview_cpu, Multiview, MultiviewParams};
-use lensblur::render::vdslr::FocusField;
 use lensblur::render::{Lens, Method, MethodSettings};
 use lensblur::stack::{Layer, LayerStack};
 use lensblur::vk::Context;
@@ -57,10 +56,7 @@ fn lens(aperture: Aperture) -> Lens {
 /// Few samples keep lavapipe fast; a tilted focal plane makes Virtual DSLR's relative
 /// disparity depend on the position relative to the frame centre.
 fn settings() -> MethodSettings {
-    let mut settings = MethodSettings::default();
-    (settings.vdslr.samples, settings.multiview.samples) = (24, 24);
-    settings.vdslr.focus = FocusField::Tilt { gradient: [0.004, -0.006] };
-    settings
+    lensblur::selfcheck::scenes::few_samples()
 }
 
 fn bits(image: &Image) -> Vec<u32> {

@@ -82,76 +82,58 @@ pub fn self_check(args: SelfCheckArgs) -> anyhow::Result<()> {
 /// The sequence path: three frames rendered by `lensblur render IN.####.exr --frames 1-3` (this
 /// very binary, one process, the device opened once) against the CPU reference of the frame.
 fn sequence_check(ctx: &Context) -> Check {
-    let start = std::time::Instant::now();
-    let tolerance = selfcheck::forward_tolerance(Method::DrBokeh);
-    let outcome = (|| -> anyhow::Result<f64> {
-        let dir = tempdir()?;
-        let stack = selfcheck::sequence_stack();
-        let options = StackWriteOptions { depth_kind: DepthKind::Disparity, ..StackWriteOptions::default() };
-        for frame in 1..=3 {
-            write_stack(&dir.join(format!("shot.{frame:04}.exr")), &stack, &options)?;
-        }
-        let exe = std::env::current_exe().context("locating this binary")?;
-        let output = Command::new(exe)
-            .args([
-                "render",
-                "--device",
-                "gpu",
-                "--frames",
-                "1-3",
-                "--depth-kind",
-                "disparity",
-                "--blur",
-                "25",
-                "--focus-disparity",
-                "0.5",
-            ])
-            .arg(dir.join("shot.####.exr"))
-            .arg("-o")
-            .arg(dir.join("out.####.exr"))
-            .envs(ctx.validation_enabled().then_some(("LENSBLUR_VALIDATION", "1")))
-            .output()
-            .context("running `lensblur render --frames`")?;
-        if !output.status.success() {
-            bail!("`lensblur render --frames 1-3` failed: {}", String::from_utf8_lossy(&output.stderr).trim());
-        }
-        // The reference renders the stack as the file holds it (the writer stores its own depth
-        // under fully transparent pixels).
-        let read = ReadOptions { depth_kind: DepthKind::Disparity, ..ReadOptions::default() };
-        let stored = read_stack(&dir.join("shot.0001.exr"), &read)?.stack;
-        let lens = Lens { coc: CocModel::new(25.0, 0.5)?, aperture: Aperture::Disk };
-        let cpu = Method::DrBokeh.render(None, &stored, &lens)?;
-        let mut worst = 0.0f64;
-        for frame in 1..=3 {
-            let path = dir.join(format!("out.{frame:04}.exr"));
-            let image = read_rgba(&path, None, u64::MAX).with_context(|| format!("reading {}", path.display()))?;
-            worst = worst.max(image_difference(&image, &cpu));
-        }
-        std::fs::remove_dir_all(&dir).ok();
-        Ok(worst)
-    })();
     let name = "sequence drbokeh disk --frames 1-3".to_string();
-    let seconds = start.elapsed().as_secs_f64();
-    match outcome {
-        Ok(d) => Check {
-            name,
-            difference: Some(d),
-            tolerance,
-            metric: IMAGE_METRIC,
-            passed: d <= tolerance,
-            error: None,
-            seconds,
-        },
-        Err(e) => Check {
-            name,
-            difference: None,
-            tolerance,
-            metric: IMAGE_METRIC,
-            passed: false,
-            error: Some(format!("{e:#}")),
-            seconds,
-        },
+    selfcheck::check(name, IMAGE_METRIC, selfcheck::forward_tolerance(Method::DrBokeh), || {
+        sequence_difference(ctx).map_err(|e| format!("{e:#}"))
+    })
+}
+
+/// The largest [`image_difference`] of the three frames from their CPU reference.
+fn sequence_difference(ctx: &Context) -> anyhow::Result<f64> {
+    let dir = tempdir()?;
+    let stack = selfcheck::sequence_stack();
+    let options = StackWriteOptions { depth_kind: DepthKind::Disparity, ..StackWriteOptions::default() };
+    for frame in 1..=3 {
+        write_stack(&dir.join(format!("shot.{frame:04}.exr")), &stack, &options)?;
     }
+    let exe = std::env::current_exe().context("locating this binary")?;
+    let output = Command::new(exe)
+        .args([
+            "render",
+            "--device",
+            "gpu",
+            "--frames",
+            "1-3",
+            "--depth-kind",
+            "disparity",
+            "--blur",
+            "25",
+            "--focus-disparity",
+            "0.5",
+        ])
+        .arg(dir.join("shot.####.exr"))
+        .arg("-o")
+        .arg(dir.join("out.####.exr"))
+        .envs(ctx.validation_enabled().then_some(("LENSBLUR_VALIDATION", "1")))
+        .output()
+        .context("running `lensblur render --frames`")?;
+    if !output.status.success() {
+        bail!("`lensblur render --frames 1-3` failed: {}", String::from_utf8_lossy(&output.stderr).trim());
+    }
+    // The reference renders the stack as the file holds it (the writer stores its own depth
+    // under fully transparent pixels).
+    let read = ReadOptions { depth_kind: DepthKind::Disparity, ..ReadOptions::default() };
+    let stored = read_stack(&dir.join("shot.0001.exr"), &read)?.stack;
+    let lens = Lens { coc: CocModel::new(25.0, 0.5)?, aperture: Aperture::Disk };
+    let cpu = Method::DrBokeh.render(None, &stored, &lens)?;
+    let mut worst = 0.0f64;
+    for frame in 1..=3 {
+        let path = dir.join(format!("out.{frame:04}.exr"));
+        let image = read_rgba(&path, None, u64::MAX).with_context(|| format!("reading {}", path.display()))?;
+        worst = worst.max(image_difference(&image, &cpu));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+    Ok(worst)
 }
 
 fn tempdir() -> anyhow::Result<PathBuf> {

@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use crate::camera::{Aperture, CocModel, KernelImage};
 use crate::image::Image;
-use crate::render::drbokeh::{backward_cpu, BackwardOptions, DrBokehGpuGrad, Model, RenderOptions};
+use crate::render::drbokeh::{backward_cpu, BackwardOptions, CpuGradients, DrBokehGpuGrad, Model, RenderOptions};
 use crate::render::grad::StackGradients;
 use crate::render::{Lens, Method, MethodSettings};
 use crate::stack::LayerStack;
@@ -108,8 +108,15 @@ pub fn run(ctx: &Context, mut on_check: impl FnMut(&Check)) -> Vec<Check> {
     checks
 }
 
-/// Times `body` and turns its outcome into a [`Check`].
-fn check(name: String, metric: &'static str, tolerance: f64, body: impl FnOnce() -> Result<f64>) -> Check {
+/// Times `body` and turns its outcome into a [`Check`]: its difference against `tolerance`, or
+/// the error that kept it from measuring one (also for checks made outside this module, such as
+/// the CLI's sequence check).
+pub fn check<E: std::fmt::Display>(
+    name: String,
+    metric: &'static str,
+    tolerance: f64,
+    body: impl FnOnce() -> std::result::Result<f64, E>,
+) -> Check {
     let start = Instant::now();
     let outcome = body();
     let seconds = start.elapsed().as_secs_f64();
@@ -180,7 +187,7 @@ fn forward_untiled_and_tiled(
                 None => format!("forward {method} {aperture_name} untiled"),
                 Some(t) => format!("forward {method} {aperture_name} tiles {t}"),
             };
-            check(name, IMAGE_METRIC, forward_tolerance(method), || {
+            check(name, IMAGE_METRIC, forward_tolerance(method), || -> Result<f64> {
                 let cpu = reference.as_ref().map_err(reference_failed)?;
                 let options = RenderOptions { tile: tiled, ..RenderOptions::default() };
                 let device = method.render_with(Some(ctx), stack, lens, &options, settings)?;
@@ -211,7 +218,7 @@ fn forward_apertures(ctx: &Context) -> Vec<Check> {
 }
 
 /// See [`GRADIENT_METRIC`].
-pub fn gradient_difference(device: &StackGradients, cpu: &StackGradients64) -> f64 {
+pub fn gradient_difference(device: &StackGradients, cpu: &CpuGradients) -> f64 {
     fn family(device: impl Iterator<Item = f32>, cpu: impl Iterator<Item = f64>) -> f64 {
         let pairs: Vec<(f64, f64)> = device.map(f64::from).zip(cpu).collect();
         let scale = pairs.iter().fold(0.0f64, |m, p| m.max(p.1.abs()));
@@ -229,9 +236,6 @@ pub fn gradient_difference(device: &StackGradients, cpu: &StackGradients64) -> f
     worst = worst.max((device.k_px - cpu.k_px).abs() / cpu.k_px.abs().max(1.0));
     worst.max((device.focus_disparity - cpu.focus_disparity).abs() / cpu.focus_disparity.abs().max(1.0))
 }
-
-/// The CPU reference's f64 gradients.
-pub type StackGradients64 = crate::render::drbokeh::CpuGradients;
 
 /// The backward pass of both models through every aperture it accepts (vignetted apertures
 /// are refused by design), the exact and the leaky slope, untiled and on 16 px tiles.
@@ -258,7 +262,7 @@ fn backward(ctx: &Context) -> Vec<Check> {
                         None => format!("backward {model:?} {name} {slope} untiled"),
                         Some(t) => format!("backward {model:?} {name} {slope} tiles {t}"),
                     };
-                    checks.push(check(label, GRADIENT_METRIC, BACKWARD_TOLERANCE, || {
+                    checks.push(check(label, GRADIENT_METRIC, BACKWARD_TOLERANCE, || -> Result<f64> {
                         let cpu = reference.as_ref().map_err(reference_failed)?;
                         let renderer = DrBokehGpuGrad::new(ctx, model, options)?;
                         let render = RenderOptions { tile: tiled, ..RenderOptions::default() };

@@ -126,9 +126,7 @@ impl DrBokehGpu {
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_RING, &LAYER_SLOTS, push)?),
                 Some(ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_LAYER_KERNEL, &LAYER_GAUGE_SLOTS, push)?),
             ),
-            LayerKernel::Baseline => {
-                (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None, None, None)
-            }
+            LayerKernel::Baseline => (ComputePipeline::new(ctx, &shaders::DRBOKEH_LAYER_NAIVE, 7, push)?, None, None, None, None),
         };
         Ok(Self {
             ctx: ctx.clone(),
@@ -140,12 +138,7 @@ impl DrBokehGpu {
             layer_gauge,
             layer_ring,
             layer_kernel,
-            composite: ComputePipeline::with_slots(
-                ctx,
-                &shaders::DRBOKEH_COMPOSITE,
-                &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage],
-                push,
-            )?,
+            composite: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_COMPOSITE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage], push)?,
         })
     }
 
@@ -269,12 +262,7 @@ impl DrBokehGpu {
                 b.block_alpha.all(),
                 b.aperture_rows.all(),
             ];
-            batch.dispatch(
-                layer_pipeline,
-                &bindings[..binding_count],
-                &params.push_tile(layer, b.core, b.read),
-                layer_groups,
-            )?;
+            batch.dispatch(layer_pipeline, &bindings[..binding_count], &params.push_tile(layer, b.core, b.read), layer_groups)?;
         }
         batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
     }
