@@ -20,6 +20,7 @@ fn main() {
     let out_dir = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
     println!("cargo:rerun-if-changed={}", glsl_dir.display());
     println!("cargo:rerun-if-changed={}", common_dir.display());
+    emit_build_id(&root);
 
     let mut sources: Vec<PathBuf> = std::fs::read_dir(&glsl_dir)
         .map(|entries| entries.filter_map(|e| e.ok().map(|e| e.path())).collect())
@@ -165,4 +166,30 @@ fn binding_kinds(words: &[u32]) -> (u32, u32) {
         }
     }
     (storage, texels)
+}
+
+/// `LENSBLUR_COMMIT` (short hash, or "unknown" outside a git checkout) and `LENSBLUR_PROFILE`
+/// for `lensblur --version`: a bug report then names the exact build. Re-run when HEAD moves,
+/// so the hash is never stale.
+fn emit_build_id(root: &Path) {
+    let git = |args: &[&str]| {
+        let out = Command::new("git").arg("-C").arg(root).args(args).output().ok()?;
+        out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
+    };
+    let commit = git(&["rev-parse", "--short=9", "HEAD"]).unwrap_or_else(|| "unknown".into());
+    println!("cargo:rustc-env=LENSBLUR_COMMIT={commit}");
+    let profile = std::env::var("PROFILE").unwrap_or_else(|_| "unknown".into());
+    println!("cargo:rustc-env=LENSBLUR_PROFILE={profile}");
+    let watched = [
+        git(&["rev-parse", "--git-path", "HEAD"]),
+        git(&["symbolic-ref", "-q", "HEAD"]).and_then(|r| git(&["rev-parse", "--git-path", &r])),
+        git(&["rev-parse", "--git-path", "packed-refs"]),
+    ];
+    for path in watched.into_iter().flatten() {
+        let path = root.join(path);
+        // A missing file would make cargo re-run this script on every build.
+        if path.exists() {
+            println!("cargo:rerun-if-changed={}", path.display());
+        }
+    }
 }

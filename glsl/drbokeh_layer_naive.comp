@@ -1,5 +1,5 @@
 // BENCHMARK BASELINE: the first straightforward Dr.Bokeh layer kernel, kept unchanged so
-// `lensblur bench-perf` can measure the speed-up of glsl/drbokeh_layer.comp in the same run
+// `lensblur bench perf` can measure the speed-up of glsl/drbokeh_layer.comp in the same run
 // (`LayerKernel::Baseline`). Same bindings, push constants and results (within f32 rounding).
 //
 // Dr.Bokeh pass 2 of 3 (per layer): C_l, W_l and V_l of every pixel, gathered over its tile's

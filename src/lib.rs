@@ -76,7 +76,7 @@ pub mod selfcheck;
 pub mod sequence;
 pub mod shaders;
 pub mod stack;
-pub mod tiling;
+pub mod tile_grid;
 pub mod vk;
 
 pub use error::{Error, InputMismatch, Result};

@@ -11,7 +11,7 @@ use lensblur::bench::{all_methods, run, select_methods};
 /// 3.6 minutes of Blender on 2 shared cores when the cache is cold (measured).
 const CI: CyclesSettings = CyclesSettings::with_truth_spp(128, 256);
 
-/// Measured on lavapipe (`lensblur bench --single-image --cycles --cycles-size 128
+/// Measured on lavapipe (`lensblur bench single-image --cycles --cycles-size 128
 /// --cycles-spp 256`, one run): 26.55 / 30.35 / 27.66 / 23.31 / 17.86 / 19.67 / 24.78 / 35.39 /
 /// 37.25 / 31.99 / 36.05 / 34.09 / 26.99 dB in this order; before the thin-structure matting
 /// of issue 35 the fences, the grid, the strands and the mast scored 21.55 / 28.70 / 21.51 /

@@ -41,7 +41,7 @@ fn raytrace_writes_the_pinhole_image_true_layers_defocus_and_camera() {
 fn bench_prints_the_table_writes_json_and_sheet_and_runs_without_vulkan() {
     let dir = common::temp_dir("cli-bench", "bench");
     let (cache, json, sheet) = (dir.join("cache"), dir.join("bench.json"), dir.join("sheet.png"));
-    let common = ["bench", "--quick", "--scenes", "small-coc", "--cache", path(&cache)];
+    let common = ["bench", "quality", "--quick", "--scenes", "small-coc", "--cache", path(&cache)];
     let mut args = common.to_vec();
     args.extend(["--methods", "oracle,drbokeh,gather", "--json", path(&json), "--sheet", path(&sheet)]);
     let (table, _) = run_ok(&args, &[]);

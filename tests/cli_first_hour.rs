@@ -94,7 +94,7 @@ fn the_output_extension_picks_the_format_and_others_are_refused() {
     let stderr = refused(&dir, &["render", shot, "-o", "ok.exr", "--preview", "a.tif"]);
     assert!(stderr.contains("a.tif: '.tif' is not a format --preview writes") && !stderr.contains(".exr"), "{stderr}");
     assert!(!dir.join("ok.exr").exists(), "nothing is rendered when the preview's name is refused");
-    let stderr = refused(&dir, &["bench", "--quick", "--sheet", "sheet.jpg"]);
+    let stderr = refused(&dir, &["bench", "quality", "--quick", "--sheet", "sheet.jpg"]);
     assert!(stderr.contains("'.jpg' is not a format --sheet writes") && stderr.contains("use .png (8-bit sRGB);"), "{stderr}");
     let stderr = refused(&dir, &["grad", shot, "--grad-output", shot, "-o", "grads.png"]);
     assert!(stderr.contains("'.png' is not a format -o writes") && stderr.contains("use .exr (linear float);"), "{stderr}");
@@ -194,12 +194,8 @@ fn help_headings_hold_the_flags_they_name() {
     let (render, _) = ok(&dir, &["render", "--help"], &[]);
     assert!(flags_under(&render, "Method:").contains(&"--method"), "{render}");
     assert!(!flags_under(&render, "Output:").contains(&"--method"), "{render}");
-    let (perf, _) = ok(&dir, &["bench-perf", "--help"], &[]);
-    // bench-perf has no --perf flag (only its examples name `bench --perf`, the same suite).
-    assert!(!perf.contains("(with --perf)"), "{perf}");
+    let (perf, _) = ok(&dir, &["bench", "perf", "--help"], &[]);
     assert!(flags_under(&perf, "Performance:").contains(&"--groups"), "{perf}");
-    let (bench, _) = ok(&dir, &["bench", "--help"], &[]);
-    assert!(flags_under(&bench, "Performance (with --perf):").contains(&"--groups"), "{bench}");
 }
 
 #[test]
@@ -207,10 +203,10 @@ fn benchmarks_write_to_the_user_cache_not_the_current_folder() {
     let dir = common::temp_dir("first-hour", "bench-dirs");
     let cache = dir.join("cache");
     let cache_env = [("XDG_CACHE_HOME", cache.to_str().unwrap())];
-    let (bench, _) = ok(&dir, &["bench", "--help"], &cache_env);
+    let (bench, _) = ok(&dir, &["bench", "quality", "--help"], &cache_env);
     let expected = |name: &str| format!("[default: {}]", cache.join("lensblur").join(name).display());
     assert!(bench.contains(&expected("gt-cache")), "{bench}");
-    let (perf, _) = ok(&dir, &["bench-perf", "--help"], &cache_env);
+    let (perf, _) = ok(&dir, &["bench", "perf", "--help"], &cache_env);
     assert!(perf.contains(&expected("perf")), "{perf}");
     assert!(!bench.contains("target/") && !perf.contains("target/"), "no default under the current folder");
 
@@ -218,7 +214,7 @@ fn benchmarks_write_to_the_user_cache_not_the_current_folder() {
     // nothing in the folder it was started from.
     let work = dir.join("work");
     std::fs::create_dir(&work).unwrap();
-    ok(&work, &["bench", "--quick", "--scenes", "small-coc", "--methods", "oracle"], &cache_env);
+    ok(&work, &["bench", "quality", "--quick", "--scenes", "small-coc", "--methods", "oracle"], &cache_env);
     assert_eq!(std::fs::read_dir(&work).unwrap().count(), 0, "bench wrote into the current folder");
     let cached = std::fs::read_dir(cache.join("lensblur").join("gt-cache")).map(|d| d.count()).unwrap_or(0);
     assert!(cached > 0, "no ground truth cached under $XDG_CACHE_HOME/lensblur/gt-cache");

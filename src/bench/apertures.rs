@@ -1,4 +1,4 @@
-//! The aperture cases of `bench --perf` (group `apertures`): whole `lensblur render` processes
+//! The aperture cases of `bench perf` (group `apertures`): whole `lensblur render` processes
 //! of the Blender comparison's 1024^2 five-layer frame (CoC up to 40 px) with every aperture
 //! kind, against the disk on the same frame and, where Blender's Defocus node has the shape
 //! (its `bokeh` setting: CIRCLE, TRIANGLE .. OCTAGON), against Blender's compositing time, in

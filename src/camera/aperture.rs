@@ -49,7 +49,7 @@ pub enum Aperture {
     /// not one gauge. Only Dr.Bokeh's default model renders it (its gauge path resolves the
     /// shape of each 16 px receiver tile: for the disk the [`Aperture::CatsEye`] of
     /// `LensView::at_receiver`, for a straight-bladed polygon or the ellipse the clipped and
-    /// recentred base of [`super::vignetted`]); the character controls hand it to no other
+    /// recentred base of `camera/vignetted.rs`); the character controls hand it to no other
     /// renderer, and only bases that [`super::vignettes_in_one_pass`] (make one with
     /// [`Aperture::vignetted`]). Position-free uses (`gauge`, `relative_area`) see the frame
     /// centre's shape, the base.

@@ -5,12 +5,14 @@
 //! Everything that turns a lens into pixels goes through [`CocModel`].
 mod aperture;
 mod aperture_rows;
+mod focus_field;
 mod kernel_runs;
 mod vignetted;
 pub(crate) mod hints;
 
 pub use aperture::{cats_eye_gauge, ring_weight, Aperture, ApertureGpu, KernelImage, CATS_EYE_SHAPE, KERNEL_FADE_PX, VIGNETTED_SHAPE};
 pub use aperture_rows::{aperture_row_table, closed_form_gauge, APERTURE_ROW_SEGMENTS, EMPTY_APERTURE_ROW};
+pub use focus_field::FocusField;
 pub use hints::CameraHints;
 pub use kernel_runs::{kernel_run_table, KERNEL_RUN_FULL, KERNEL_RUN_ZERO};
 pub use vignetted::{clipped_centroid, vignettes_in_one_pass, ClippedShape, Eye};

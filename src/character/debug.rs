@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use crate::image::Image;
 use crate::render::drbokeh::{render_cpu_terms, Model, Window};
-use crate::render::vdslr::{relative_disparity, FocusField};
+use crate::camera::FocusField;
 use crate::render::Lens;
 use crate::stack::{write_png_preview, LayerStack};
 use crate::Result;
@@ -26,7 +26,7 @@ const PALETTE: [[f32; 3]; 8] = [
 /// Signed CoC per pixel (flattened disparity; positive = nearer than focus), relative to the
 /// focus field rendered (a tilted plane or several planes for Virtual DSLR).
 pub fn coc_map(stack: &LayerStack, lens: &Lens, focus: &FocusField) -> Result<Vec<f32>> {
-    let relative = relative_disparity(&stack.flatten().1, stack.width, stack.height, lens, focus)?;
+    let relative = focus.relative_disparity(&stack.flatten().1, stack.width, stack.height, &lens.coc)?;
     Ok(relative.iter().map(|&r| lens.coc.k_px * r).collect())
 }
 

@@ -28,7 +28,7 @@ pub use vignette::{render_cats_eye, CatsEye};
 use crate::camera::Aperture;
 use crate::image::Image;
 use crate::render::drbokeh::RenderOptions;
-use crate::render::vdslr::FocusField;
+use crate::camera::FocusField;
 use crate::render::{Lens, Method, MethodSettings};
 use crate::stack::LayerStack;
 use crate::vk::Context;

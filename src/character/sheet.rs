@@ -10,7 +10,7 @@ use crate::image::font::{draw_text, GLYPH_H};
 use crate::camera::{Aperture, CocModel};
 use crate::image::Image;
 use crate::render::drbokeh::RenderOptions;
-use crate::render::vdslr::FocusField;
+use crate::camera::FocusField;
 use crate::render::{Lens, Method, MethodSettings};
 use crate::stack::ldr::linear_to_srgb;
 use crate::stack::{Layer, LayerStack};

@@ -18,7 +18,7 @@ use crate::image::Image;
 use crate::render::drbokeh::COMPAT_TAIL_PX;
 use crate::render::Lens;
 use crate::stack::{Layer, LayerStack};
-use crate::tiling::Rect;
+use crate::tile_grid::Rect;
 use crate::{Error, Result};
 
 /// Nodes per side of the grid unless told otherwise: 16 renders covering ~4 frames in all.

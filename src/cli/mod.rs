@@ -3,10 +3,6 @@
 use clap::{Parser, Subcommand};
 
 mod bench;
-mod bench_depth;
-mod bench_large;
-mod bench_perf;
-mod bench_sequence;
 mod camera_args;
 mod character_args;
 mod devices;
@@ -23,6 +19,8 @@ mod progress;
 mod raytrace;
 mod render;
 mod render_sequence;
+mod shell;
+mod version;
 
 const EXAMPLES: &str = "\
 Examples:
@@ -31,13 +29,15 @@ Examples:
   lensblur devices                      list Vulkan devices, mark the one in use
   lensblur methods                      the rendering methods and the flags each accepts
   lensblur info shot.exr                every layer and channel of a file, depth ranges
+  lensblur completions bash             shell completions (also zsh, fish); `lensblur man` the man page
   lensblur raytrace --list              the built-in ground-truth scenes
   lensblur raytrace fence -o out/fence  ray-trace one scene: pinhole, true layers, defocus
-  lensblur bench --quick --sheet b.png  score every method against ray-traced truth
+  lensblur bench quality --quick        score every method against ray-traced truth
   LENSBLUR_DEVICE=1 lensblur devices    pick a device by index or name substring
   LENSBLUR_VALIDATION=1 lensblur ...    any Vulkan validation message becomes an error
   LENSBLUR_PIPELINE_CACHE=off lensblur  do not keep compiled pipelines in ~/.cache/lensblur
-  LENSBLUR_PROFILE=1 lensblur render .. print the device time of each compute shader on exit";
+  LENSBLUR_PROFILE=1 lensblur render .. print the device time of each compute shader on exit
+  NO_COLOR=1 lensblur ...               no colour in help, errors or progress bars";
 
 #[derive(Parser)]
 #[command(name = "lensblur", version, about = "Physically based, occlusion-aware lens blur on Vulkan compute", after_help = EXAMPLES)]
@@ -66,16 +66,21 @@ enum Command {
     Info(info::InfoArgs),
     /// Ray-trace a built-in scene's ground truth (pinhole, true layers, thin-lens defocus).
     Raytrace(raytrace::Args),
-    /// Score every rendering method against ray-traced ground truth (metrics table, JSON, PNG sheet).
+    /// Benchmarks: quality, single-image, large, depth, perf, sequence (`lensblur bench --help`).
     Bench(bench::Args),
-    /// Benchmark the tiled renderer on a 4K-8K two-layer frame (time, memory, taps/s).
-    BenchLarge(bench_large::Args),
-    /// Depth from defocus on the benchmark scenes: Dr.Bokeh vs GaussPSF (depth error, PSNR).
-    BenchDepth(bench_depth::Args),
-    /// Time the Dr.Bokeh forward kernels on fixed cases against the first straightforward one.
-    BenchPerf(bench_perf::Args),
-    /// Frames/s of a shot rendered by one process against one process per frame.
-    BenchSequence(bench_sequence::Args),
+    /// The former spellings of `bench large`, `bench depth`, `bench perf`, `bench sequence`.
+    #[command(hide = true)]
+    BenchLarge(bench::large::Args),
+    #[command(hide = true)]
+    BenchDepth(bench::depth::Args),
+    #[command(hide = true)]
+    BenchPerf(bench::perf::Args),
+    #[command(hide = true)]
+    BenchSequence(bench::sequence::Args),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    Completions(shell::CompletionsArgs),
+    /// Print the man page, or write one page per command into a folder.
+    Man(shell::ManArgs),
     /// Every device pass against its CPU reference, and the sequence path (the GPU kit).
     #[command(hide = true)]
     SelfCheck(gpu_kit::SelfCheckArgs),
@@ -85,7 +90,7 @@ enum Command {
 }
 
 pub fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
+    let cli = version::parse();
     // Ctrl-C, SIGTERM, SIGHUP: outputs appear by rename only when complete; remove any
     // temporary being written, and keep every writer from renaming until the process exits.
     let _ = ctrlc::set_handler(|| {
@@ -117,10 +122,12 @@ pub fn main() -> std::process::ExitCode {
         Command::Info(args) => info::run(args),
         Command::Raytrace(args) => raytrace::run(args),
         Command::Bench(args) => bench::run(args),
-        Command::BenchLarge(args) => bench_large::run(args),
-        Command::BenchDepth(args) => bench_depth::run(args),
-        Command::BenchPerf(args) => bench_perf::run(args),
-        Command::BenchSequence(args) => bench_sequence::run(args),
+        Command::BenchLarge(args) => bench::large::run(args),
+        Command::BenchDepth(args) => bench::depth::run(args),
+        Command::BenchPerf(args) => bench::perf::run(args),
+        Command::BenchSequence(args) => bench::sequence::run(args),
+        Command::Completions(args) => shell::completions(args),
+        Command::Man(args) => shell::man(args),
         Command::SelfCheck(args) => gpu_kit::self_check(args),
         Command::GpuTimings(args) => gpu_kit::timings(args),
     };

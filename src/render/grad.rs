@@ -6,7 +6,7 @@
 //! [`CameraGradients`]'s.
 use crate::camera::{CocModel, PhysicalCamera};
 use crate::image::Image;
-use crate::render::tiling::{RenderOptions, RenderStats};
+use crate::render::tiler::{RenderOptions, RenderStats};
 use crate::render::Lens;
 use crate::stack::fill::push_pull_adjoint;
 use crate::stack::{DepthKind, Layer, LayerStack};

@@ -5,9 +5,10 @@ use std::str::FromStr;
 
 use crate::image::Image;
 use crate::render::grad::{Differentiable, Slope};
-use crate::render::tiling::RenderOptions;
+use crate::render::tiler::RenderOptions;
 use crate::render::multiview::MultiviewParams;
-use crate::render::vdslr::{FocusField, VdslrParams};
+use crate::camera::FocusField;
+use crate::render::vdslr::VdslrParams;
 use crate::render::Lens;
 use crate::stack::LayerStack;
 use crate::vk::Context;
@@ -198,7 +199,7 @@ impl Method {
     }
 
     /// [`Self::render`] with frame tiling, memory cap and progress (honoured by every method on
-    /// a Vulkan device, through [`crate::render::tiling`]; the CPU references render the whole
+    /// a Vulkan device, through [`crate::render::tiler`]; the CPU references render the whole
     /// frame at once) and the settings of the methods that have any.
     pub fn render_with(
         self,

@@ -16,7 +16,7 @@ pub mod oracle;
 pub mod placement;
 mod registry;
 pub mod scatter;
-pub mod tiling;
+pub mod tiler;
 pub mod vdslr;
 
 /// Everything about the lens a renderer needs, in pixels.

@@ -12,7 +12,7 @@ use crate::render::method::{InputKind, Method, MethodInput, MethodSpec, Renderer
 use crate::render::multiview::{render_multiview_cpu, Multiview};
 use crate::render::oracle::render_oracle;
 use crate::render::scatter::{render_scatter_cpu, Scatter};
-use crate::render::tiling::{RenderOptions, RenderStats};
+use crate::render::tiler::{RenderOptions, RenderStats};
 use crate::render::vdslr::{render_vdslr_cpu, Vdslr};
 use crate::render::{Lens, MethodSettings};
 use crate::vk::Context;

@@ -151,7 +151,7 @@ impl Buffer {
 
     /// A device-local buffer holding the items of `data` (exactly `len` of them), written
     /// straight into host-visible memory, else through the batch's staging arena and a copy
-    /// recorded into `batch` (see [`CommandBatch::staging`]). No submission of its own, and no
+    /// recorded into `batch` (the batch keeps it across submissions). No submission of its own, and no
     /// host copy of the data beside the mapping.
     pub fn from_iter_in<T: bytemuck::Pod>(
         ctx: &Context,

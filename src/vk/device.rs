@@ -247,7 +247,7 @@ pub(crate) struct Device {
     /// [`ContextOptions::staged_transfers`].
     pub(crate) staged_transfers: bool,
     /// The largest work per tile a render on this device has measured it can take in time
-    /// (the tiler's, `crate::render::tiling`); 0 until one has.
+    /// (the tiler's, `crate::render::tiler`); 0 until one has.
     learned_tile_work: std::sync::atomic::AtomicU64,
 }
 

@@ -1,4 +1,4 @@
-//! OpenDefocus 0.2.2 as a benchmark peer of lensblur (`lensblur bench --single-image`).
+//! OpenDefocus 0.2.2 as a benchmark peer of lensblur (`lensblur bench single-image`).
 //!
 //! A separate program, so that lensblur never links this EUPL-1.2 crate: the benchmark writes
 //! each scene as a raw frame (see [`read_frame`]), runs this binary once over all of them and

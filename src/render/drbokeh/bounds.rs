@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use super::{math, Model, Params, TILE};
 use crate::stack::{Layer, LayerStack};
-use crate::tiling::Rect;
+use crate::tile_grid::Rect;
 
 /// Per tile `[scatter support, gather radius]` (mirrors the `tile_bounds` vec2 buffer):
 /// support = max over pixels with alpha > 0 (transparent sources scatter nothing),

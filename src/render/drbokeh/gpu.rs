@@ -1,7 +1,7 @@
 //! GPU host code of the Dr.Bokeh forward renderer. The frame is cut into tiles: each uploads
 //! its core plus the halo its search windows reach, records the layer passes and the composite
 //! of `glsl/drbokeh_*.comp`, and reads its core back; several tiles share one submission
-//! ([`crate::render::tiling`], the tiler every method uses). Every pixel reads the same sources
+//! ([`crate::render::tiler`], the tiler every method uses). Every pixel reads the same sources
 //! in the same order whatever the tiling, so the output is bit-identical for every tile size and
 //! batch size. The CPU reference of the same passes is [`super::cpu`]; `Params` (validation,
 //! lens, area table, push constants) and the search windows are shared with it.
@@ -11,11 +11,11 @@ use super::bounds::{search_tiles, search_windows, span_radii, NO_SPAN_RADII};
 use super::{AperturePath, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
-use crate::render::tiling::{crop_rows, run_batches, run_tiled, store_core, Footprint, FrameTiling, TilePlan};
+use crate::render::tiler::{crop_rows, run_batches, run_tiled, store_core, Footprint, FrameTiling, TilePlan};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
-use crate::tiling::Rect;
+use crate::tile_grid::Rect;
 use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, Slot, TexelFormat};
 use crate::{Error, Result};
 
@@ -61,7 +61,7 @@ pub enum LayerKernel {
     OptimisedNoInterior,
 }
 
-pub use crate::render::tiling::{RenderOptions, RenderStats};
+pub use crate::render::tiler::{RenderOptions, RenderStats};
 
 /// Bindings of `drbokeh_layer.comp` (and its disk path): the sources, the lens tables, the
 /// prepass's per-source terms and block sums, read at lane-varying addresses in the tap

@@ -19,11 +19,11 @@ use super::gpu::{halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL,
 use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
-use crate::render::tiling::{crop_rows, run_batches, run_tiled, Footprint, FrameTiling, TilePlan};
+use crate::render::tiler::{crop_rows, run_batches, run_tiled, Footprint, FrameTiling, TilePlan};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
-use crate::tiling::Rect;
+use crate::tile_grid::Rect;
 use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, Slot, TexelFormat};
 use crate::Result;
 

@@ -22,7 +22,7 @@
 //! Large frames are rendered in frame tiles (`gpu.rs`): each uploads its core plus halo, and
 //! since every pixel reads the same sources in the same order, the output is bit-identical
 //! whatever the tile size. Several tiles share one submission; the tiler every method uses
-//! ([`crate::render::tiling`]) plans tile side and batch size from the device's limits and
+//! ([`crate::render::tiler`]) plans tile side and batch size from the device's limits and
 //! memory budget and retries smaller when memory runs out. The backward ([`DrBokehGpuGrad`])
 //! tiles the frame the same way, by the same policy, with the same guarantee.
 use std::borrow::Cow;

@@ -7,9 +7,9 @@ use rayon::prelude::*;
 
 use super::{math, tile_middle, DrBokehPush, LensView, Model, AREA_STEP_PX, AREA_TABLE_RADIUS_PX, TILE, VIGNETTE_AREA_DIRECTIONS, VIGNETTE_AREA_LEVELS, VIGNETTE_BASE_AREA_LEVELS};
 use crate::camera::{clipped_centroid, Aperture, Eye, CATS_EYE_SHAPE};
-use crate::render::tiling::{rect_push as rect, FrameTiling};
+use crate::render::tiler::{rect_push as rect, FrameTiling};
 use crate::render::Lens;
-use crate::tiling::Rect;
+use crate::tile_grid::Rect;
 use crate::stack::LayerStack;
 use crate::{Error, Result};
 

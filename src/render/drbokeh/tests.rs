@@ -97,7 +97,7 @@ fn area_table_is_the_exact_footprint_energy() {
 #[test]
 fn span_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
     use super::bounds::{search_windows, span_radii};
-    use crate::tiling::Rect;
+    use crate::tile_grid::Rect;
     let (w, h) = (70, 50);
     let coc = CocModel::new(20.0, 0.0).unwrap();
     // A disc of constant CoC 10 px (disparity 0.5) over a tilted plane of CoC 0-8 px.

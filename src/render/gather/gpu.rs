@@ -1,14 +1,14 @@
-//! GPU host code of the gather baseline: on frame tiles ([`crate::render::tiling`]), uploads
+//! GPU host code of the gather baseline: on frame tiles ([`crate::render::tiler`]), uploads
 //! each tile's read rect of the image and its disparity, dispatches `glsl/gather.comp` over
 //! its core, reads back.
 use super::EDGE_WIDTH;
 use crate::image::Image;
-use crate::render::tiling::{
+use crate::render::tiler::{
     crop_rows, rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats,
 };
 use crate::render::Lens;
 use crate::shaders;
-use crate::tiling::{MaxPyramid, Rect};
+use crate::tile_grid::{MaxPyramid, Rect};
 use crate::vk::{Buffer, ComputePipeline, Context, Slot, TexelFormat};
 use crate::{Error, Result};
 

@@ -1,5 +1,5 @@
 //! GPU host code of multiview synthesis: dispatches `glsl/multiview_trace.comp` over frame
-//! tiles ([`crate::render::tiling`]) and reads each back. Each tile gets its own window of the
+//! tiles ([`crate::render::tiler`]) and reads each back. Each tile gets its own window of the
 //! layers ([`super::prepare::Window`]: its rays' reach, aligned to the top mip level they
 //! read) with the height fields and pyramids over it, built straight into device memory; only
 //! the culling masks (a bit a pixel) and the lens samples are the frame's. So the tiler bounds
@@ -7,7 +7,7 @@
 use super::prepare::{Prepared, Window};
 use super::MultiviewParams;
 use crate::image::Image;
-use crate::render::tiling::{rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats};
+use crate::render::tiler::{rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;

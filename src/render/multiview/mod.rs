@@ -55,7 +55,7 @@ pub struct MultiviewParams {
 }
 
 impl MultiviewParams {
-    /// What `--method multiview` and the benchmark use. Measured on `bench --quick` (mean
+    /// What `--method multiview` and the benchmark use. Measured on `bench quality --quick` (mean
     /// PSNR): 64 samples 36.2 dB, 256 37.5, 512 37.7, 1024 37.8; cone tracing is worth +0.8 dB
     /// at 64 samples and nothing at 512, where it is kept (it never hurt).
     pub fn tuned() -> Self {

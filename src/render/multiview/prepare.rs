@@ -9,10 +9,10 @@
 //! there (each texel the box filter of the same existing children). Reads clamp to the frame's
 //! edges and then index the window.
 use crate::render::lens_samples::LensSamples;
-use crate::render::tiling::crop;
+use crate::render::tiler::crop;
 use crate::render::Lens;
 use crate::stack::LayerStack;
-use crate::tiling::Rect;
+use crate::tile_grid::Rect;
 use crate::{Error, Result};
 
 use super::MultiviewParams;

@@ -1,10 +1,10 @@
-//! GPU host code of the scatter baseline: on frame tiles ([`crate::render::tiling`]), uploads
+//! GPU host code of the scatter baseline: on frame tiles ([`crate::render::tiler`]), uploads
 //! each tile's read rect of the image and its disparity, dispatches `glsl/scatter.comp` (the
 //! scatter written as a gather, no atomics) over its core, reads back.
 use super::{AREA_EPSILON, EDGE_SHARPNESS, WINDOW_MARGIN};
 use crate::image::Image;
 use crate::render::gather::gpu::{check_input, ImagePass, IMAGE_PASS_SLOTS};
-use crate::render::tiling::{rect_push, RenderOptions, RenderStats};
+use crate::render::tiler::{rect_push, RenderOptions, RenderStats};
 use crate::render::Lens;
 use crate::shaders;
 use crate::vk::{ComputePipeline, Context};

@@ -1,10 +1,10 @@
-//! GPU host code of Virtual DSLR: on frame tiles ([`crate::render::tiling`]), uploads each
+//! GPU host code of Virtual DSLR: on frame tiles ([`crate::render::tiler`]), uploads each
 //! tile's read rect of the image, the edited disparity map, the true disparity and the mixed
 //! edge pixels, with the lens sample sets shared by every tile, dispatches
 //! `glsl/vdslr_trace.comp` over its core, reads back.
 use super::{prepare, VdslrParams};
 use crate::image::Image;
-use crate::render::tiling::{
+use crate::render::tiler::{
     crop, crop_rows, rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats,
 };
 use crate::render::Lens;

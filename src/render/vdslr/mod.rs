@@ -12,8 +12,8 @@
 //! (symmetric fill); if that fails too, the last pixel read other than `p` is used. Departure:
 //! a failed ray that the centre does not block and whose last read lies behind the centre
 //! passes beside the centre's surface and keeps that pixel without trying the mirror, which
-//! lands back on a blurred foreground and kept its edges crisp (issue 22: `bench --quick`
-//! vdslr 29.08 -> 29.71 dB mean, `bench --single-image` 30.65 -> 30.89). The
+//! lands back on a blurred foreground and kept its edges crisp (issue 22: `bench quality --quick`
+//! vdslr 29.08 -> 29.71 dB mean, `bench single-image` 30.65 -> 30.89). The
 //! bleeding guard replaces a farther pixel by the centre pixel whenever the centre is itself
 //! a hit of the same ray (the centre's surface blocks the ray): an in-focus centre is a hit
 //! of every ray, so an in-focus subject never picks up its blurred background, valid hit or
@@ -33,7 +33,7 @@
 //! wire. Such a pixel is shaded as `a near + (1 - a) far`, the traces with the centre at the
 //! nearer and at the farther surface's depth, with the coverage `a` estimated from its
 //! neighbourhood's depths and colours: see `mixed_edges`. With 512 lens samples
-//! ([`VdslrParams::tuned`]), `bench --single-image` vdslr 24.27 / 29.93 / 34.70 dB -> 25.59 /
+//! ([`VdslrParams::tuned`]), `bench single-image` vdslr 24.27 / 29.93 / 34.70 dB -> 25.59 /
 //! 30.44 / 36.64 (mean 29.63 -> 30.89).
 //!
 //! Colour blending is Eq. 5, adapted to linear HDR input: see [`Highlight`].
@@ -41,29 +41,16 @@
 mod gpu;
 
 pub use gpu::Vdslr;
+// The focus field is camera math (the debug views read it too); vdslr is the method that renders it.
+pub use crate::camera::FocusField;
 
 use rayon::prelude::*;
 
 use crate::image::Image;
 use crate::render::lens_samples::LensSamples;
 use crate::render::Lens;
-use crate::tiling::Rect;
+use crate::tile_grid::Rect;
 use crate::{Error, Result};
-
-/// Where the lens focuses.
-#[derive(Clone, Debug, PartialEq, Default)]
-pub enum FocusField {
-    /// The plane of `lens.coc.focus_disparity`.
-    #[default]
-    Plane,
-    /// Tilt-shift: the focus disparity varies linearly across the frame,
-    /// `d_f(x, y) = focus_disparity + gradient[0] (x - cx) + gradient[1] (y - cy)` with
-    /// `(cx, cy)` the image centre and the gradient in disparity per pixel.
-    Tilt { gradient: [f32; 2] },
-    /// Several focal planes at once (optically impossible): `CoC = K min_i |d - d_f,i|`, the
-    /// sign taken from the nearest plane. `lens.coc.focus_disparity` is ignored.
-    Planes(Vec<f32>),
-}
 
 /// Eq. 5's highlight weighting, `w = exp(-(min(m, white) - white)^2 / (2 sigma^2))` with `m`
 /// the largest RGB component of a sample. The paper's reference 255 is the top of its 8-bit
@@ -96,10 +83,10 @@ pub struct VdslrParams {
 }
 
 impl VdslrParams {
-    /// What `--method vdslr` and the benchmark use. Measured on `bench --quick` (mean PSNR):
+    /// What `--method vdslr` and the benchmark use. Measured on `bench quality --quick` (mean PSNR):
     /// 64 -> 256 lens samples +1.2 dB (HDR bokeh balls stop being grainy; 1024 adds 0.2 dB
     /// more), 3 -> 10 search iterations +0.9 dB (the tilted wall's continuous depth needs them).
-    /// 256 -> 512 samples on `bench --single-image`: +0.34 dB on silhouette-hdr (its many HDR
+    /// 256 -> 512 samples on `bench single-image`: +0.34 dB on silhouette-hdr (its many HDR
     /// bokeh balls: the grain along their rims), +0.18 dB mean, 1024 only 0.05 dB more; twice
     /// the time (about 1 s per 256^2 frame on lavapipe, under the peer's 2 s).
     /// Eq. 5 highlight weighting stays off: against ray-traced truth it only loses (mean over
@@ -127,33 +114,6 @@ impl VdslrParams {
             }
         }
         Ok(())
-    }
-}
-
-/// The disparity map edited by the focus field: signed relative disparity `d - d_f(x, y)`
-/// per pixel (positive = nearer than focus). Both paths trace on this map.
-pub fn relative_disparity(disparity: &[f32], width: usize, height: usize, lens: &Lens, focus: &FocusField) -> Result<Vec<f32>> {
-    if disparity.len() != width * height {
-        return Err(Error::data(format!("disparity has {} values for a {width}x{height} image", disparity.len())));
-    }
-    let d_f = lens.coc.focus_disparity;
-    let (cx, cy) = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
-    match focus {
-        FocusField::Plane => Ok(disparity.iter().map(|d| d - d_f).collect()),
-        FocusField::Tilt { gradient } => Ok(disparity
-            .iter()
-            .enumerate()
-            .map(|(i, d)| d - (d_f + gradient[0] * ((i % width) as f32 - cx) + gradient[1] * ((i / width) as f32 - cy)))
-            .collect()),
-        FocusField::Planes(planes) => {
-            if planes.is_empty() || planes.iter().any(|p| !p.is_finite()) {
-                return Err(Error::invalid("vdslr settings", "focal planes must be a non-empty list of finite disparities"));
-            }
-            Ok(disparity
-                .iter()
-                .map(|d| planes.iter().map(|p| d - p).fold(f32::INFINITY, |best, s| if s.abs() < best.abs() { s } else { best }))
-                .collect())
-        }
     }
 }
 
@@ -185,7 +145,7 @@ impl Prepared {
 
 fn prepare(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) -> Result<Prepared> {
     params.validate()?;
-    let relative = relative_disparity(disparity, image.width, image.height, lens, &params.focus)?;
+    let relative = params.focus.relative_disparity(disparity, image.width, image.height, &lens.coc)?;
     let samples = LensSamples::new(&lens.aperture, params.samples, params.patterns, params.seed)?;
     let s_max = relative.iter().cloned().fold(f32::NEG_INFINITY, f32::max);
     if !s_max.is_finite() {
@@ -211,7 +171,7 @@ fn prepare(image: &Image, disparity: &[f32], lens: &Lens, params: &VdslrParams) 
 /// colour's own estimate, the projection of its colour on the line from the far pixels' mean
 /// colour to the near pixels' mean: an aliased edge, whose outline pixels hold the nearer
 /// surface's colour alone, keeps them as they were (the share alone said 6/9 there and let a
-/// third of the background into an in-focus subject), and on `bench --single-image` this is
+/// third of the background into an in-focus subject), and on `bench single-image` this is
 /// worth +0.5 dB on thin-near and +0.1 on five-planes for 0.3 on silhouette-hdr (whose hair's
 /// near means are themselves mixed).
 ///
@@ -528,7 +488,7 @@ mod tests {
         let image = Image::from_fn(w, h, |x, _| [[1.0, 1.0, 0.9, 0.0, 0.0, 0.0][x]; 4]);
         let edges_for = |disparity: &[f32], image: &Image, k: f32, focus: f32| {
             let (w, h) = (image.width, image.height);
-            let relative = relative_disparity(disparity, w, h, &lens(k, focus), &FocusField::Plane).unwrap();
+            let relative = FocusField::Plane.relative_disparity(disparity, w, h, &lens(k, focus).coc).unwrap();
             mixed_edges(image, &relative, disparity, k, Rect { x0: 0, y0: 0, x1: image.width, y1: image.height })
         };
         // The two columns along the step. Column 2 (near depth): its colour 0.9 over the near
@@ -564,7 +524,7 @@ mod tests {
 
     #[test]
     fn several_focal_planes_take_the_nearest_plane() {
-        let rel = relative_disparity(&[0.1, 0.45, 0.9], 3, 1, &lens(10.0, 0.0), &FocusField::Planes(vec![0.2, 0.8])).unwrap();
+        let rel = FocusField::Planes(vec![0.2, 0.8]).relative_disparity(&[0.1, 0.45, 0.9], 3, 1, &lens(10.0, 0.0).coc).unwrap();
         let expected = [-0.1, 0.25, 0.1];
         for (r, e) in rel.iter().zip(expected) {
             assert!((r - e).abs() < 1e-6, "{rel:?}");
@@ -573,7 +533,7 @@ mod tests {
 
     #[test]
     fn tilt_is_zero_at_the_centre_and_linear() {
-        let rel = relative_disparity(&[0.5; 5], 5, 1, &lens(10.0, 0.5), &FocusField::Tilt { gradient: [0.1, 0.0] }).unwrap();
+        let rel = FocusField::Tilt { gradient: [0.1, 0.0] }.relative_disparity(&[0.5; 5], 5, 1, &lens(10.0, 0.5).coc).unwrap();
         for (i, r) in rel.iter().enumerate() {
             assert!((r + 0.1 * (i as f32 - 2.0)).abs() < 1e-6, "{rel:?}");
         }

@@ -1,4 +1,4 @@
-//! `lensblur bench-sequence`: what rendering a shot in one process saves. For each frame size,
+//! `lensblur bench sequence`: what rendering a shot in one process saves. For each frame size,
 //! a synthetic focus pull of N frames is rendered twice through the real binary: once as one
 //! `lensblur render --frames` process, once as one `lensblur render` process per frame (what a
 //! farm or a script looping over frames pays: process start, device and pipeline creation per
@@ -14,8 +14,8 @@ use lensblur::stack::{write_stack, Layer, LayerStack, StackWriteOptions};
 
 const EXAMPLES: &str = "\
 Examples:
-  lensblur bench-sequence                            24 frames at 256x256 and 1024x1024
-  lensblur bench-sequence --sizes 512 --frames 48 --method vdslr --json
+  lensblur bench sequence                            24 frames at 256x256 and 1024x1024
+  lensblur bench sequence --sizes 512 --frames 48 --method vdslr --json
 
 Both ways render through files, as users do, with the device's pipeline cache warmed by one
 untimed render first (LENSBLUR_PIPELINE_CACHE=off measures without it). The blur is the same
@@ -96,7 +96,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn bench_size(exe: &Path, dir: &Path, size: usize, args: &Args) -> anyhow::Result<SizeResult> {
     let dir = dir.join(size.to_string());
     std::fs::create_dir_all(&dir)?;
-    eprintln!("bench-sequence: writing {} frames of {size}x{size}", args.frames);
+    eprintln!("bench sequence: writing {} frames of {size}x{size}", args.frames);
     for index in 0..args.frames {
         let options = StackWriteOptions { camera: Some(pull_camera(size, index, args.frames)), ..StackWriteOptions::default() };
         write_stack(&frame_path(&dir, "shot", index + 1), &shot_stack(size), &options)?;
@@ -104,14 +104,14 @@ fn bench_size(exe: &Path, dir: &Path, size: usize, args: &Args) -> anyhow::Resul
     let method = args.method.as_str();
     // Warms the pipeline cache and the file cache for both ways alike.
     render(exe, &frame_path(&dir, "shot", 1), &dir.join("warm.exr"), &["--method", method])?;
-    eprintln!("bench-sequence: {size}x{size}, one process for {} frames", args.frames);
+    eprintln!("bench sequence: {size}x{size}, one process for {} frames", args.frames);
     let range = format!("1-{}", args.frames);
     let (input, output) = (dir.join("shot.####.exr"), dir.join("sequence.####.exr"));
     let start = Instant::now();
     let report = render(exe, &input, &output, &["--frames", &range, "--json", "--method", method])?;
     let report: serde_json::Value = serde_json::from_slice(&report)?;
     let sequence_seconds = start.elapsed().as_secs_f64();
-    eprintln!("bench-sequence: {size}x{size}, one process per frame");
+    eprintln!("bench sequence: {size}x{size}, one process per frame");
     let start = Instant::now();
     for frame in 1..=args.frames {
         render(exe, &frame_path(&dir, "shot", frame), &frame_path(&dir, "single", frame), &["--method", method])?;

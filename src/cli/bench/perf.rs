@@ -1,4 +1,4 @@
-//! `lensblur bench-perf`: the Dr.Bokeh forward renderer's fixed performance cases, optimised
+//! `lensblur bench perf`: the Dr.Bokeh forward renderer's fixed performance cases, optimised
 //! kernel against the first straightforward one in the same run (wall and device time,
 //! effective taps/s, peak memory, speed-up), with the machine's load average.
 use std::path::{Path, PathBuf};
@@ -13,10 +13,9 @@ use lensblur::bench::perf_backward::{backward_cases, run_backward_case, Backward
 use lensblur::vk::Context as GpuContext;
 
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  lensblur bench-perf --quick\n  lensblur bench-perf --cases 1024-2l-coc32 --json perf.json\n  \
-lensblur bench-perf --no-baseline\n  lensblur bench --perf --groups end-to-end\n  lensblur bench --perf --groups blender --out blender-cmp\n  \
-lensblur bench --perf --groups apertures,blender\n\n\
-`lensblur bench --perf` is the same suite.")]
+#[command(after_help = "Examples:\n  lensblur bench perf --quick\n  lensblur bench perf --cases 1024-2l-coc32 --json perf.json\n  \
+lensblur bench perf --no-baseline\n  lensblur bench perf --groups end-to-end\n  lensblur bench perf --groups blender --out blender-cmp\n  \
+lensblur bench perf --groups apertures,blender")]
 pub struct Args {
     /// Only the 1024x1024 kernel cases.
     #[arg(long)]
@@ -28,9 +27,7 @@ pub struct Args {
     pub flags: PerfFlags,
 }
 
-/// The suite's flags that `lensblur bench` does not have already (it has --quick and --json).
-/// The help heading is set where it is flattened: `bench` lists these under "(with --perf)",
-/// `bench-perf` has no such flag.
+/// The suite's case selection, timing and output flags.
 #[derive(clap::Args, Clone)]
 pub struct PerfFlags {
     /// Case groups to run: kernel (optimised vs baseline forward kernel), backward (forward vs
@@ -70,7 +67,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     run_suite(args.quick, args.json.as_deref(), &args.flags)
 }
 
-/// The whole suite (`bench-perf` and `bench --perf`).
+/// The whole suite.
 pub fn run_suite(quick: bool, json: Option<&Path>, flags: &PerfFlags) -> anyhow::Result<()> {
     let filters: Vec<String> = flags.cases.iter().flat_map(|c| c.split(',')).map(str::to_string).collect();
     let wanted = |name: &str| filters.is_empty() || filters.iter().any(|f| name.contains(f.as_str()));

@@ -1,4 +1,4 @@
-//! `lensblur bench-depth`: depth from defocus on the benchmark scenes (Dr.Bokeh paper Tables
+//! `lensblur bench depth`: depth from defocus on the benchmark scenes (Dr.Bokeh paper Tables
 //! 2-3): from a flat depth, fit each scene's true layers to its ray-traced defocused image with
 //! each differentiable renderer, and report depth error and re-render PSNR before and after.
 use anyhow::{bail, Context as _};
@@ -9,7 +9,7 @@ use lensblur::render::grad::Differentiable;
 use lensblur::vk::Context as GpuContext;
 
 #[derive(clap::Args)]
-#[command(after_help = "Examples:\n  lensblur bench-depth --scenes portrait-night,letters --iters 100\n  lensblur bench-depth --renderers drbokeh,gausspsf --scale 0.5 --json out.json")]
+#[command(after_help = "Examples:\n  lensblur bench depth --scenes portrait-night,letters --iters 100\n  lensblur bench depth --renderers drbokeh,gausspsf --scale 0.5 --json out.json")]
 pub struct Args {
     /// Differentiable renderers to compare: drbokeh, drbokeh-compat, gausspsf.
     #[arg(long, value_delimiter = ',', default_value = "drbokeh,gausspsf")]

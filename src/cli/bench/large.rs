@@ -1,4 +1,4 @@
-//! `lensblur bench-large`: the tiled renderer on a 4K-8K two-layer frame, mostly in focus and
+//! `lensblur bench large`: the tiled renderer on a 4K-8K two-layer frame, mostly in focus and
 //! fully defocused; prints time, tiles, peak memory (device and host) and taps per second.
 use std::path::PathBuf;
 
@@ -9,10 +9,10 @@ use lensblur::vk::Context as GpuContext;
 
 const EXAMPLES: &str = "\
 Examples:
-  lensblur bench-large
-  lensblur bench-large --size 3840x2160 --max-coc 40 --tile 1024 --json
-  lensblur bench-large --coc 64 --case fully-defocused --tiles-per-batch 1
-  lensblur bench-large --case mostly-in-focus --exr /tmp/large      (through real EXR files)
+  lensblur bench large
+  lensblur bench large --size 3840x2160 --max-coc 40 --tile 1024 --json
+  lensblur bench large --coc 64 --case fully-defocused --tiles-per-batch 1
+  lensblur bench large --case mostly-in-focus --exr /tmp/large      (through real EXR files)
 
 Peak host memory is per case: VmHWM is reset (/proc/self/clear_refs) when a case starts, with
 its stack already in memory (--exr: written to disk and dropped, so the read counts).";

@@ -6,10 +6,10 @@
 //!
 //! Every method writes each output pixel from the same sources in the same order whatever the
 //! tile (its shaders take the tile's origin and the full frame size), so output is
-//! bit-identical for every tile size. The grid and halo math is [`crate::tiling`]; the Vulkan
+//! bit-identical for every tile size. The grid and halo math is [`crate::tile_grid`]; the Vulkan
 //! calls are `crate::vk`'s. Methods import this module, never the reverse.
 use crate::image::Image;
-use crate::tiling::Rect;
+use crate::tile_grid::Rect;
 use crate::vk::{Buffer, CommandBatch, Context, MemoryBudget};
 use crate::{Error, Result};
 
