@@ -423,7 +423,11 @@ impl DeepFile {
     /// `y`, or the level-0 tile `(tx, ty)`. Refused before the library allocates: a chunk
     /// outside the data window, a sample table larger than the chunk's pixels need, packed
     /// sizes beyond the file, unpacked data beyond `max_unpacked_bytes`.
-    pub fn read_chunk(&self, part: usize, tiled: bool, at: [i32; 2], data_window: [i32; 4], max_unpacked_bytes: u64) -> Result<RawChunk, String> {
+    /// `tile_size` is the level-0 tile size of a tiled part: the chunk's pixel position is
+    /// computed from it (OpenEXR 3.1 reports a tile's indices where a scanline chunk has its
+    /// position).
+    pub fn read_chunk(&self, part: usize, tile_size: Option<[i32; 2]>, at: [i32; 2], data_window: [i32; 4], max_unpacked_bytes: u64) -> Result<RawChunk, String> {
+        let tiled = tile_size.is_some();
         let p = part as c_int;
         let mut info = std::mem::MaybeUninit::<ChunkInfo>::zeroed();
         // SAFETY: valid context and part; `info` is plain data the call fills.
@@ -436,8 +440,12 @@ impl DeepFile {
         };
         check(code, "chunk table")?;
         // SAFETY: zero-initialised plain data, filled by the successful call.
-        let info = unsafe { info.assume_init() };
+        let mut info = unsafe { info.assume_init() };
         let [x0, y0, x1, y1] = data_window;
+        if let Some([tw, th]) = tile_size {
+            info.start_x = (i64::from(x0) + i64::from(at[0]) * i64::from(tw)).clamp(0, i64::from(i32::MAX)) as i32;
+            info.start_y = (i64::from(y0) + i64::from(at[1]) * i64::from(th)).clamp(0, i64::from(i32::MAX)) as i32;
+        }
         let inside = info.width > 0
             && info.height > 0
             && info.start_x >= x0
@@ -486,7 +494,15 @@ impl DeepFile {
                 decode.decode_flags = 0;
                 decode.unpack_and_convert_fn = None;
                 decode.realloc_nonimage_data_fn = None;
-                check(exr_decoding_run(ctx, p, decode), "chunk")?;
+                check(exr_decoding_run(ctx, p, decode), &format!("chunk at pixel ({}, {})", info.start_x, info.start_y)).map_err(|e| {
+                    // The library checks the count table too (it must not decrease along a line,
+                    // nor count more than the chunk holds) and says only this.
+                    if e.contains("sample table") || e.contains("sample count") {
+                        format!("{e}: the sample count table is inconsistent with the data")
+                    } else {
+                        e
+                    }
+                })?;
                 let counts = if pixels == 0 || decode.sample_count_table.is_null() {
                     return Err("chunk has no sample count table".to_string());
                 } else {

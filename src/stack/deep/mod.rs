@@ -58,6 +58,27 @@ impl DeepImage {
         &self.samples[self.offsets[index] as usize..self.offsets[index + 1] as usize]
     }
 
+    /// The deep image of a layer stack: one point sample per layer in every pixel the layer
+    /// covers (alpha > 0), at the depth its disparity gives (infinitely far for disparity 0).
+    pub fn from_stack(stack: &crate::stack::LayerStack) -> Self {
+        let n = stack.width * stack.height;
+        let mut offsets = Vec::with_capacity(n + 1);
+        offsets.push(0u64);
+        let mut samples = Vec::new();
+        for i in 0..n {
+            for layer in &stack.layers {
+                let rgba = layer.rgba.pixels[i];
+                if rgba[3] > 0.0 {
+                    let d = layer.disparity[i];
+                    let z = if d > 0.0 { 1.0 / d } else { f32::INFINITY };
+                    samples.push(DeepSample { rgba, z, z_back: z });
+                }
+            }
+            offsets.push(samples.len() as u64);
+        }
+        Self { width: stack.width, height: stack.height, origin: [0, 0], offsets, samples, attributes: BTreeMap::new() }
+    }
+
     /// Front-to-back "over" of every pixel's samples sorted by depth: the flat image a
     /// compositor's DeepToImage gives (volumes are not split: each is composited whole at its
     /// front).

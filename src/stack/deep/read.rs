@@ -174,7 +174,7 @@ fn read_part(file: &DeepFile, path: &Path, index: usize, header: &PartHeader, ma
     for at in chunk_starts {
         let budget_bytes = (max_samples - total).saturating_mul(sample_bytes);
         let chunk = file
-            .read_chunk(index, tiled, at, header.data_window, budget_bytes)
+            .read_chunk(index, tiled.then_some(header.chunk_size), at, header.data_window, budget_bytes)
             .map_err(|e| budget_or_input(path, &part, e, max_samples))?;
         let [cx, cy] = chunk.start;
         let [cwid, chei] = [chunk.size[0] as usize, chunk.size[1] as usize];

@@ -1,4 +1,4 @@
-//! A writer of uncompressed deep OpenEXR files, scanline or tiled, single- or multi-part, in
+//! A writer of deep OpenEXR files (uncompressed or ZIPS), scanline or tiled, single- or multi-part, in
 //! plain Rust (no C library): the deep files of the ray tracer's true layers (tests and the
 //! benchmark) and fuzz seeds. Channels A, B, G, R (half or float), Z and, when asked, ZBack
 //! (float), as OpenEXR stores them: sorted by name.
@@ -16,6 +16,8 @@ pub struct DeepWriteOptions {
     pub z_back: bool,
     /// Deep tiles of this side (else deep scanlines, one line per chunk).
     pub tile: Option<usize>,
+    /// ZIPS compression (zlib, per chunk) instead of none.
+    pub zip: bool,
 }
 
 /// Writes `parts` (name and image; all on their own display windows at their origins) to
@@ -42,7 +44,7 @@ pub fn write_deep(path: &Path, parts: &[(Option<&str>, &DeepImage)], options: &D
     out.extend_from_slice(&version.to_le_bytes());
     let chunk_lists: Vec<Vec<(i32, i32, usize, usize, usize, usize)>> = parts.iter().map(|(_, image)| chunks(image, options)).collect();
     for ((name, image), chunk_list) in parts.iter().zip(&chunk_lists) {
-        header(&mut out, *name, image, &names, &types, options, chunk_list.len(), multipart);
+        header(&mut out, *name, image, &names, &types, options, chunk_list.len());
     }
     if multipart {
         out.push(0);
@@ -60,14 +62,15 @@ pub fn write_deep(path: &Path, parts: &[(Option<&str>, &DeepImage)], options: &D
             if multipart {
                 out.extend_from_slice(&(part as i32).to_le_bytes());
             }
-            out.extend_from_slice(&cx.to_le_bytes());
-            out.extend_from_slice(&cy.to_le_bytes());
-            if options.tile.is_some() {
-                out.extend_from_slice(&0i32.to_le_bytes());
-                out.extend_from_slice(&0i32.to_le_bytes());
+            // A scanline chunk starts with its first line; a tile with its x, y and level 0, 0.
+            let leader: &[i32] = if options.tile.is_some() { &[cx, cy, 0, 0] } else { &[cy] };
+            for v in leader {
+                out.extend_from_slice(&v.to_le_bytes());
             }
             let (table, data) = chunk_data(image, x0, y0, w, h, &names, &types);
-            for size in [table.len() as u64, data.len() as u64, data.len() as u64] {
+            let unpacked = data.len() as u64;
+            let (table, data) = if options.zip { (zip(table), zip(data)) } else { (table, data) };
+            for size in [table.len() as u64, data.len() as u64, unpacked] {
                 out.extend_from_slice(&size.to_le_bytes());
             }
             out.extend_from_slice(&table);
@@ -76,6 +79,29 @@ pub fn write_deep(path: &Path, parts: &[(Option<&str>, &DeepImage)], options: &D
     }
     let mut file = std::fs::File::create(path).map_err(|source| Error::Io { path: path.into(), source })?;
     file.write_all(&out).map_err(|source| Error::Io { path: path.into(), source })
+}
+
+/// OpenEXR's ZIP coding: bytes split into even and odd halves, each byte stored as the
+/// difference to the one before (plus 128), then zlib. Kept raw when that is not smaller, as
+/// the format asks (a block as long as its raw size is read as raw).
+fn zip(raw: Vec<u8>) -> Vec<u8> {
+    let half = raw.len().div_ceil(2);
+    let mut split = vec![0u8; raw.len()];
+    for (i, &b) in raw.iter().enumerate() {
+        split[if i % 2 == 0 { i / 2 } else { half + i / 2 }] = b;
+    }
+    let mut previous = split.first().copied().unwrap_or(0);
+    for b in split.iter_mut().skip(1) {
+        let current = *b;
+        *b = current.wrapping_sub(previous).wrapping_add(128);
+        previous = current;
+    }
+    let packed = miniz_oxide::deflate::compress_to_vec_zlib(&split, 6);
+    if packed.len() < raw.len() {
+        packed
+    } else {
+        raw
+    }
 }
 
 /// Each chunk as (its coordinate as the chunk header stores it: tile x/y or line y, and
@@ -130,7 +156,7 @@ fn chunk_data(image: &DeepImage, x0: usize, y0: usize, w: usize, h: usize, names
 }
 
 #[allow(clippy::too_many_arguments)]
-fn header(out: &mut Vec<u8>, name: Option<&str>, image: &DeepImage, names: &[&str], types: &[i32], options: &DeepWriteOptions, chunk_count: usize, multipart: bool) {
+fn header(out: &mut Vec<u8>, name: Option<&str>, image: &DeepImage, names: &[&str], types: &[i32], options: &DeepWriteOptions, chunk_count: usize) {
     let mut attribute = |name: &str, kind: &str, value: &[u8]| {
         out.extend_from_slice(name.as_bytes());
         out.push(0);
@@ -150,7 +176,7 @@ fn header(out: &mut Vec<u8>, name: Option<&str>, image: &DeepImage, names: &[&st
     }
     channels.push(0);
     attribute("channels", "chlist", &channels);
-    attribute("compression", "compression", &[0]);
+    attribute("compression", "compression", &[if options.zip { 2 } else { 0 }]);
     let [x0, y0] = image.origin;
     let window: Vec<u8> = [x0, y0, x0 + image.width as i32 - 1, y0 + image.height as i32 - 1].iter().flat_map(|v| v.to_le_bytes()).collect();
     attribute("dataWindow", "box2i", &window);
@@ -164,9 +190,7 @@ fn header(out: &mut Vec<u8>, name: Option<&str>, image: &DeepImage, names: &[&st
     }
     attribute("type", "string", if options.tile.is_some() { b"deeptile" } else { b"deepscanline" });
     attribute("version", "int", &1i32.to_le_bytes());
-    if multipart {
-        attribute("chunkCount", "int", &(chunk_count as i32).to_le_bytes());
-    }
+    attribute("chunkCount", "int", &(chunk_count as i32).to_le_bytes());
     let most = (0..image.width * image.height).map(|i| image.pixel(i).len()).max().unwrap_or(0);
     attribute("maxSamplesPerPixel", "int", &(most as i32).to_le_bytes());
     if let Some(t) = options.tile {
