@@ -139,6 +139,9 @@ pub struct InputOptions {
     pub deep: DeepReadOptions,
     /// How deep samples become layers.
     pub deep_layers: DeepLayerOptions,
+    /// Flatten deep input first (a compositor's DeepToImage: colour over, depth of the nearest
+    /// layer covering half the pixel) and treat it as one image: what a flat-only defocus sees.
+    pub deep_flatten: bool,
 }
 
 impl Default for InputOptions {
@@ -153,6 +156,7 @@ impl Default for InputOptions {
             merge: Vec::new(),
             deep: DeepReadOptions::default(),
             deep_layers: DeepLayerOptions::default(),
+            deep_flatten: false,
         }
     }
 }
@@ -236,16 +240,23 @@ fn load_deep(path: &Path, options: &InputOptions, camera: &CameraRequest, camera
     let camera = camera.resolve_in(image.width, &hints, camera_file, header_unit)?;
     let start = Instant::now();
     let mut stack = deep_to_layers(&image, &camera.lens.coc, &options.deep_layers)?;
-    if wants != InputKind::Layers {
+    let mut auto_layered = None;
+    if wants != InputKind::Layers || options.deep_flatten {
         let (rgba, disparity) = stack.flatten();
-        stack = LayerStack::new(image.width, image.height, vec![Layer { name: "flattened".into(), rgba, disparity }])?;
+        stack = if wants == InputKind::Layers {
+            let layered = split_into_layers(&rgba, &disparity, &camera.lens.coc, &options.auto_layer);
+            auto_layered = Some(layered.layers.len());
+            layered
+        } else {
+            LayerStack::new(image.width, image.height, vec![Layer { name: "flattened".into(), rgba, disparity }])?
+        };
     }
     Ok(LoadedInput {
         stack,
         info: None,
         depth_kind: DepthKind::Z,
         camera,
-        auto_layered: None,
+        auto_layered,
         warnings: Vec::new(),
         read_time,
         layering_time: start.elapsed(),

@@ -73,7 +73,7 @@ fn the_weta_passes_merge_without_seam_or_halo() {
     let ctx = common::gpu();
     let options = InputOptions { merge: vec![data("Leaves.exr"), data("Trunks.exr")], ..InputOptions::default() };
     let merged = ["Balls.exr", "Leaves.exr", "Trunks.exr"].map(|f| read_deep(&data(f), &DeepReadOptions::default()).unwrap());
-    let flat = lensblur::stack::deep::merge(merged.to_vec()).unwrap().flatten();
+    let flat = lensblur::stack::deep::merge(merged.to_vec(), lensblur::stack::DEFAULT_MAX_PIXELS).unwrap().flatten();
     let sharp = request(50.0, 1.0e4, 140.0, 36.0);
     let loaded = load(&data("Balls.exr"), &options, &sharp, &CameraHints::default(), InputKind::Layers).unwrap();
     let render = Method::default().render(Some(&ctx), &loaded.stack, &loaded.camera.lens).unwrap();

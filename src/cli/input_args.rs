@@ -57,6 +57,10 @@ pub struct InputArgs {
     /// index, `first` (the first deep part) or `all` (every deep part, merged).
     #[arg(long, value_name = "PART", default_value = "first", help_heading = "Deep input")]
     pub deep_part: PartChoice,
+    /// Flatten deep input first (DeepToImage: colour over, the depth of the nearest surface)
+    /// and defocus it as one image, auto-layered: what a flat-only defocus makes of it.
+    #[arg(long, help_heading = "Deep input")]
+    pub deep_flatten: bool,
 }
 
 impl InputArgs {
@@ -108,6 +112,7 @@ impl InputArgs {
             merge: self.merge.clone(),
             deep: DeepReadOptions { max_samples: self.max_samples, max_pixels: self.max_pixels, part: self.deep_part.clone() },
             deep_layers: Default::default(),
+            deep_flatten: self.deep_flatten,
         }
     }
 }

@@ -198,8 +198,9 @@ pub fn deep_unsupported(path: &Path) -> Error {
 }
 
 /// Several deep images as one, as Nuke's DeepMerge does: every pixel holds all their samples.
-/// The result covers the union of their display windows.
-pub fn merge(images: Vec<DeepImage>) -> Result<DeepImage> {
+/// The result covers the union of their display windows, refused beyond `max_pixels` (two
+/// small windows far apart span a huge one).
+pub fn merge(images: Vec<DeepImage>, max_pixels: u64) -> Result<DeepImage> {
     let Some(first) = images.first() else {
         return Err(Error::data("no deep image to merge"));
     };
@@ -211,6 +212,11 @@ pub fn merge(images: Vec<DeepImage>) -> Result<DeepImage> {
     let x1 = images.iter().map(|i| i.origin[0] as i64 + i.width as i64).max().unwrap_or(0);
     let y1 = images.iter().map(|i| i.origin[1] as i64 + i.height as i64).max().unwrap_or(0);
     let (width, height) = ((x1 - x0 as i64) as usize, (y1 - y0 as i64) as usize);
+    if (width as u64).saturating_mul(height as u64) > max_pixels {
+        return Err(Error::data(format!(
+            "the merged display windows span {width}x{height} pixels, more than the limit of {max_pixels} (--max-pixels)"
+        )));
+    }
     let mut counts = vec![0u64; width * height];
     let index = |image: &DeepImage, i: usize| {
         let (x, y) = (i % image.width, i / image.width);
@@ -258,7 +264,7 @@ pub fn read_deep_files(paths: &[PathBuf], options: &DeepReadOptions) -> Result<D
         budget -= image.samples.len() as u64;
         images.push(image);
     }
-    merge(images)
+    merge(images, options.max_pixels)
 }
 
 /// Without the `deep` feature every deep file is refused, naming the feature.

@@ -25,7 +25,7 @@ pub fn read_deep(path: &Path, options: &DeepReadOptions) -> Result<DeepImage> {
         budget -= image.samples.len() as u64;
         images.push(image);
     }
-    merge(images)
+    merge(images, options.max_pixels)
 }
 
 /// Every part's header, sample counts and depth range (`lensblur info`); parts that are not
@@ -282,8 +282,8 @@ fn read_part(file: &DeepFile, path: &Path, index: usize, header: &PartHeader, ma
 
 /// What makes a sample unusable, if anything.
 fn check_sample(rgba: &[f32; 4], z: f32, z_back: f32) -> std::result::Result<(), String> {
-    if z.is_nan() || z < 0.0 {
-        return Err(format!("Z is {z}; depth must be a number >= 0"));
+    if z.is_nan() || z <= 0.0 {
+        return Err(format!("Z is {z}; depth must be a positive number (a distance in front of the camera)"));
     }
     if z_back.is_nan() || z_back < z {
         return Err(format!("ZBack {z_back} is in front of Z {z}; a sample ends behind where it starts"));
