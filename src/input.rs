@@ -8,9 +8,10 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use crate::camera::{Aperture, CameraHints, CocModel, PhysicalCamera};
+use crate::camera::{Aperture, CameraHints, CocModel, PhysicalCamera, SceneUnit, SCENE_UNIT_ATTRIBUTE};
 use crate::render::grad::{stored_depth_gradient, StackGradients};
 use crate::render::{InputKind, Lens};
+use crate::stack::deep::{deep_to_layers, is_deep_exr, read_deep_files, DeepLayerOptions, DeepReadOptions};
 use crate::stack::{
     is_ldr_path, read_ldr, read_stack, split_into_layers, AutoLayerOptions, DepthKind, FileChannels, Layer,
     LayerStack, ReadOptions, StackInfo, DEFAULT_MAX_PIXELS,
@@ -28,6 +29,9 @@ pub struct CameraRequest {
     /// camera, and nothing is taken from the header.
     pub normalised: Option<CocModel>,
     pub aperture: Aperture,
+    /// What one unit of the input's depth (and of the focus distance) is; None: the file's
+    /// header attribute [`SCENE_UNIT_ATTRIBUTE`], else metres.
+    pub scene_unit: Option<SceneUnit>,
 }
 
 /// The lens a render uses, and the physical camera behind it (if any).
@@ -40,6 +44,10 @@ pub struct ResolvedCamera {
     pub from_header: Vec<&'static str>,
     /// Which came from the shot's camera file (neither the caller nor the header gave them).
     pub from_camera_file: Vec<&'static str>,
+    /// The unit of depth and focus distance the physical camera was scaled to.
+    pub scene_unit: SceneUnit,
+    /// The unit came from the file's header rather than the caller.
+    pub scene_unit_from_header: bool,
 }
 
 /// Sensor width when neither the caller nor the file says (Blender's default camera).
@@ -50,10 +58,31 @@ impl CameraRequest {
     /// the camera file's. A physical parameter none of them gives is
     /// [`Error::MissingCamera`]; one that is not a positive number is [`Error::InvalidCamera`].
     pub fn resolve(&self, width_px: usize, header: &CameraHints, camera_file: &CameraHints) -> Result<ResolvedCamera> {
+        self.resolve_in(width_px, header, camera_file, None)
+    }
+
+    /// [`Self::resolve`] with the scene unit the file's header gives, if any (the caller's
+    /// [`CameraRequest::scene_unit`] wins; metres if neither says).
+    pub fn resolve_in(
+        &self,
+        width_px: usize,
+        header: &CameraHints,
+        camera_file: &CameraHints,
+        header_unit: Option<SceneUnit>,
+    ) -> Result<ResolvedCamera> {
         let aperture = self.aperture.clone();
+        let scene_unit_from_header = self.scene_unit.is_none() && header_unit.is_some();
+        let scene_unit = self.scene_unit.clone().or(header_unit).unwrap_or_default();
         if let Some(coc) = self.normalised {
             let lens = Lens { coc, aperture };
-            return Ok(ResolvedCamera { lens, physical: None, from_header: Vec::new(), from_camera_file: Vec::new() });
+            return Ok(ResolvedCamera {
+                lens,
+                physical: None,
+                from_header: Vec::new(),
+                from_camera_file: Vec::new(),
+                scene_unit,
+                scene_unit_from_header,
+            });
         }
         let given = &self.physical;
         let sources = [
@@ -76,7 +105,7 @@ impl CameraRequest {
         let [focal_length_mm, fstop, focus_distance, sensor_width_mm] = values;
         let physical = PhysicalCamera { focal_length_mm, sensor_width_mm, fstop, focus_distance };
         physical.validate()?;
-        let coc = CocModel::from_physical(&physical, width_px)?;
+        let coc = CocModel::from_physical_in(&physical, width_px, &scene_unit)?;
         let unflagged = sources.into_iter().filter(|(_, given, _, _)| given.is_none());
         let (from_header, from_file): (Vec<_>, Vec<_>) = unflagged.partition(|(_, _, header, _)| header.is_some());
         Ok(ResolvedCamera {
@@ -84,6 +113,8 @@ impl CameraRequest {
             physical: Some(physical),
             from_header: from_header.into_iter().map(|(name, ..)| name).collect(),
             from_camera_file: from_file.into_iter().filter(|(.., file)| file.is_some()).map(|(name, ..)| name).collect(),
+            scene_unit,
+            scene_unit_from_header,
         })
     }
 }
@@ -102,6 +133,15 @@ pub struct InputOptions {
     /// Set NaN/Inf colour and alpha samples to 0 (with a warning) instead of refusing the file.
     pub replace_nonfinite: bool,
     pub auto_layer: AutoLayerOptions,
+    /// Deep files merged with the input as Nuke's DeepMerge does (the input must be deep too).
+    pub merge: Vec<PathBuf>,
+    /// How deep files are read: sample budget, which parts.
+    pub deep: DeepReadOptions,
+    /// How deep samples become layers.
+    pub deep_layers: DeepLayerOptions,
+    /// Flatten deep input first (a compositor's DeepToImage: colour over, depth of the nearest
+    /// layer covering half the pixel) and treat it as one image: what a flat-only defocus sees.
+    pub deep_flatten: bool,
 }
 
 impl Default for InputOptions {
@@ -113,6 +153,10 @@ impl Default for InputOptions {
             max_pixels: DEFAULT_MAX_PIXELS,
             replace_nonfinite: false,
             auto_layer: AutoLayerOptions::default(),
+            merge: Vec::new(),
+            deep: DeepReadOptions::default(),
+            deep_layers: DeepLayerOptions::default(),
+            deep_flatten: false,
         }
     }
 }
@@ -131,6 +175,8 @@ pub struct LoadedInput {
     pub warnings: Vec<String>,
     pub read_time: Duration,
     pub layering_time: Duration,
+    /// Deep samples read (all merged files), for a deep input.
+    pub deep_samples: Option<u64>,
 }
 
 /// Reads `path`, resolves the camera (`camera_file`: the frame's entry of a shot's camera
@@ -143,11 +189,15 @@ pub fn load(
     camera_file: &CameraHints,
     wants: InputKind,
 ) -> Result<LoadedInput> {
+    if !options.merge.is_empty() || is_deep_exr(path) {
+        return load_deep(path, options, camera, camera_file, wants);
+    }
     let start = Instant::now();
     let (stack, info, depth_kind, mut warnings) = read(path, options)?;
     let read_time = start.elapsed();
     let hints = info.as_ref().map(|i| CameraHints::from_attributes(&i.camera)).unwrap_or_default();
-    let camera = camera.resolve(stack.width, &hints, camera_file)?;
+    let header_unit = info.as_ref().and_then(|i| header_scene_unit(&i.camera, path)).transpose()?;
+    let camera = camera.resolve_in(stack.width, &hints, camera_file, header_unit)?;
     if camera.physical.is_some() {
         warnings.extend(depth_kind.physical_camera_warning());
     }
@@ -161,7 +211,57 @@ pub fn load(
     } else {
         (stack, None)
     };
-    Ok(LoadedInput { stack, info, depth_kind, camera, auto_layered, warnings, read_time, layering_time: start.elapsed() })
+    Ok(LoadedInput { stack, info, depth_kind, camera, auto_layered, warnings, read_time, layering_time: start.elapsed(), deep_samples: None })
+}
+
+/// The scene unit a header's [`SCENE_UNIT_ATTRIBUTE`] names, if it has one; a value that is
+/// no unit is an error naming the file (a silent fallback to metres would blur 100x wrong).
+fn header_scene_unit(attributes: &std::collections::BTreeMap<String, String>, path: &Path) -> Option<Result<SceneUnit>> {
+    let text = attributes.get(SCENE_UNIT_ATTRIBUTE)?;
+    Some(text.parse::<SceneUnit>().map_err(|e| Error::input(path, format!("header attribute {SCENE_UNIT_ATTRIBUTE}: {e}"))))
+}
+
+/// A deep input (and the deep files merged with it): samples read and checked, the camera
+/// resolved (its CoC spaces the layers), the samples clustered into layers. A method that
+/// takes one image gets the deep pixels flattened, with the depth of the nearest layer.
+fn load_deep(path: &Path, options: &InputOptions, camera: &CameraRequest, camera_file: &CameraHints, wants: InputKind) -> Result<LoadedInput> {
+    let paths: Vec<PathBuf> = std::iter::once(path.to_path_buf()).chain(options.merge.iter().cloned()).collect();
+    if let Some(flat) = paths.iter().find(|p| !is_deep_exr(p)) {
+        if !flat.exists() {
+            return Err(Error::Io { path: flat.clone(), source: std::io::Error::from(std::io::ErrorKind::NotFound) });
+        }
+        return Err(Error::input(flat, "is not a deep OpenEXR file: only deep files merge (DeepMerge)"));
+    }
+    let start = Instant::now();
+    let image = read_deep_files(&paths, &DeepReadOptions { max_pixels: options.max_pixels, ..options.deep.clone() })?;
+    let read_time = start.elapsed();
+    let hints = CameraHints::from_attributes(&image.attributes);
+    let header_unit = header_scene_unit(&image.attributes, path).transpose()?;
+    let camera = camera.resolve_in(image.width, &hints, camera_file, header_unit)?;
+    let start = Instant::now();
+    let mut stack = deep_to_layers(&image, &camera.lens.coc, &options.deep_layers)?;
+    let mut auto_layered = None;
+    if wants != InputKind::Layers || options.deep_flatten {
+        let (rgba, disparity) = stack.flatten();
+        stack = if wants == InputKind::Layers {
+            let layered = split_into_layers(&rgba, &disparity, &camera.lens.coc, &options.auto_layer);
+            auto_layered = Some(layered.layers.len());
+            layered
+        } else {
+            LayerStack::new(image.width, image.height, vec![Layer { name: "flattened".into(), rgba, disparity }])?
+        };
+    }
+    Ok(LoadedInput {
+        stack,
+        info: None,
+        depth_kind: DepthKind::Z,
+        camera,
+        auto_layered,
+        warnings: Vec::new(),
+        read_time,
+        layering_time: start.elapsed(),
+        deep_samples: Some(image.samples.len() as u64),
+    })
 }
 
 fn read(path: &Path, options: &InputOptions) -> Result<(LayerStack, Option<StackInfo>, DepthKind, Vec<String>)> {

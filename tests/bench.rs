@@ -127,7 +127,8 @@ fn every_renderer_is_registered_with_the_input_it_may_read() {
     assert_eq!(from_registry.len(), registry.len(), "{listed:?}");
     assert!(registry.iter().all(|m| from_registry.contains(&m)), "{listed:?}");
     let single = InputKind::SingleImage;
-    assert_eq!(extra, [&("drbokeh-auto", single), &("gather-cpu", single), &("scatter-cpu", single)]);
+    let layers = InputKind::Layers;
+    assert_eq!(extra, [&("drbokeh-auto", single), &("drbokeh-deep", layers), &("gather-cpu", single), &("scatter-cpu", single)]);
     drop(methods);
     common::finish(ctx);
 }

@@ -5,6 +5,7 @@ use crate::image::Image;
 use crate::raytrace::GroundTruth;
 use crate::render::drbokeh::RenderOptions;
 use crate::render::{Lens, Method, MethodInput, MethodSettings};
+use crate::stack::deep::{deep_to_layers, DeepImage, DeepLayerOptions};
 use crate::stack::{split_into_layers, AutoLayerOptions};
 use crate::vk::Context;
 use crate::{Error, Result};
@@ -107,7 +108,8 @@ pub fn select_methods(methods: Vec<BenchMethod>, names: &[String]) -> Result<Vec
 
 /// The Vulkan renderers of the registry on one device, then `drbokeh-auto`: what `lensblur
 /// render` does with one image + depth (split it into layers with soft cuts and push-pull fill
-/// of the hidden background, then Dr.Bokeh).
+/// of the hidden background, then Dr.Bokeh), and `drbokeh-deep`: what it does with a deep file
+/// of the true layers (one sample per covered pixel per layer, clustered back into layers).
 pub fn gpu_methods(ctx: &Context) -> Result<Vec<BenchMethod>> {
     let mut methods: Vec<BenchMethod> =
         Method::ALL.iter().filter(|m| m.uses_gpu()).map(|m| BenchMethod::on_device(*m, ctx)).collect::<Result<_>>()?;
@@ -115,6 +117,12 @@ pub fn gpu_methods(ctx: &Context) -> Result<Vec<BenchMethod>> {
     methods.push(BenchMethod::new("drbokeh-auto", InputKind::SingleImage, move |case| {
         let (image, disparity) = case.single_image()?;
         let stack = split_into_layers(image, disparity, &case.lens.coc, &AutoLayerOptions::default());
+        drbokeh.render(MethodInput::Layers(&stack), case.lens, &RenderOptions::default(), &MethodSettings::default())
+    }));
+    let drbokeh = Method::DrBokeh.prepare(Some(ctx))?;
+    methods.push(BenchMethod::new("drbokeh-deep", InputKind::Layers, move |case| {
+        let deep = DeepImage::from_stack(&case.truth.layers);
+        let stack = deep_to_layers(&deep, &case.lens.coc, &DeepLayerOptions::default())?;
         drbokeh.render(MethodInput::Layers(&stack), case.lens, &RenderOptions::default(), &MethodSettings::default())
     }));
     Ok(methods)

@@ -9,11 +9,13 @@ mod focus_field;
 mod kernel_runs;
 mod vignetted;
 pub(crate) mod hints;
+mod scene_unit;
 
 pub use aperture::{cats_eye_gauge, ring_weight, Aperture, ApertureGpu, KernelImage, CATS_EYE_SHAPE, KERNEL_FADE_PX, VIGNETTED_SHAPE};
 pub use aperture_rows::{aperture_row_table, closed_form_gauge, APERTURE_ROW_SEGMENTS, EMPTY_APERTURE_ROW};
 pub use focus_field::FocusField;
 pub use hints::CameraHints;
+pub use scene_unit::{SceneUnit, SCENE_UNIT_ATTRIBUTE};
 pub use kernel_runs::{kernel_run_table, KERNEL_RUN_FULL, KERNEL_RUN_ZERO};
 pub use vignetted::{clipped_centroid, vignettes_in_one_pass, ClippedShape, Eye};
 
@@ -29,7 +31,8 @@ pub struct PhysicalCamera {
     pub focal_length_mm: f32,
     pub sensor_width_mm: f32,
     pub fstop: f32,
-    /// Distance of the plane in focus, in scene units (metres).
+    /// Distance of the plane in focus, in scene units (metres unless a [`SceneUnit`] says
+    /// otherwise: [`CocModel::from_physical_in`]).
     pub focus_distance: f32,
 }
 
@@ -100,8 +103,15 @@ impl CocModel {
     }
 
     pub fn from_physical(camera: &PhysicalCamera, image_width_px: usize) -> Result<Self> {
+        Self::from_physical_in(camera, image_width_px, &SceneUnit::default())
+    }
+
+    /// [`Self::from_physical`] for depths and focus distance in `unit`: the aperture radius
+    /// (metres) is expressed in that unit, so disparity stays `1 / depth` as the file stores it.
+    pub fn from_physical_in(camera: &PhysicalCamera, image_width_px: usize, unit: &SceneUnit) -> Result<Self> {
         camera.validate()?;
-        let k = camera.aperture_radius() * camera.focal_length_px(image_width_px);
+        let aperture = f64::from(camera.aperture_radius()) / unit.metres;
+        let k = aperture as f32 * camera.focal_length_px(image_width_px);
         Self::new(k, 1.0 / camera.focus_distance)
     }
 

@@ -32,6 +32,10 @@ pub struct CameraArgs {
         help_heading = "Camera"
     )]
     pub aperture: String,
+    /// What one unit of the input's depth and of --focus-distance is: m, cm, mm, km, in, ft, or
+    /// metres per unit (e.g. 0.01) [default: the header's lensblurSceneUnit, else m].
+    #[arg(long, value_name = "UNIT", help_heading = "Camera")]
+    pub scene_unit: Option<lensblur::camera::SceneUnit>,
 }
 
 impl Default for CameraArgs {
@@ -45,6 +49,7 @@ impl Default for CameraArgs {
             blur: None,
             focus_disparity: None,
             aperture: "disk".into(),
+            scene_unit: None,
         }
     }
 }
@@ -76,7 +81,7 @@ impl CameraArgs {
             fstop: self.fstop,
             focus_distance: self.focus_distance,
         };
-        Ok(CameraRequest { physical, normalised, aperture })
+        Ok(CameraRequest { physical, normalised, aperture, scene_unit: self.scene_unit.clone() })
     }
 }
 

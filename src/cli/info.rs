@@ -19,11 +19,17 @@ pub struct InfoArgs {
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Deep files: refuse one holding more samples than this.
+    #[arg(long, value_name = "N", default_value_t = lensblur::stack::deep::DEFAULT_MAX_SAMPLES)]
+    pub max_samples: u64,
 }
 
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     if is_ldr_path(&args.file) {
         return ldr_info(&args);
+    }
+    if lensblur::stack::deep::is_deep_exr(&args.file) {
+        return deep_info(&args);
     }
     if args.depth.is_some() {
         let mismatch = lensblur::InputMismatch::DepthImageBesideStack;
@@ -89,6 +95,52 @@ fn ldr_info(args: &InfoArgs) -> anyhow::Result<()> {
     match disparity {
         Some((depth, [lo, hi])) => println!("depth {} read as {}: disparity {lo}..{hi}", depth.display(), kind.name()),
         None => println!("no depth: give its depth image with --depth DEPTH.png (here and to `lensblur render`)"),
+    }
+    Ok(())
+}
+
+/// A deep file: every part with its sample counts and depth range.
+fn deep_info(args: &InfoArgs) -> anyhow::Result<()> {
+    let options = lensblur::stack::deep::DeepReadOptions { max_samples: args.max_samples, ..Default::default() };
+    let info = lensblur::stack::deep::deep_info(&args.file, &options)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&info)?);
+        return Ok(());
+    }
+    println!("{}: deep OpenEXR, {} part(s)", args.file.display(), info.parts.len());
+    for part in &info.parts {
+        let [x0, y0, x1, y1] = part.data_window;
+        let [dx0, dy0, dx1, dy1] = part.display_window;
+        let (w, h) = (i64::from(x1) - i64::from(x0) + 1, i64::from(y1) - i64::from(y0) + 1);
+        println!(
+            "part {} '{}': {}, {}; data window ({x0}, {y0}) {w}x{h} of display ({dx0}, {dy0}) {}x{}",
+            part.index,
+            part.name.as_deref().unwrap_or("-"),
+            part.storage,
+            part.compression,
+            i64::from(dx1) - i64::from(dx0) + 1,
+            i64::from(dy1) - i64::from(dy0) + 1,
+        );
+        println!("  channels: {}", part.channels.join(", "));
+        let pixels = (w * h).max(1) as f64;
+        println!(
+            "  {} samples ({:.2} per pixel of the data window, at most {}), {} of {} pixels covered, {} volumetric",
+            part.samples,
+            part.samples as f64 / pixels,
+            part.max_samples_per_pixel,
+            part.covered_pixels,
+            w * h,
+            part.volumetric_samples
+        );
+        match part.depth_range {
+            Some([lo, hi]) => println!("  depth {lo}..{hi} (scene units)"),
+            None => println!("  no samples"),
+        }
+    }
+    for (key, value) in &info.attributes {
+        if lensblur::stack::deep::is_reported_attribute(key) {
+            println!("attribute {key} = {value}");
+        }
     }
     Ok(())
 }

@@ -9,6 +9,7 @@ pub use lensblur::input::LoadedInput;
 use lensblur::input::{load, InputOptions};
 use lensblur::InputMismatch;
 use lensblur::render::InputKind;
+use lensblur::stack::deep::{DeepReadOptions, PartChoice, DEFAULT_MAX_SAMPLES};
 use lensblur::stack::{AutoLayerOptions, DepthKind, DEFAULT_MAX_PIXELS};
 
 use super::camera_args::{flag_error, CameraArgs};
@@ -44,6 +45,22 @@ pub struct InputArgs {
     /// Set NaN/Inf colour and alpha samples to 0 (with a warning) instead of refusing the file.
     #[arg(long, help_heading = "Input")]
     pub replace_nonfinite: bool,
+    /// Deep EXR files merged with the (deep) input as Nuke's DeepMerge does: every pixel holds
+    /// the samples of all of them, and the merge is defocused as one scene.
+    #[arg(long, value_name = "FILE,...", value_delimiter = ',', help_heading = "Deep input")]
+    pub merge: Vec<PathBuf>,
+    /// Refuse deep inputs holding more samples than this (all merged files together), before
+    /// decoding the chunk that passes it.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_SAMPLES, help_heading = "Deep input")]
+    pub max_samples: u64,
+    /// Which part of a multi-part deep file (a stereo file has one per view): its name, its
+    /// index, `first` (the first deep part) or `all` (every deep part, merged).
+    #[arg(long, value_name = "PART", default_value = "first", help_heading = "Deep input")]
+    pub deep_part: PartChoice,
+    /// Flatten deep input first (DeepToImage: colour over, the depth of the nearest surface)
+    /// and defocus it as one image, auto-layered: what a flat-only defocus makes of it.
+    #[arg(long, help_heading = "Deep input")]
+    pub deep_flatten: bool,
 }
 
 impl InputArgs {
@@ -75,7 +92,8 @@ impl InputArgs {
 
     /// Files these flags read besides the input itself, described for [`check_output_paths`].
     pub fn files(&self) -> Vec<(&'static str, &Path)> {
-        self.depth.iter().map(|p| ("the --depth input file", p.as_path())).collect()
+        let depth = self.depth.iter().map(|p| ("the --depth input file", p.as_path()));
+        depth.chain(self.merge.iter().map(|p| ("a --merge input file", p.as_path()))).collect()
     }
 
     fn options(&self) -> InputOptions {
@@ -91,6 +109,10 @@ impl InputArgs {
                 max_layers: self.max_layers.unwrap_or(defaults.max_layers),
                 ..defaults
             },
+            merge: self.merge.clone(),
+            deep: DeepReadOptions { max_samples: self.max_samples, max_pixels: self.max_pixels, part: self.deep_part.clone() },
+            deep_layers: Default::default(),
+            deep_flatten: self.deep_flatten,
         }
     }
 }

@@ -135,6 +135,11 @@ struct Report<'a> {
     /// `--aperture` as given.
     aperture: &'a str,
     depth_kind: lensblur::stack::DepthKind,
+    /// What one unit of depth and focus distance is, and whether the header said so.
+    scene_unit: lensblur::camera::SceneUnit,
+    scene_unit_from_header: bool,
+    /// Deep samples read (all merged files), for a deep input.
+    deep_samples: Option<u64>,
     auto_layered: bool,
     /// Front to back.
     layers: Vec<LayerReport>,
@@ -449,6 +454,9 @@ fn report<'a>(
         camera_from_header: loaded.camera.from_header.clone(),
         aperture: &args.camera.aperture,
         depth_kind: loaded.depth_kind,
+        scene_unit: loaded.camera.scene_unit.clone(),
+        scene_unit_from_header: loaded.camera.scene_unit_from_header,
+        deep_samples: loaded.deep_samples,
         auto_layered: loaded.auto_layered.is_some(),
         layers,
         coc_range_px: if coc_range_px[0].is_finite() { coc_range_px } else { [0.0, 0.0] },
@@ -496,7 +504,11 @@ fn print_summary(report: &Report) {
         layers.join(", "),
         report.timings_ms.render,
         report.timings_ms.total,
-        if report.auto_layered { " (auto-layered from one image)" } else { "" },
+        match (report.auto_layered, report.deep_samples) {
+            (true, _) => " (auto-layered from one image)".to_string(),
+            (false, Some(samples)) => format!(" (from {samples} deep samples)"),
+            (false, None) => String::new(),
+        },
     );
     println!("{}", describe_camera(report));
 }
@@ -515,7 +527,8 @@ fn describe_camera(report: &Report) -> String {
         [] => String::new(),
         names => format!(" ({} from {}'s header)", names.join(", "), report.input.display()),
     };
-    format!("{lens}, aperture {}{source}", report.aperture)
+    let unit = if report.scene_unit_from_header { " (from the header)" } else { "" };
+    format!("{lens}, aperture {}{source}; scene unit {}{unit}", report.aperture, report.scene_unit)
 }
 
 /// Milliseconds to the microsecond: `as_secs_f64() * 1e3` prints binary noise such as

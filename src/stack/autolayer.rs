@@ -73,8 +73,26 @@ fn boundaries(coc: &[f32], options: &AutoLayerOptions) -> Vec<f32> {
     let mut cuts: Vec<(f32, f32)> = Vec::new();
     // Two occupied bins `d` px of CoC apart leave `d / bin - 1` empty ones between them.
     let min_gap = ((options.discontinuity_px / bin).round() - 1.0).max(1.0) as usize;
-    let mut run_start = 0usize;
-    let mut b = 0usize;
+    let runs = runs_between_gaps(&histogram, min_gap);
+    for (i, &(start, end)) in runs.iter().enumerate() {
+        slice_run(&histogram, start, end, bin, lo, options, &mut cuts);
+        if let Some(&(next, _)) = runs.get(i + 1) {
+            cuts.push((0.5 * (centre(end) + centre(next - 1)), (next - end) as f32));
+        }
+    }
+    cuts.sort_by(|a, b| b.1.total_cmp(&a.1));
+    cuts.truncate(options.max_layers.max(1) - 1);
+    let mut out: Vec<f32> = cuts.into_iter().map(|c| c.0).collect();
+    out.sort_by(|a, b| b.total_cmp(a));
+    out
+}
+
+/// The histogram split at every inner run of at least `min_gap` empty bins: the bin ranges
+/// `[start, end)` between such gaps, in order, covering the first and last bins (a gap at
+/// either end is no gap between two things).
+pub(crate) fn runs_between_gaps(histogram: &[usize], min_gap: usize) -> Vec<(usize, usize)> {
+    let bins = histogram.len();
+    let (mut runs, mut run_start, mut b) = (Vec::new(), 0usize, 0usize);
     while b < bins {
         if histogram[b] > 0 {
             b += 1;
@@ -85,17 +103,12 @@ fn boundaries(coc: &[f32], options: &AutoLayerOptions) -> Vec<f32> {
             b += 1;
         }
         if b - gap_start >= min_gap && b < bins {
-            slice_run(&histogram, run_start, gap_start, bin, lo, options, &mut cuts);
-            cuts.push((0.5 * (centre(gap_start) + centre(b - 1)), (b - gap_start) as f32));
+            runs.push((run_start, gap_start));
             run_start = b;
         }
     }
-    slice_run(&histogram, run_start, bins, bin, lo, options, &mut cuts);
-    cuts.sort_by(|a, b| b.1.total_cmp(&a.1));
-    cuts.truncate(options.max_layers.max(1) - 1);
-    let mut out: Vec<f32> = cuts.into_iter().map(|c| c.0).collect();
-    out.sort_by(|a, b| b.total_cmp(a));
-    out
+    runs.push((run_start, bins));
+    runs
 }
 
 /// Uniform cuts inside one occupied run of bins `[first, end)` wider than the layer spacing,

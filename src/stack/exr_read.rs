@@ -652,7 +652,7 @@ fn attribute_text(value: &AttributeValue) -> String {
 /// Camera-related header attributes: the standard ones and stamped metadata (Blender writes
 /// e.g. `Lens`, `Camera` when stamping is on), keyed by attribute name.
 fn camera_attributes(meta: &MetaData) -> BTreeMap<String, String> {
-    const KEYS: [&str; 9] = ["lens", "focal", "fstop", "f-stop", "aperture", "sensor", "focus", "camera", "fov"];
+    const KEYS: [&str; 10] = ["lens", "focal", "fstop", "f-stop", "aperture", "sensor", "focus", "camera", "fov", "unit"];
     let mut out = BTreeMap::new();
     for header in meta.headers.iter() {
         let own = &header.own_attributes;

@@ -5,6 +5,7 @@
 //! file's normalised disparity). The file's own depth convention is remembered in
 //! [`DepthKind`] so outputs and gradients can be written back in it.
 pub mod autolayer;
+pub mod deep;
 pub mod exr_header_order;
 pub mod exr_read;
 pub mod exr_write;
