@@ -126,7 +126,7 @@ fn run_single_image_table(args: Args) -> anyhow::Result<()> {
         truths.extend(rendered);
     }
     let progress = bar("{msg}", "renders")?;
-    let table = run_single_image(&truths, &methods, &progress)?;
+    let table = run_single_image(&truths, &methods, &progress, true)?;
     println!("{table}");
     if let Some(path) = &args.json {
         std::fs::write(path, serde_json::to_string_pretty(&table.report)?).with_context(|| format!("writing {}", path.display()))?;
