@@ -24,7 +24,8 @@
 //! Chakravarty 1981, eq. 8), r_B = 0.5 |v_z - v_F| f / (N_B v_z) W / sensor, v = f d / (d - f)
 //! the image distance of depth d, f = lens / 1000. Expanded, r_B = K F / (F - f) |1/z - 1/F|:
 //! ours times the magnification term F / (F - f). Blender gets our Z and focus as they are and
-//! the f-stop N_B = N F / (F - f), which cancels it.
+//! the f-stop N_B = N F / (F - f), which cancels it. Its `sensor` was the sensor height on our
+//! square frame (24 mm unless set), so the script sets both sensor sides.
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
