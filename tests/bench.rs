@@ -172,7 +172,7 @@ fn single_image_table_has_a_row_per_scene_and_a_peer_column_that_says_why_it_is_
     point_the_peer_nowhere();
     let scenes = scenes();
     let methods = select_methods(cpu_methods(), &["gather-cpu".into()]).expect("registered");
-    let table = lensblur::bench::run_single_image(&scenes, &methods, &indicatif::ProgressBar::hidden()).expect("runs");
+    let table = lensblur::bench::run_single_image(&scenes, &methods, &indicatif::ProgressBar::hidden(), false).expect("runs");
     assert!(table.peer_missing.as_deref().is_some_and(|r| r.contains("not built")));
     let text = table.to_string();
     for needle in ["opendefocus", "gather-cpu", "mild", "strong", "mean", "worst", "n/a, not built"] {

@@ -250,7 +250,7 @@ fn the_book_builds_with_mdbook() {
 /// What the README's commands write inside a checkout stays out of `git status`.
 #[test]
 fn files_the_readme_makes_in_a_checkout_are_ignored() {
-    for path in ["example-out/render.exr", "plugins/blender/lensblur.zip", "lensblur-bundle/template.yaml"] {
+    for path in ["example-out/render.exr", "plugins/blender/lensblur.zip", "plugins/blender/lensblur-extension.zip", "lensblur-bundle/template.yaml"] {
         let status = Command::new("git").args(["check-ignore", "-q", path]).current_dir(REPO).status().unwrap();
         assert!(status.success(), "{path} is not in .gitignore");
     }

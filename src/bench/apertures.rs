@@ -5,7 +5,7 @@
 //! one run. Medians of `repeats` processes; ratios of medians.
 use std::path::{Path, PathBuf};
 
-use super::blender::{blender_bokeh, comparison_inputs, time_blender};
+use super::blender::{blender_bokeh, comparison_inputs, time_blender, FRAME_SIDE};
 use super::end_to_end::time_render_process;
 use super::large::Focus;
 use super::perf::median;
@@ -74,7 +74,7 @@ pub fn compare_apertures(
     wanted: &dyn Fn(&str) -> bool,
     progress: &dyn Fn(&ApertureTiming),
 ) -> Result<Vec<ApertureTiming>> {
-    let inputs = comparison_inputs(dir, Focus::FullyDefocused)?;
+    let inputs = comparison_inputs(dir, Focus::FullyDefocused, FRAME_SIDE)?;
     let mut cases = aperture_cases(&dir.join("aperture-star.png"))?;
     // The disk (first) is every ratio's reference.
     let mut index = 0;

@@ -1,8 +1,10 @@
-//! The single-image table (issue 22): every single-image method and the OpenDefocus peer on
-//! every single-image scene in one run, PSNR and render seconds per scene, then the mean and
-//! the worst scene. A peer that could not run gets a column of "n/a" and the reason below.
+//! The single-image table (issue 22): every single-image method, the OpenDefocus peer and
+//! Blender 3.4's and 5.0's Defocus nodes (issue 38) on every single-image scene in one run, PSNR
+//! and render seconds per scene, then the mean and the worst scene. A peer that could not run
+//! gets a column of "n/a" and the reason below.
 use std::fmt;
 
+use super::blender::{defocus_truths, SINGLE_IMAGE_NODES};
 use super::peer::{run_opendefocus, PeerRun};
 use super::runner::{append_external, run_with_progress, BenchReport};
 use super::BenchMethod;
@@ -22,6 +24,9 @@ pub struct SingleImageTable {
     /// Why the peer has no column of numbers, if it has none.
     pub peer_missing: Option<String>,
     pub peer_init_seconds: f64,
+    /// Whether Blender's Defocus columns were asked for, and those that could not run, and why.
+    pub with_blender: bool,
+    pub blender_missing: Vec<(&'static str, String)>,
     /// Per scene, [`local_pick_gain`] of drbokeh-auto against gather (when both ran).
     pub gather_pick_gain: Vec<(String, f64)>,
 }
@@ -56,8 +61,9 @@ pub fn local_pick_gain(layered: &Image, plain: &Image, truth: &Image) -> Result<
     Ok(compare(&picked, truth)?.psnr - base)
 }
 
-/// Runs `methods` and the peer on `truths`.
-pub fn run_single_image(truths: &[GroundTruth], methods: &[BenchMethod], progress: &indicatif::ProgressBar) -> Result<SingleImageTable> {
+/// Runs `methods` and the peer on `truths`, and with `with_blender` Blender's Defocus nodes
+/// (3.4 and 5.0: a Blender process per scene and node).
+pub fn run_single_image(truths: &[GroundTruth], methods: &[BenchMethod], progress: &indicatif::ProgressBar, with_blender: bool) -> Result<SingleImageTable> {
     let mut report = run_with_progress(truths, methods, progress)?;
     let (peer_missing, peer_init_seconds) = match run_opendefocus(truths) {
         PeerRun::Rendered { renders, init_seconds } => {
@@ -66,6 +72,14 @@ pub fn run_single_image(truths: &[GroundTruth], methods: &[BenchMethod], progres
         }
         PeerRun::Unavailable(reason) => (Some(reason), 0.0),
     };
+    let mut blender_missing = Vec::new();
+    let blender_dir = crate::cache_dir::cache_subdir("single-image-blender");
+    for (node, column) in SINGLE_IMAGE_NODES.into_iter().filter(|_| with_blender) {
+        match defocus_truths(node, truths, &blender_dir) {
+            Ok(renders) => append_external(&mut report, truths, column, InputKind::SingleImage, renders)?,
+            Err(e) => blender_missing.push((column, e.to_string())),
+        }
+    }
     let render_of = |scene: usize, name: &str| {
         let method = report.methods.iter().position(|m| m.name == name)?;
         report.renders.get(scene)?.get(method)
@@ -76,7 +90,7 @@ pub fn run_single_image(truths: &[GroundTruth], methods: &[BenchMethod], progres
             gather_pick_gain.push((truth.name.clone(), local_pick_gain(layered, plain, &truth.defocused)?));
         }
     }
-    Ok(SingleImageTable { report, peer_missing, peer_init_seconds, gather_pick_gain })
+    Ok(SingleImageTable { report, peer_missing, peer_init_seconds, with_blender, blender_missing, gather_pick_gain })
 }
 
 impl SingleImageTable {
@@ -88,6 +102,7 @@ impl SingleImageTable {
     fn columns(&self) -> Vec<String> {
         let ran = |n: &str| self.report.methods.iter().any(|m| m.name == n);
         let mut names = vec![PEER.to_string()];
+        names.extend(SINGLE_IMAGE_NODES.iter().map(|(_, column)| column.to_string()).filter(|n| ran(n)));
         names.extend(SINGLE_IMAGE_METHODS.iter().filter(|n| ran(n)).map(|n| n.to_string()));
         let rest: Vec<String> = self.report.methods.iter().map(|m| m.name.clone()).filter(|n| !names.contains(n)).collect();
         names.extend(rest);
@@ -147,7 +162,16 @@ impl fmt::Display for SingleImageTable {
                  its device start-up ({:.2}s) is not in the times",
                 self.peer_init_seconds
             ),
+        }?;
+        if !self.with_blender {
+            return Ok(());
         }
+        writeln!(
+            f,
+            "blender-3.4, blender-5.0: the Defocus compositor node (CPU, circle) on the pinhole render and its planar Z, \
+             set up for each scene's camera (src/bench/blender.rs); seconds are its compositing time inside Blender"
+        )?;
+        self.blender_missing.iter().try_for_each(|(column, reason)| writeln!(f, "{column}: n/a, {reason}"))
     }
 }
 

@@ -55,7 +55,7 @@ def bad_setup_warnings(scene):
 def focus_pull(scene):
     bpy.ops.lensblur.defocus_animation(directory=os.path.join(out, "shot"))
     image = bpy.data.images["lensblur_sequence"]
-    node = scene.node_tree.nodes["lensblur_sequence"]
+    node = compat.compositor_tree(scene).nodes["lensblur_sequence"]
     report = json.loads(image["lensblur_report"])
     checks["sequence"] = {
         "source": image.source,
@@ -91,7 +91,7 @@ def farm(scene):
 
 scene = setup_scene()
 build_view_layers(scene, build_planes(scene))
-enable_addon(binary)
+compat = enable_addon(binary)
 animate_camera(scene)
 scene.render.use_single_layer = False
 scene.camera.data.dof.use_dof = False

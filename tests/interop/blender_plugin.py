@@ -50,7 +50,7 @@ def run_addon(scene):
     # Pixels come from the saved file; the temporary one is gone by now.
     px = image.pixels[:]
     checks["image_mean_alpha"] = sum(px[3::4]) / (len(px) / 4)
-    node = scene.node_tree.nodes.get("lensblur_result")
+    node = compat.compositor_tree(scene).nodes.get("lensblur_result")
     checks["node_image"] = node.image.name if node else None
     print("LENSBLUR_PLUGIN_REPORT " + image["lensblur_report"])
 
@@ -89,8 +89,8 @@ def run_addon(scene):
 
     # A multilayer EXR path instead of the Render Result, with an exclusion.
     stack_path = os.path.join(out, "stack.exr")
-    scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
-    bpy.data.images["Render Result"].save_render(stack_path, scene=scene)
+    with compat.multilayer_exr(scene.render.image_settings):
+        bpy.data.images["Render Result"].save_render(stack_path, scene=scene)
     bpy.ops.lensblur.defocus(filepath=stack_path, layers="L_*", exclude="L_front")
     report = json.loads(bpy.data.images["lensblur_result"]["lensblur_report"])
     checks["file_layers"] = [l["name"] for l in report["layers"]]
@@ -99,7 +99,7 @@ def run_addon(scene):
 scene = setup_scene()
 collections = build_planes(scene)
 build_view_layers(scene, collections)
-enable_addon(binary)
+compat = enable_addon(binary)
 run_addon(scene)
 checks["pinhole.exr_s"] = render_truth(scene, os.path.join(out, "pinhole.exr"), False, PINHOLE_SAMPLES)
 checks["reference.exr_s"] = render_truth(scene, os.path.join(out, "reference.exr"), True, DOF_SAMPLES)

@@ -8,8 +8,8 @@ import math
 import os
 import sys
 
-import addon_utils
 import bpy
+import addon_utils  # after bpy: importing PyPI's bpy module puts Blender's modules on the path
 
 out, binary = sys.argv[sys.argv.index("--") + 1:][:2]
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -46,20 +46,21 @@ scene.collection.objects.link(bpy.data.objects.new("square", mesh))
 scene.view_layers[0].name = "L_square"
 scene.view_layers[0].use_pass_z = True
 
-assert addon_utils.enable("lensblur", default_set=True, handle_error=None) is not None
+addon = addon_utils.enable("lensblur", default_set=True, handle_error=None)
+assert addon is not None
 bpy.context.preferences.addons["lensblur"].preferences.binary_path = binary
 scene.cycles.samples = 16
 bpy.ops.render.render()
 bpy.ops.lensblur.defocus(save_path=os.path.join(out, "addon.exr"))
 settings = scene.render.image_settings
-settings.file_format = "OPEN_EXR_MULTILAYER"
-settings.color_depth = "32"
-bpy.data.images["Render Result"].save_render(os.path.join(out, "stack.exr"), scene=scene)
+with addon.compat.multilayer_exr(settings):
+    bpy.data.images["Render Result"].save_render(os.path.join(out, "stack.exr"), scene=scene)
 
 dof.use_dof = True
 scene.cycles.samples = 1024
 settings.file_format = "OPEN_EXR"
 settings.color_mode = "RGBA"
+settings.color_depth = "32"
 scene.render.filepath = os.path.join(out, "reference.exr")
 bpy.ops.render.render(write_still=True)
 print("LENSBLUR_BOKEH_DONE")

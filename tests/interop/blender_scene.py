@@ -8,8 +8,8 @@ every plane for Cycles' own depth of field:
 import math
 import time
 
-import addon_utils
 import bpy
+import addon_utils  # after bpy: importing PyPI's bpy module puts Blender's modules on the path
 
 WIDTH, HEIGHT = 160, 120
 PINHOLE_SAMPLES = 16  # emission only: the pinhole layers converge fast (anti-aliasing only)
@@ -118,10 +118,12 @@ def build_view_layers(scene, collections):
 
 
 def enable_addon(binary):
+    """Enables the add-on; returns its version adapters (`lensblur.compat`), which the scripts
+    use for what differs between Blender versions in their own setup too."""
     module = addon_utils.enable("lensblur", default_set=True, handle_error=None)
     assert module is not None, "the lensblur add-on is not installed in the addons folder"
     bpy.context.preferences.addons["lensblur"].preferences.binary_path = binary
-
+    return module.compat
 
 
 def render_truth(scene, path, use_dof, samples):
@@ -129,7 +131,7 @@ def render_truth(scene, path, use_dof, samples):
     Cycles' depth of field; returns the seconds it took."""
     for layer in scene.view_layers:
         layer.use = layer.name == "Reference"
-    scene.use_nodes = False  # write the Reference layer itself, not a composite
+    scene.render.use_compositing = False  # write the Reference layer itself, not a composite
     scene.camera.data.dof.use_dof = use_dof
     scene.cycles.samples = samples
     settings = scene.render.image_settings

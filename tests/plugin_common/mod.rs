@@ -44,50 +44,138 @@ pub fn channel_names(path: &Path) -> Vec<String> {
     meta.headers[0].channels.list.iter().map(|c| c.name.to_string()).collect()
 }
 
-/// Runs `tests/interop/<script>` in headless Blender (`blender -b`) with the add-on symlinked
-/// into a private BLENDER_USER_SCRIPTS and a private TMPDIR (to see what the add-on leaves
-/// behind); returns stdout after checking that the script reached `done`.
-pub fn blender_with_addon(dir: &Path, script: &str, done: &str) -> String {
-    run_blender_script(dir, script, done, false)
+/// A Blender the interop scripts run in: Debian's `blender` binary (3.4) or PyPI's `bpy` module
+/// of one version in its virtualenv (made by `.ci/setup`, listed in `.ci/bpy-versions`).
+pub struct Blender {
+    /// What test names and scratch folders call it: `debian` or the bpy version.
+    pub name: String,
+    /// The venv's python for a bpy module; None for Debian's binary.
+    python: Option<PathBuf>,
 }
 
-/// [`blender_with_addon`] in Blender with a window, on a virtual X display (`xvfb-run`), with
-/// simulated events (`--enable-event-simulate`): the UI paths (modal operators, Esc).
+impl Blender {
+    pub fn debian() -> Self {
+        Blender { name: "debian".into(), python: None }
+    }
+
+    /// The bpy `version` in its virtualenv; panics, with the command that makes it, when the
+    /// venv is missing or the version is not one `.ci/setup` installs.
+    pub fn bpy(version: &str) -> Self {
+        let listed = bpy_versions();
+        assert!(listed.iter().any(|v| v == version), "bpy {version} is not in .ci/bpy-versions ({listed:?})");
+        let python = lensblur::bench::blender::bpy_python(version).unwrap_or_else(|e| panic!("{e}"));
+        Blender { name: format!("bpy-{version}"), python: Some(python) }
+    }
+
+    /// A command that runs `script` with `args` after it (`sys.argv[sys.argv.index("--") + 1:]`
+    /// in the script), exiting non-zero when the script raises.
+    pub fn script_command(&self, script: &Path) -> Command {
+        let mut command = match &self.python {
+            Some(python) => Command::new(python),
+            None => {
+                let mut blender = Command::new("blender");
+                blender.args(["-b", "--factory-startup", "--python-exit-code", "1", "--python"]);
+                blender
+            }
+        };
+        command.arg(script).arg("--");
+        command
+    }
+}
+
+/// The bpy versions of `.ci/bpy-versions` (its first column).
+pub fn bpy_versions() -> Vec<String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci/bpy-versions");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    text.lines()
+        .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+        .map(|l| l.split_whitespace().next().unwrap().to_string())
+        .collect()
+}
+
+/// One `#[test]` per Blender for `fn $check(blender: &Blender)`: `$check::debian` (Debian's
+/// 3.4 binary) and one per bpy version, so a failure names the version; plus a test that the
+/// versions here are those `.ci/setup` installs.
+#[macro_export]
+macro_rules! test_on_every_blender {
+    ($check:ident) => {
+        $crate::test_on_every_blender!($check; bpy_4_2 => "4.2.23", bpy_4_5 => "4.5.15", bpy_5_0 => "5.0.1", bpy_5_3 => "5.3.0");
+    };
+    ($check:ident; $($test:ident => $version:literal),*) => {
+        mod $check {
+            use crate::plugin_common::{bpy_versions, Blender};
+
+            #[test]
+            fn debian() {
+                super::$check(&Blender::debian())
+            }
+
+            $(
+                #[test]
+                fn $test() {
+                    super::$check(&Blender::bpy($version))
+                }
+            )*
+
+            #[test]
+            fn the_versions_are_those_ci_setup_installs() {
+                assert_eq!(bpy_versions(), [$($version),*], ".ci/bpy-versions vs tests/plugin_common/mod.rs");
+            }
+        }
+    };
+}
+
+/// Runs `tests/interop/<script>` in `blender` (headless) with the add-on symlinked into a
+/// private BLENDER_USER_SCRIPTS and a private TMPDIR (to see what the add-on leaves behind);
+/// returns stdout after checking that the script reached `done`.
+pub fn blender_with_addon(blender: &Blender, dir: &Path, script: &str, done: &str) -> String {
+    install_addon_link(dir);
+    run_script(blender.script_command(&interop_script(script)), dir, done)
+}
+
+/// [`blender_with_addon`] in Debian's Blender with a window, on a virtual X display
+/// (`xvfb-run`), with simulated events (`--enable-event-simulate`): the UI paths (modal
+/// operators, Esc).
 pub fn blender_ui_with_addon(dir: &Path, script: &str, done: &str) -> String {
-    run_blender_script(dir, script, done, true)
+    install_addon_link(dir);
+    let mut xvfb = Command::new("xvfb-run");
+    xvfb.args(["-a", "-s", "-screen 0 1280x800x24", "blender", "--enable-event-simulate"])
+        .args(["--factory-startup", "--python-exit-code", "1", "--python"])
+        .arg(interop_script(script))
+        .arg("--");
+    run_script(xvfb, dir, done)
 }
 
-fn run_blender_script(dir: &Path, script: &str, done: &str, ui: bool) -> String {
+pub fn interop_script(script: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/interop").join(script)
+}
+
+fn install_addon_link(dir: &Path) {
     let addons = dir.join("scripts/addons");
     std::fs::create_dir_all(&addons).unwrap();
     std::os::unix::fs::symlink(plugins_dir().join("blender/lensblur"), addons.join("lensblur")).unwrap();
+}
+
+/// Runs `command OUT LENSBLUR_BINARY` with the user's Blender folders (scripts, config,
+/// extensions) and TMPDIR inside `dir`.
+pub fn run_script(mut command: Command, dir: &Path, done: &str) -> String {
     let (out, tmp) = (dir.join("out"), dir.join("tmp"));
     std::fs::create_dir_all(&out).unwrap();
     std::fs::create_dir_all(&tmp).unwrap();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/interop").join(script);
-    let mut command = if ui {
-        let mut xvfb = Command::new("xvfb-run");
-        xvfb.args(["-a", "-s", "-screen 0 1280x800x24", "blender", "--enable-event-simulate"]);
-        xvfb
-    } else {
-        let mut blender = Command::new("blender");
-        blender.arg("-b");
-        blender
-    };
     let output = command
-        .args(["--factory-startup", "--python-exit-code", "1", "--python"])
-        .arg(&script)
-        .arg("--")
         .arg(&out)
         .arg(env!("CARGO_BIN_EXE_lensblur"))
         .env("BLENDER_USER_SCRIPTS", dir.join("scripts"))
+        .env("BLENDER_USER_CONFIG", dir.join("config"))
+        .env("BLENDER_USER_EXTENSIONS", dir.join("extensions"))
         .env("TMPDIR", &tmp)
         .output()
-        .unwrap_or_else(|e| panic!("cannot run blender ({e}); install it (and xvfb for UI tests) with .ci/setup"));
+        .unwrap_or_else(|e| panic!("cannot run {command:?} ({e}); install Blender, xvfb and the bpy modules with .ci/setup"));
     let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
     assert!(
         output.status.success() && stdout.contains(done),
-        "blender failed:\n{stdout}\n{}",
+        "blender failed ({}):\n{stdout}\n{}",
+        output.status,
         String::from_utf8_lossy(&output.stderr)
     );
     stdout

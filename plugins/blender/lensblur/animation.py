@@ -53,7 +53,7 @@ def overscan_margin(scene, frames):
             scene.frame_set(frame)
             _flags, summary, _warnings = camera.camera_flags(scene)
             focal_mm = summary["focal_length"]
-            k_px = focal_mm * 1e-3 / (2 * summary["fstop"]) * focal_mm / summary["sensor_width"] * width
+            k_px = focal_mm * 1e-3 / (2 * summary["lensblur_fstop"]) * focal_mm / summary["sensor_width"] * width
             largest = max(largest, k_px / summary["focus_distance"])
     finally:
         scene.frame_set(current)
@@ -144,7 +144,7 @@ class Shot:
         self.cameras[frame] = {
             "focal_length_mm": float(camera.fmt(summary["focal_length"])),
             "sensor_width_mm": float(camera.fmt(summary["sensor_width"])),
-            "fstop": float(camera.fmt(summary["fstop"])),
+            "fstop": float(camera.fmt(summary["lensblur_fstop"])),
             "focus_distance": float(camera.fmt(summary["focus_distance"])),
         }
         bpy.ops.render.render()

@@ -1,14 +1,19 @@
 """The scene camera's depth-of-field settings as lensblur `render` flags.
 
-lensblur's physical camera is Cycles' thin lens: aperture radius focal_length / (2 f-stop)
-(both read as millimetres, i.e. 1e-3 scene units, as Cycles does), field of view from the
-focal length and the sensor width, and a planar focus distance in scene units. The camera's
+lensblur's physical camera is Cycles' thin lens: aperture radius focal_length / (2 f-stop),
+field of view from the focal length and the sensor width, and a planar focus distance in the
+units of the depth pass. Blender's Z pass and focus distance are in Blender units, the lens in
+millimetres; lensblur reads the lens as 1e-3 of its depth unit for the aperture. With a Unit
+Scale other than 1 (Scene > Units: one Blender unit is that many metres, as Cycles honours it)
+the f-number lensblur gets is scaled by it, which gives the aperture its physical size in
+Blender units and leaves the field of view alone (see `lensblur_fstop`). The camera's
 "Depth of Field" checkbox is ignored on purpose: the layers are rendered with it off (pinhole)
 and its settings describe the lens to simulate.
 """
 import math
 import struct
 
+from . import compat
 from .errors import LensblurError
 
 # lensblur's polygon apertures have 3 to 16 blades.
@@ -30,6 +35,7 @@ def camera_flags(scene):
         "focal_length": cam.lens,
         "sensor_width": effective_sensor_width(scene, cam),
         "fstop": dof.aperture_fstop,
+        "lensblur_fstop": lensblur_fstop(scene, dof.aperture_fstop),
         "focus_distance": focus_distance(obj, dof),
         "aperture": aperture_spec(dof),
     }
@@ -41,11 +47,17 @@ def camera_flags(scene):
     flags = [
         "--focal-length", fmt(summary["focal_length"]),
         "--sensor-width", fmt(summary["sensor_width"]),
-        "--fstop", fmt(summary["fstop"]),
+        "--fstop", fmt(summary["lensblur_fstop"]),
         "--focus-distance", fmt(summary["focus_distance"]),
         "--aperture", summary["aperture"],
     ]
     return flags, summary, warnings_for(scene, dof)
+
+
+def lensblur_fstop(scene, fstop):
+    """The f-number that gives lensblur the camera's aperture in Blender units: its radius is
+    lens / (2 N) millimetres, lens * 1e-3 / (2 N scale) units at `scale` metres per unit."""
+    return fstop * compat.metres_per_unit(scene)
 
 
 def fmt(value):

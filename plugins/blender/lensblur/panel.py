@@ -1,7 +1,7 @@
 """A small panel in Properties > Render: the settings, the camera in use, and the button."""
 import bpy
 
-from . import camera
+from . import camera, compat
 from .errors import LensblurError
 
 
@@ -38,6 +38,6 @@ class LENSBLUR_PT_render(bpy.types.Panel):
             return
         layout.label(
             text=f"{c['focal_length']:.0f} mm, f/{c['fstop']:.2g}, focus "
-            f"{c['focus_distance']:.3g} m, {c['aperture']}",
+            f"{c['focus_distance'] * compat.metres_per_unit(scene):.3g} m, {c['aperture']}",
             icon="CAMERA_DATA",
         )

@@ -5,6 +5,7 @@ import shutil
 
 import bpy
 
+from . import compat
 from .errors import LensblurError
 
 IMAGE_NAME = "lensblur_result"
@@ -57,8 +58,7 @@ def replace_datablock(image):
 
 def wire_image_node(scene, image, name=NODE_NAME):
     """An Image node named `name` in the compositor showing `image`."""
-    scene.use_nodes = True
-    tree = scene.node_tree
+    tree = compat.compositor_tree(scene)
     node = tree.nodes.get(name)
     if node is None or node.bl_idname != "CompositorNodeImage":
         node = tree.nodes.new("CompositorNodeImage")

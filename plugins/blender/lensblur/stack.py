@@ -3,6 +3,7 @@ import fnmatch
 import json
 import subprocess
 
+from . import compat
 from .errors import LensblurError
 from .job import tool_message
 
@@ -64,19 +65,11 @@ def export_render_result(scene, path):
     image = bpy.data.images.get("Render Result")
     if image is None:
         raise LensblurError("there is no Render Result: render first (F12)")
-    settings = scene.render.image_settings
-    saved = (settings.file_format, settings.color_depth, settings.exr_codec)
     try:
-        settings.file_format = "OPEN_EXR_MULTILAYER"
-        settings.color_depth = "32"
-        settings.exr_codec = "ZIP"
-        image.save_render(filepath=path, scene=scene)
+        with compat.multilayer_exr(scene.render.image_settings):
+            image.save_render(filepath=path, scene=scene)
     except RuntimeError as e:
         raise LensblurError(f"cannot save the Render Result (render first, F12): {e}") from e
-    finally:
-        settings.file_format = saved[0]
-        settings.color_depth = saved[1]
-        settings.exr_codec = saved[2]
 
 
 def file_layers(binary, path):

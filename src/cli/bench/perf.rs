@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use lensblur::bench::apertures::{compare_apertures, ApertureTiming};
-use lensblur::bench::blender::{case_name, compare_with_blender, BlenderComparison};
+use lensblur::bench::blender::{case_name, compare_with_blender, BlenderComparison, FRAME_SIDE};
 use lensblur::bench::end_to_end::{run_end_to_end, EndToEndResult};
 use lensblur::bench::large::Focus;
 use lensblur::bench::perf::{load_average, perf_cases, run_perf_case, PerfRenderers, PerfResult};
@@ -31,8 +31,9 @@ pub struct Args {
 #[derive(clap::Args, Clone)]
 pub struct PerfFlags {
     /// Case groups to run: kernel (optimised vs baseline forward kernel), backward (forward vs
-    /// forward+backward), end-to-end (whole `lensblur render` processes), blender (Blender's
-    /// Defocus node vs `lensblur render`, needs `blender` on PATH), apertures (`lensblur render`
+    /// forward+backward), end-to-end (whole `lensblur render` processes), blender (Blender 3.4's
+    /// and 5.0's Defocus nodes vs `lensblur render`, needs `blender` on PATH and the bpy 5.0
+    /// virtualenv of .ci/setup), apertures (`lensblur render`
     /// of the Blender frame with every aperture kind against the disk; with blender also
     /// Blender's Defocus with the same shape where it has one).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "kernel,backward,end-to-end")]
@@ -52,6 +53,10 @@ pub struct PerfFlags {
     /// whichever folder the command runs in.
     #[arg(long, value_name = "DIR", default_value_os_t = lensblur::cache_dir::cache_subdir("perf"))]
     pub out: PathBuf,
+    /// Side of the blender group's square frame (its largest CoC scales with it: 40 px at
+    /// 1024); smaller for a quick look, Blender 5.0's CPU Defocus takes minutes at 1024.
+    #[arg(long, value_name = "PX", default_value_t = FRAME_SIDE)]
+    pub blender_side: usize,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -88,8 +93,8 @@ pub fn run_suite(quick: bool, json: Option<&Path>, flags: &PerfFlags) -> anyhow:
         report["end_to_end"] = serde_json::to_value(end_to_end_group(&flags.out, flags.repeats)?)?;
     }
     if group(PerfGroup::Blender) {
-        let focuses: Vec<Focus> = [Focus::MostlyInFocus, Focus::FullyDefocused].into_iter().filter(|&f| wanted(&case_name(f))).collect();
-        report["blender"] = serde_json::to_value(blender_group(&focuses, &flags.out, flags.repeats)?)?;
+        let focuses: Vec<Focus> = [Focus::MostlyInFocus, Focus::FullyDefocused].into_iter().filter(|&f| wanted(&case_name(f, flags.blender_side))).collect();
+        report["blender"] = serde_json::to_value(blender_group(&focuses, &flags.out, flags.blender_side, flags.repeats)?)?;
     }
     if group(PerfGroup::Apertures) {
         report["apertures"] = serde_json::to_value(apertures_group(&flags.out, flags.repeats, group(PerfGroup::Blender), &wanted)?)?;
@@ -157,31 +162,38 @@ fn end_to_end_group(out: &Path, repeats: usize) -> anyhow::Result<Vec<EndToEndRe
     Ok(results)
 }
 
-fn blender_group(focuses: &[Focus], out: &Path, repeats: usize) -> anyhow::Result<Vec<BlenderComparison>> {
+fn blender_group(focuses: &[Focus], out: &Path, side: usize, repeats: usize) -> anyhow::Result<Vec<BlenderComparison>> {
     let exe = std::env::current_exe().context("finding the lensblur executable")?;
     let mut results = Vec::new();
     for &focus in focuses {
-        let r = compare_with_blender(&exe, out, focus, repeats).with_context(|| format!("case {}", case_name(focus)))?;
+        let name = case_name(focus, side);
+        let r = compare_with_blender(&exe, out, focus, side, repeats).with_context(|| format!("case {name}"))?;
         println!(
-            "{}: lensblur render (process) median {:.3} s; Blender {} Defocus compositing median {:.3} s \
-             (process {:.1} s); ratio {:.3} (goal <= 0.5)\n  f-stop {:.3}, lens {} mm, sensor {} mm, focus {} m \
-             (Blender: Z x {:.1}, focus {:.2}, blur_max {}); images: {} {}",
+            "{}: lensblur render (process) median {:.3} s; f-stop {:.3}, lens {} mm, sensor {} mm, focus {} m; {}",
             r.name,
             r.lensblur_median_seconds,
-            r.blender_version,
-            r.blender_median_seconds,
-            r.blender_process_seconds,
-            r.ratio,
             r.camera.fstop,
             r.camera.focal_length_mm,
             r.camera.sensor_width_mm,
             r.camera.focus_distance,
-            r.blender.z_scale,
-            r.blender.focus_distance,
-            r.blender.blur_max,
-            r.lensblur_png.display(),
-            r.blender_png.display()
+            r.lensblur_png.display()
         );
+        for b in &r.blenders {
+            println!(
+                "  Blender {} Defocus ({:?}) compositing median {:.3} s (process {:.1} s); ratio {:.3} (goal <= 0.5); \
+                 f-stop {:.3}, Z x {:.1}, focus {:.3}, blur_max {}; {}",
+                b.version,
+                b.blender.node,
+                b.median_seconds,
+                b.process_seconds,
+                b.ratio,
+                b.blender.f_stop,
+                b.blender.z_scale,
+                b.blender.focus_distance,
+                b.blender.blur_max,
+                b.png.display()
+            );
+        }
         results.push(r);
     }
     Ok(results)

@@ -54,7 +54,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         truths.extend(rendered);
     }
     let progress = bar("{msg}", "renders")?;
-    let table = run_single_image(&truths, &methods, &progress)?;
+    let table = run_single_image(&truths, &methods, &progress, true)?;
     println!("{table}");
     truth.write_outputs(&truths, &table.report)?;
     drop(methods);
