@@ -242,7 +242,7 @@ impl ComparisonInputs {
     }
 }
 
-/// The comparison frame's side (the 1024^2; `bench --perf --blender-side` for a quick
+/// The comparison frame's side (the 1024^2; `bench perf --blender-side` for a quick
 /// look: Blender 5.0's CPU Defocus takes minutes on 1024^2), layers and largest CoC, which
 /// scales with the side (40 px at 1024).
 pub const FRAME_SIDE: usize = 1024;
