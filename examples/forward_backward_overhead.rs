@@ -7,7 +7,8 @@
 //! cargo run --release --example forward_backward_overhead -- STACK.exr [REPEATS]
 //! ```
 //!
-//! Prints one JSON line: median milliseconds of the forward, the backward and both.
+//! Prints one JSON line: median milliseconds of the forward, the backward and both, and
+//! every repeat's (`samples`).
 use std::path::Path;
 use std::time::Instant;
 
@@ -101,11 +102,10 @@ fn run(path: &Path, repeats: usize) -> Result<(), Box<dyn std::error::Error>> {
     }
     drop((renderer, differentiable));
     ctx.finish()?;
-    println!(
-        "{{\"forward_ms\": {:.3}, \"backward_ms\": {:.3}, \"total_ms\": {:.3}, \"repeats\": {repeats}}}",
-        median(forward),
-        median(backward),
-        median(total)
-    );
+    let report = serde_json::json!({
+        "forward_ms": median(forward.clone()), "backward_ms": median(backward.clone()), "total_ms": median(total.clone()),
+        "repeats": repeats, "samples": { "forward_ms": forward, "backward_ms": backward, "total_ms": total },
+    });
+    println!("{report}");
     Ok(())
 }

@@ -1,8 +1,9 @@
 """Per-call overhead of the Python package: a 256^2 two-layer forward + backward (Dr.Bokeh,
-exact gradient) from Python against the same calls from Rust, both with the device kept open,
-medians over repeats in one run. The Rust example writes the stack it times; Python reads it.
+exact gradient) from Python against the same calls from Rust, both with the device kept open.
+Blocks of repeats alternate between the two (the Rust example in its own process, Python in
+this one), so both see the same machine load; reported: medians over all repeats.
 
-    python examples/python/overhead.py [REPEATS]
+    python examples/python/overhead.py [BLOCKS [REPEATS]]   (default 4 blocks of 8)
 """
 import json
 import pathlib
@@ -17,17 +18,18 @@ import numpy as np
 import lensblur
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
+KEYS = ("forward_ms", "backward_ms", "total_ms")
 
 
-def main(repeats):
-    with tempfile.TemporaryDirectory() as folder:
-        stack_path = pathlib.Path(folder) / "stack.exr"
-        command = ["cargo", "run", "-q", "--release", "--example", "forward_backward_overhead", "--", str(stack_path), str(repeats)]
-        rust = json.loads(subprocess.run(command, cwd=REPO, check=True, capture_output=True, text=True).stdout)
-        stack = lensblur.read_stack(stack_path)
+def rust_block(stack_path, repeats):
+    """The Rust example's per-call times (it writes the stack it times to stack_path)."""
+    command = ["cargo", "run", "-q", "--release", "--example", "forward_backward_overhead", "--", str(stack_path), str(repeats)]
+    return json.loads(subprocess.run(command, cwd=REPO, check=True, capture_output=True, text=True).stdout)
+
+
+def python_block(renderer, stack, repeats):
     layers, depth, camera = stack["layers"], stack["depth"], stack["camera"]
-    renderer = lensblur.Renderer()
-    forward, backward, total = [], [], []
+    times = {key: [] for key in KEYS}
     # One untimed round first, as on the Rust side.
     for round in range(repeats + 1):
         start = time.perf_counter()
@@ -39,15 +41,28 @@ def main(repeats):
         differentiated = (time.perf_counter() - start) * 1e3
         assert grads["layers"].shape == (2, 256, 256, 4)
         if round > 0:
-            forward.append(rendered)
-            backward.append(differentiated)
-            total.append(rendered + differentiated)
-    python = {name: statistics.median(v) for name, v in (("forward_ms", forward), ("backward_ms", backward), ("total_ms", total))}
-    print(f"device: {renderer.device}; medians of {repeats}")
-    for name in ("forward_ms", "backward_ms", "total_ms"):
-        print(f"{name:12} python {python[name]:8.2f}  rust {rust[name]:8.2f}  ratio {python[name] / rust[name]:.3f}")
-    return python, rust
+            for key, value in zip(KEYS, (rendered, differentiated, rendered + differentiated)):
+                times[key].append(value)
+    return times
+
+
+def main(blocks, repeats):
+    renderer = lensblur.Renderer()
+    python = {key: [] for key in KEYS}
+    rust = {key: [] for key in KEYS}
+    with tempfile.TemporaryDirectory() as folder:
+        stack_path = pathlib.Path(folder) / "stack.exr"
+        for _ in range(blocks):
+            for key, values in rust_block(stack_path, repeats)["samples"].items():
+                rust[key].extend(values)
+            stack = lensblur.read_stack(stack_path)
+            for key, values in python_block(renderer, stack, repeats).items():
+                python[key].extend(values)
+    print(f"device: {renderer.device}; medians of {blocks} x {repeats} calls each, alternating")
+    for key in KEYS:
+        p, r = statistics.median(python[key]), statistics.median(rust[key])
+        print(f"{key:12} python {p:8.2f}  rust {r:8.2f}  ratio {p / r:.3f}")
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 15)
+    main(*(int(a) for a in sys.argv[1:3]) if len(sys.argv) > 1 else (4, 8))
