@@ -7,13 +7,16 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::SystemTime;
 
-const REPO: &str = env!("CARGO_MANIFEST_DIR");
-const FIX: &str = "run `bash .ci/setup` (it builds the package into .venv-python with maturin, \
-                   and installs numpy, pytest and torch there if missing)";
+use lensblur::cache_dir::cache_subdir;
 
-/// The virtual environment `.ci/setup` makes: LENSBLUR_PYTHON_VENV, else .venv-python.
+const REPO: &str = env!("CARGO_MANIFEST_DIR");
+const FIX: &str = "run `bash .ci/setup` (it builds this checkout's package into the environment \
+                   with maturin, and installs numpy, pytest and torch there if missing)";
+
+/// The virtual environment `.ci/setup` makes: LENSBLUR_PYTHON_VENV, else the user cache's
+/// lensblur/pyenv, shared by the checkouts on the machine.
 fn venv() -> PathBuf {
-    std::env::var_os("LENSBLUR_PYTHON_VENV").map(PathBuf::from).unwrap_or_else(|| Path::new(REPO).join(".venv-python"))
+    std::env::var_os("LENSBLUR_PYTHON_VENV").map(PathBuf::from).unwrap_or_else(|| cache_subdir("pyenv"))
 }
 
 /// The newest modification time of the files under `path` (a file or a folder).
@@ -47,6 +50,17 @@ fn the_python_packages_tests_pass() {
     let missing = String::from_utf8_lossy(&missing.stdout).trim().to_string();
     assert!(missing.is_empty(), "{} lacks {missing}: {FIX}", venv().display());
     let built = extension().unwrap_or_else(|| panic!("no built extension in python/lensblur: {FIX}"));
+    // The environment is shared: the package it imports must be this checkout's.
+    let imported =
+        Command::new(&python).args(["-c", "import lensblur._lensblur as m; print(m.__file__)"]).output().unwrap();
+    let imported = PathBuf::from(String::from_utf8_lossy(&imported.stdout).trim());
+    assert!(
+        imported.canonicalize().ok() == built.canonicalize().ok(),
+        "{} imports lensblur from {} rather than {}: {FIX}",
+        venv().display(),
+        imported.display(),
+        built.display()
+    );
     let built_at = std::fs::metadata(&built).unwrap().modified().unwrap();
     let sources = ["src", "glsl", "build.rs", "Cargo.toml", "python/src", "python/Cargo.toml"];
     for source in sources {
