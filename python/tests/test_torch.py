@@ -45,3 +45,15 @@ def test_depth_from_defocus_reduces_the_loss_and_the_depth_error():
     print(f"loss {loss0:.5f} -> {loss1:.5f}, depth error {error0:.4f} -> {error1:.4f} 1/m")
     assert loss1 < 0.8 * loss0, (loss0, loss1)
     assert error1 < 0.8 * error0, (error0, error1)
+
+
+def test_the_normalised_cameras_parameters_get_gradients():
+    layers, depth = two_layer_stack(12, 12, seed=2)
+    k, focus = torch.tensor(6.0, requires_grad=True), torch.tensor(0.4, requires_grad=True)
+    image = lbt.render(torch.from_numpy(layers), torch.from_numpy(depth), {"k_px": k, "focus_disparity": focus}, depth_kind="inverse-z")
+    image[..., :3].sum().backward()
+    camera = lensblur.Camera.normalised(6.0, 0.4)
+    expected = lensblur.render_backward(layers, depth, camera, np.ones((12, 12, 3), np.float32), depth_kind="inverse-z")
+    assert k.grad.item() == pytest.approx(expected["camera"]["k_px"], rel=1e-6)
+    assert focus.grad.item() == pytest.approx(expected["camera"]["focus_disparity"], rel=1e-6)
+    assert k.grad.item() != 0
