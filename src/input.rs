@@ -203,14 +203,7 @@ pub fn load(
     }
     let start = Instant::now();
     let single = info.as_ref().map_or(true, |i| i.single_image) && stack.layers.len() == 1;
-    let (stack, auto_layered) = if single && wants == InputKind::Layers {
-        let flat = &stack.layers[0];
-        let layered = split_into_layers(&flat.rgba, &flat.disparity, &camera.lens.coc, &options.auto_layer);
-        let count = layered.layers.len();
-        (layered, Some(count))
-    } else {
-        (stack, None)
-    };
+    let (stack, auto_layered) = layers_for(stack, single, &camera.lens.coc, wants, &options.auto_layer);
     Ok(LoadedInput { stack, info, depth_kind, camera, auto_layered, warnings, read_time, layering_time: start.elapsed(), deep_samples: None })
 }
 
@@ -243,13 +236,8 @@ fn load_deep(path: &Path, options: &InputOptions, camera: &CameraRequest, camera
     let mut auto_layered = None;
     if wants != InputKind::Layers || options.deep_flatten {
         let (rgba, disparity) = stack.flatten();
-        stack = if wants == InputKind::Layers {
-            let layered = split_into_layers(&rgba, &disparity, &camera.lens.coc, &options.auto_layer);
-            auto_layered = Some(layered.layers.len());
-            layered
-        } else {
-            LayerStack::new(image.width, image.height, vec![Layer { name: "flattened".into(), rgba, disparity }])?
-        };
+        let flat = LayerStack::new(image.width, image.height, vec![Layer { name: "flattened".into(), rgba, disparity }])?;
+        (stack, auto_layered) = layers_for(flat, true, &camera.lens.coc, wants, &options.auto_layer);
     }
     Ok(LoadedInput {
         stack,
@@ -264,7 +252,28 @@ fn load_deep(path: &Path, options: &InputOptions, camera: &CameraRequest, camera
     })
 }
 
-fn read(path: &Path, options: &InputOptions) -> Result<(LayerStack, Option<StackInfo>, DepthKind, Vec<String>)> {
+/// The stack a method taking `wants` renders: `stack` itself, or, when it is one flat image
+/// (`single`) and the method takes layers, that image split into layers spaced by CoC under
+/// `coc` (how many: the second value).
+pub fn layers_for(
+    stack: LayerStack,
+    single: bool,
+    coc: &CocModel,
+    wants: InputKind,
+    options: &AutoLayerOptions,
+) -> (LayerStack, Option<usize>) {
+    if !(single && wants == InputKind::Layers && stack.layers.len() == 1) {
+        return (stack, None);
+    }
+    let flat = &stack.layers[0];
+    let layered = split_into_layers(&flat.rgba, &flat.disparity, coc, options);
+    let count = layered.layers.len();
+    (layered, Some(count))
+}
+
+/// Reads `path` as [`load`] does, without resolving a camera or splitting layers: the stack
+/// (disparity), the EXR's header facts, the depth convention used, and the file's warnings.
+pub fn read(path: &Path, options: &InputOptions) -> Result<(LayerStack, Option<StackInfo>, DepthKind, Vec<String>)> {
     if is_ldr_path(path) {
         let Some(depth_path) = &options.depth_image else {
             return Err(Error::InputMismatch { path: path.into(), mismatch: InputMismatch::MissingDepthImage });
@@ -304,7 +313,7 @@ impl LoadedInput {
             return Err(Error::Unsupported("gradients map onto the channels of an EXR stack; this input is a PNG/JPEG".into()));
         };
         if self.auto_layered.is_some() {
-            return Err(Error::Unsupported("gradients of an auto-layered image do not map onto its channels".into()));
+            return Err(Error::unsupported(crate::stack::arrays::AUTO_LAYERED_GRADIENTS));
         }
         let mut channels = FileChannels::zeroed(info);
         for (layer, grad) in self.stack.layers.iter().zip(&grads.layers) {

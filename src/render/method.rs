@@ -209,13 +209,25 @@ impl Method {
         options: &RenderOptions,
         settings: &MethodSettings,
     ) -> Result<Image> {
+        self.render_prepared(self.prepare(ctx)?.as_ref(), stack, lens, options, settings)
+    }
+
+    /// [`Self::render_with`] on a renderer this method's [`Self::prepare`] made once, for a
+    /// caller rendering many frames on one device (the Python package's `Renderer`).
+    pub fn render_prepared(
+        self,
+        renderer: &dyn Renderer,
+        stack: &LayerStack,
+        lens: &Lens,
+        options: &RenderOptions,
+        settings: &MethodSettings,
+    ) -> Result<Image> {
         // Every method sizes windows or kernels from the largest CoC: refuse one no render can
         // finish (or whose integer window arithmetic would overflow) before any work.
         let (lo, hi) = stack.disparity_range();
         if lo <= hi {
             lens.coc.check_renderable(lo, hi)?;
         }
-        let renderer = self.prepare(ctx)?;
         match self.input() {
             InputKind::Layers => renderer.render(MethodInput::Layers(stack), lens, options, settings),
             InputKind::SingleImage => {

@@ -20,7 +20,7 @@ use crate::{Error, Result};
 pub(super) type ExrImage = exr::image::Image<exr::image::Layers<AnyChannels<FlatSamples>>>;
 /// Disparity per pixel, the stored depth range over covered pixels, and the fill weight of
 /// every stored sample (see [`known_depth_weight`]).
-type DepthResult = (Vec<f32>, Option<(f32, f32)>, Vec<f32>);
+pub(crate) type DepthResult = (Vec<f32>, Option<(f32, f32)>, Vec<f32>);
 pub(super) type ExrPart = exr::image::Layer<AnyChannels<FlatSamples>>;
 
 /// The default pixel budget per window: 2^28 pixels (16384 x 16384), 4 GiB as RGBA f32.
@@ -440,7 +440,7 @@ fn take_channel(path: &Path, part: &mut ExrPart, name: &str, display: Window, ou
 
 /// Refuses NaN/Inf samples in colour or alpha (they would poison every blurred neighbour),
 /// or with `replace` sets them to 0 and returns a warning saying how many.
-fn check_finite(path: &Path, layer: &str, channel: &str, values: &mut [f32], replace: bool) -> Result<Option<String>> {
+pub(crate) fn check_finite(path: &Path, layer: &str, channel: &str, values: &mut [f32], replace: bool) -> Result<Option<String>> {
     let bad = values.iter().filter(|v| !v.is_finite()).count();
     if bad == 0 {
         return Ok(None);
@@ -556,7 +556,7 @@ pub fn known_depth_weight(alpha: f32, disparity: f32) -> f32 {
 
 /// Converts stored depth to disparity where the layer has coverage, then fills the
 /// (undefined) depth of transparent pixels from nearby covered ones, weighted by alpha.
-fn depth_to_disparity(
+pub(crate) fn depth_to_disparity(
     path: &Path,
     (layer, channel): (&str, &str),
     size: (usize, usize),

@@ -4,6 +4,7 @@
 //! premultiplied, depth converted to *disparity* (inverse depth; 0 = infinitely far, or the
 //! file's normalised disparity). The file's own depth convention is remembered in
 //! [`DepthKind`] so outputs and gradients can be written back in it.
+pub mod arrays;
 pub mod autolayer;
 pub mod deep;
 pub mod exr_header_order;
@@ -18,6 +19,7 @@ pub mod ldr;
 pub mod naming;
 pub mod output_format;
 
+pub use arrays::{grad_output_from_array, stack_from_arrays, stack_to_arrays, ArrayStack};
 pub use autolayer::{split_into_layers, AutoLayerOptions};
 pub use exr_read::{known_depth_weight, read_parts, read_rgba, read_stack, ReadOptions, DEFAULT_MAX_PIXELS};
 pub use exr_replace::{replace_channels, ChannelReplacement, HeaderEdits};
