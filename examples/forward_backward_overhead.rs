@@ -15,7 +15,7 @@ use std::time::Instant;
 use lensblur::camera::{Aperture, CocModel, PhysicalCamera};
 use lensblur::image::Image;
 use lensblur::render::grad::Slope;
-use lensblur::render::tiling::RenderOptions;
+use lensblur::render::tiler::RenderOptions;
 use lensblur::render::{Lens, Method, MethodSettings};
 use lensblur::stack::{write_stack, DepthKind, Layer, LayerStack, StackWriteOptions};
 use lensblur::vk::Context;

@@ -9,7 +9,7 @@ use lensblur::camera::{Aperture, CameraHints, CocModel, PhysicalCamera};
 use lensblur::image::Image;
 use lensblur::input::{layers_for, read, CameraRequest, InputOptions, ResolvedCamera};
 use lensblur::render::grad::{CameraGradients, Differentiable, Slope};
-use lensblur::render::tiling::RenderOptions;
+use lensblur::render::tiler::RenderOptions;
 use lensblur::render::{Lens, Method, MethodSettings};
 use lensblur::stack::arrays::AUTO_LAYERED_GRADIENTS;
 use lensblur::stack::{
