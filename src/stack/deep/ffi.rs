@@ -21,11 +21,12 @@ type Context = *mut c_void;
 const STORAGE_DEEP_SCANLINE: c_int = 2;
 const STORAGE_DEEP_TILED: c_int = 3;
 const ATTR_LIST_FILE_ORDER: c_int = 0;
-/// `exr_attribute_type_t` values we print into the attribute map.
+/// `exr_attribute_type_t` values we print into the attribute map (openexr_attr.h: UNKNOWN is
+/// 0, then BOX2I, BOX2F, CHLIST, CHROMATICITIES, COMPRESSION, DOUBLE = 6, ..., STRING = 19).
 const ATTR_FLOAT: c_int = 8;
 const ATTR_DOUBLE: c_int = 6;
 const ATTR_INT: c_int = 10;
-const ATTR_STRING: c_int = 18;
+const ATTR_STRING: c_int = 19;
 
 #[repr(C)]
 struct ContextInitializer {
