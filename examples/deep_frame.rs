@@ -32,14 +32,27 @@ fn main() -> lensblur::Result<()> {
         let a = if ((x + y / 3) / 48) % 2 == 0 { 1.0 } else { 0.0 };
         [0.1 * a, 0.3 * a, 0.9 * a, a]
     });
-    let layer = |name: &str, rgba: Image, z: f32| Layer { name: name.into(), rgba, disparity: vec![1.0 / z; width * height] };
-    let stack = LayerStack::new(width, height, vec![layer("stripes", stripes, 1.5), layer("discs", discs, 4.0), layer("wall", wall, 12.0)])?;
+    let layer =
+        |name: &str, rgba: Image, z: f32| Layer { name: name.into(), rgba, disparity: vec![1.0 / z; width * height] };
+    let stack = LayerStack::new(
+        width,
+        height,
+        vec![layer("stripes", stripes, 1.5), layer("discs", discs, 4.0), layer("wall", wall, 12.0)],
+    )?;
     let layers_path = stem.with_extension("layers.exr");
     write_stack(&layers_path, &stack, &StackWriteOptions::default())?;
     let deep = DeepImage::from_stack(&stack);
     let deep_path = stem.with_extension("deep.exr");
-    write_deep(&deep_path, &[(None, &deep)], &DeepWriteOptions { half_colour: true, zip: true, ..DeepWriteOptions::default() })?;
+    write_deep(
+        &deep_path,
+        &[(None, &deep)],
+        &DeepWriteOptions { half_colour: true, zip: true, ..DeepWriteOptions::default() },
+    )?;
     let per_pixel = deep.samples.len() as f64 / (width * height) as f64;
-    println!("{} and {}: {width}x{height}, {per_pixel:.2} deep samples per pixel", layers_path.display(), deep_path.display());
+    println!(
+        "{} and {}: {width}x{height}, {per_pixel:.2} deep samples per pixel",
+        layers_path.display(),
+        deep_path.display()
+    );
     Ok(())
 }

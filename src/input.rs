@@ -368,6 +368,22 @@ mod tests {
     }
 
     #[test]
+    fn the_scene_unit_scales_the_blur_and_the_callers_unit_wins_over_the_headers() {
+        let request = CameraRequest { physical: hints(Some(50.0), Some(2.0), Some(300.0)), ..CameraRequest::default() };
+        let none = CameraHints::default();
+        let metres = request.resolve(1000, &none, &none).unwrap();
+        assert_eq!((metres.scene_unit.name.as_str(), metres.scene_unit_from_header), ("m", false));
+        let from_header = request.resolve_in(1000, &none, &none, Some("cm".parse().unwrap())).unwrap();
+        assert!(from_header.scene_unit_from_header);
+        // Depth in centimetres: the same lens blurs 100 times more per unit of 1/depth.
+        let ratio = from_header.lens.coc.k_px / metres.lens.coc.k_px;
+        assert!((ratio - 100.0).abs() < 1e-3, "{ratio}");
+        let given = CameraRequest { scene_unit: Some("mm".parse().unwrap()), ..request };
+        let camera = given.resolve_in(1000, &none, &none, Some("cm".parse().unwrap())).unwrap();
+        assert_eq!((camera.scene_unit.name.as_str(), camera.scene_unit_from_header), ("mm", false));
+    }
+
+    #[test]
     fn the_normalised_model_takes_nothing_from_the_header() {
         let coc = CocModel::new(12.0, 0.25).unwrap();
         let request = CameraRequest { normalised: Some(coc), ..CameraRequest::default() };

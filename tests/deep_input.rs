@@ -207,3 +207,26 @@ fn info_describes_deep_files() {
         assert!(stdout.contains(needle), "'{needle}' missing:\n{stdout}");
     }
 }
+
+/// The render summary names the scene unit: the flag's, else the header's attribute.
+#[test]
+fn the_render_summary_names_the_scene_unit_from_the_flag_or_the_header() {
+    let dir = common::temp_dir("deep_input", "units");
+    let mut image = small();
+    image.attributes.insert(lensblur::camera::SCENE_UNIT_ATTRIBUTE.into(), "cm".into());
+    let path = dir.join("cm.exr");
+    write_deep(&path, &[(None, &image)], &DeepWriteOptions::default()).unwrap();
+    let output = dir.join("out.exr");
+    let render = |extra: &[&str]| {
+        let mut args = vec!["render", path.to_str().unwrap(), "-o", output.to_str().unwrap()];
+        args.extend_from_slice(&["--focal-length", "50", "--fstop", "2", "--focus-distance", "300"]);
+        args.extend_from_slice(extra);
+        let run = common::lensblur(&args, &[]);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        String::from_utf8_lossy(&run.stdout).into_owned()
+    };
+    let stdout = render(&[]);
+    assert!(stdout.contains("scene unit cm (from the header)") && stdout.contains("from 16 deep samples"), "{stdout}");
+    let stdout = render(&["--scene-unit", "in"]);
+    assert!(stdout.contains("scene unit in") && !stdout.contains("from the header"), "{stdout}");
+}

@@ -22,7 +22,8 @@ impl Default for SceneUnit {
     }
 }
 
-const NAMED: [(&str, f64); 6] = [("m", 1.0), ("cm", 0.01), ("mm", 0.001), ("km", 1000.0), ("in", 0.0254), ("ft", 0.3048)];
+const NAMED: [(&str, f64); 6] =
+    [("m", 1.0), ("cm", 0.01), ("mm", 0.001), ("km", 1000.0), ("in", 0.0254), ("ft", 0.3048)];
 
 impl std::str::FromStr for SceneUnit {
     type Err = Error;
@@ -44,7 +45,9 @@ impl std::str::FromStr for SceneUnit {
             Ok(metres) if metres.is_finite() && metres > 0.0 => Ok(Self { metres, name: format!("{metres} m") }),
             _ => Err(Error::invalid(
                 "scene unit",
-                format!("unknown scene unit '{text}': give m, cm, mm, km, in, ft or metres per unit (a positive number)"),
+                format!(
+                    "unknown scene unit '{text}': give m, cm, mm, km, in, ft or metres per unit (a positive number)"
+                ),
             )),
         }
     }

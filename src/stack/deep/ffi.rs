@@ -21,11 +21,12 @@ type Context = *mut c_void;
 const STORAGE_DEEP_SCANLINE: c_int = 2;
 const STORAGE_DEEP_TILED: c_int = 3;
 const ATTR_LIST_FILE_ORDER: c_int = 0;
-/// `exr_attribute_type_t` values we print into the attribute map.
+/// `exr_attribute_type_t` values we print into the attribute map (openexr_attr.h: UNKNOWN is
+/// 0, then BOX2I, BOX2F, CHLIST, CHROMATICITIES, COMPRESSION, DOUBLE = 6, ..., STRING = 19).
 const ATTR_FLOAT: c_int = 8;
 const ATTR_DOUBLE: c_int = 6;
 const ATTR_INT: c_int = 10;
-const ATTR_STRING: c_int = 18;
+const ATTR_STRING: c_int = 19;
 
 #[repr(C)]
 struct ContextInitializer {
@@ -180,10 +181,29 @@ extern "C" {
     fn exr_get_scanlines_per_chunk(ctxt: Context, part: c_int, out: *mut i32) -> ExrResult;
     fn exr_get_tile_sizes(ctxt: Context, part: c_int, lx: c_int, ly: c_int, w: *mut i32, h: *mut i32) -> ExrResult;
     fn exr_get_attribute_count(ctxt: Context, part: c_int, count: *mut i32) -> ExrResult;
-    fn exr_get_attribute_by_index(ctxt: Context, part: c_int, mode: c_int, idx: i32, out: *mut *const Attribute) -> ExrResult;
+    fn exr_get_attribute_by_index(
+        ctxt: Context,
+        part: c_int,
+        mode: c_int,
+        idx: i32,
+        out: *mut *const Attribute,
+    ) -> ExrResult;
     fn exr_read_scanline_chunk_info(ctxt: Context, part: c_int, y: c_int, info: *mut ChunkInfo) -> ExrResult;
-    fn exr_read_tile_chunk_info(ctxt: Context, part: c_int, tx: c_int, ty: c_int, lx: c_int, ly: c_int, info: *mut ChunkInfo) -> ExrResult;
-    fn exr_decoding_initialize(ctxt: Context, part: c_int, info: *const ChunkInfo, decode: *mut DecodePipeline) -> ExrResult;
+    fn exr_read_tile_chunk_info(
+        ctxt: Context,
+        part: c_int,
+        tx: c_int,
+        ty: c_int,
+        lx: c_int,
+        ly: c_int,
+        info: *mut ChunkInfo,
+    ) -> ExrResult;
+    fn exr_decoding_initialize(
+        ctxt: Context,
+        part: c_int,
+        info: *const ChunkInfo,
+        decode: *mut DecodePipeline,
+    ) -> ExrResult;
     fn exr_decoding_choose_default_routines(ctxt: Context, part: c_int, decode: *mut DecodePipeline) -> ExrResult;
     fn exr_decoding_run(ctxt: Context, part: c_int, decode: *mut DecodePipeline) -> ExrResult;
     fn exr_decoding_destroy(ctxt: Context, decode: *mut DecodePipeline) -> ExrResult;
@@ -286,7 +306,8 @@ impl Drop for DeepFile {
 impl DeepFile {
     pub fn open(path: &Path) -> Result<Self, String> {
         let file_size = std::fs::metadata(path).map_err(|e| e.to_string())?.len();
-        let name = CString::new(path.as_os_str().as_encoded_bytes()).map_err(|_| "the path holds a NUL byte".to_string())?;
+        let name =
+            CString::new(path.as_os_str().as_encoded_bytes()).map_err(|_| "the path holds a NUL byte".to_string())?;
         let init = ContextInitializer {
             size: std::mem::size_of::<ContextInitializer>(),
             error_handler_fn: Some(remember_error),
@@ -370,7 +391,9 @@ impl DeepFile {
             let mut chunk_size = [1, 1];
             match deep_tiled {
                 Some(false) => check(exr_get_scanlines_per_chunk(ctx, p, &mut chunk_size[1]), "lines per chunk")?,
-                Some(true) => check(exr_get_tile_sizes(ctx, p, 0, 0, &mut chunk_size[0], &mut chunk_size[1]), "tile size")?,
+                Some(true) => {
+                    check(exr_get_tile_sizes(ctx, p, 0, 0, &mut chunk_size[0], &mut chunk_size[1]), "tile size")?
+                }
                 None => {}
             }
             Ok(PartHeader {
@@ -426,7 +449,14 @@ impl DeepFile {
     /// `tile_size` is the level-0 tile size of a tiled part: the chunk's pixel position is
     /// computed from it (OpenEXR 3.1 reports a tile's indices where a scanline chunk has its
     /// position).
-    pub fn read_chunk(&self, part: usize, tile_size: Option<[i32; 2]>, at: [i32; 2], data_window: [i32; 4], max_unpacked_bytes: u64) -> Result<RawChunk, String> {
+    pub fn read_chunk(
+        &self,
+        part: usize,
+        tile_size: Option<[i32; 2]>,
+        at: [i32; 2],
+        data_window: [i32; 4],
+        max_unpacked_bytes: u64,
+    ) -> Result<RawChunk, String> {
         let tiled = tile_size.is_some();
         let p = part as c_int;
         let mut info = std::mem::MaybeUninit::<ChunkInfo>::zeroed();
@@ -494,7 +524,11 @@ impl DeepFile {
                 decode.decode_flags = 0;
                 decode.unpack_and_convert_fn = None;
                 decode.realloc_nonimage_data_fn = None;
-                check(exr_decoding_run(ctx, p, decode), &format!("chunk at pixel ({}, {})", info.start_x, info.start_y)).map_err(|e| {
+                check(
+                    exr_decoding_run(ctx, p, decode),
+                    &format!("chunk at pixel ({}, {})", info.start_x, info.start_y),
+                )
+                .map_err(|e| {
                     // The library checks the count table too (it must not decrease along a line,
                     // nor count more than the chunk holds) and says only this.
                     if e.contains("sample table") || e.contains("sample count") {
@@ -511,9 +545,15 @@ impl DeepFile {
                 let data = if info.unpacked_size == 0 || decode.unpacked_buffer.is_null() {
                     Vec::new()
                 } else {
-                    std::slice::from_raw_parts(decode.unpacked_buffer.cast::<u8>(), info.unpacked_size as usize).to_vec()
+                    std::slice::from_raw_parts(decode.unpacked_buffer.cast::<u8>(), info.unpacked_size as usize)
+                        .to_vec()
                 };
-                Ok(RawChunk { start: [info.start_x, info.start_y], size: [info.width, info.height], cumulative_counts: counts, data })
+                Ok(RawChunk {
+                    start: [info.start_x, info.start_y],
+                    size: [info.width, info.height],
+                    cumulative_counts: counts,
+                    data,
+                })
             })();
             exr_decoding_destroy(ctx, decode);
             result

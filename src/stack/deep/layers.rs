@@ -70,7 +70,13 @@ pub fn deep_to_layers(image: &DeepImage, coc: &CocModel, options: &DeepLayerOpti
             let (front, back) = (signed(s.z), signed(s.z_back));
             let (first, last) = (layer_of(front), layer_of(back));
             if first == last || !(s.z_back > s.z) || !s.z_back.is_finite() {
-                add(&mut rgba[first][i], &mut disparity_sum[first][i], &mut covered[first][i], s.rgba, disparity_from_z(s.z));
+                add(
+                    &mut rgba[first][i],
+                    &mut disparity_sum[first][i],
+                    &mut covered[first][i],
+                    s.rgba,
+                    disparity_from_z(s.z),
+                );
                 continue;
             }
             // A volume cut by layer boundaries: one piece per layer it crosses, front first.
@@ -91,11 +97,16 @@ pub fn deep_to_layers(image: &DeepImage, coc: &CocModel, options: &DeepLayerOpti
     }
     let mut layers = Vec::with_capacity(count);
     for (index, ((colour, sums), cover)) in rgba.into_iter().zip(disparity_sum).zip(covered).enumerate() {
-        let mut disparity: Vec<[f32; 1]> = sums.iter().map(|&[sum, weight]| [if weight > 0.0 { sum / weight } else { 0.0 }]).collect();
+        let mut disparity: Vec<[f32; 1]> =
+            sums.iter().map(|&[sum, weight]| [if weight > 0.0 { sum / weight } else { 0.0 }]).collect();
         push_pull(width, height, &mut disparity, &cover);
         let mut layer_image = Image::new(width, height);
         layer_image.pixels = colour;
-        layers.push(Layer { name: format!("deep{index}"), rgba: layer_image, disparity: disparity.into_iter().map(|[d]| d).collect() });
+        layers.push(Layer {
+            name: format!("deep{index}"),
+            rgba: layer_image,
+            disparity: disparity.into_iter().map(|[d]| d).collect(),
+        });
     }
     // Layers no sample reached (a cut that only a volume's piece crossed) carry nothing.
     layers.retain(|l| l.rgba.pixels.iter().any(|p| p[3] > 0.0 || p[0] != 0.0 || p[1] != 0.0 || p[2] != 0.0));
@@ -119,7 +130,12 @@ fn add(rgba: &mut [f32; 4], disparity: &mut [f32; 2], covered: &mut f32, sample:
 }
 
 /// Layer boundaries in signed CoC, descending (nearest first).
-fn cuts<'a>(n: usize, pixel: &dyn Fn(usize) -> &'a [DeepSample], signed: &dyn Fn(f32) -> f32, options: &DeepLayerOptions) -> Vec<f32> {
+fn cuts<'a>(
+    n: usize,
+    pixel: &dyn Fn(usize) -> &'a [DeepSample],
+    signed: &dyn Fn(f32) -> f32,
+    options: &DeepLayerOptions,
+) -> Vec<f32> {
     let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
     for i in 0..n {
         for s in pixel(i) {
@@ -232,7 +248,12 @@ mod tests {
         // The pieces composite back to the deep pixel.
         let (flat, deep_flat) = (stack.flatten().0, deep.flatten());
         for c in 0..4 {
-            assert!((flat.pixels[0][c] - deep_flat.pixels[0][c]).abs() < 1e-4, "{:?} vs {:?}", flat.pixels[0], deep_flat.pixels[0]);
+            assert!(
+                (flat.pixels[0][c] - deep_flat.pixels[0][c]).abs() < 1e-4,
+                "{:?} vs {:?}",
+                flat.pixels[0],
+                deep_flat.pixels[0]
+            );
         }
     }
 }

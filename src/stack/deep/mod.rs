@@ -175,15 +175,27 @@ pub fn is_deep_exr(path: &Path) -> bool {
     use std::io::Read;
     let mut head = [0u8; 8];
     let read = std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut head));
-    read.is_ok() && head[..4] == [0x76, 0x2f, 0x31, 0x01] && u32::from_le_bytes([head[4], head[5], head[6], head[7]]) & 0x800 != 0
+    read.is_ok()
+        && head[..4] == [0x76, 0x2f, 0x31, 0x01]
+        && u32::from_le_bytes([head[4], head[5], head[6], head[7]]) & 0x800 != 0
 }
 
 /// Whether `info` shows a header attribute: the camera and scene-unit ones the renderer reads
 /// (the required ones are shown as part facts already).
 pub fn is_reported_attribute(key: &str) -> bool {
     const REQUIRED: [&str; 12] = [
-        "channels", "compression", "dataWindow", "displayWindow", "lineOrder", "pixelAspectRatio",
-        "screenWindowCenter", "screenWindowWidth", "name", "type", "version", "chunkCount",
+        "channels",
+        "compression",
+        "dataWindow",
+        "displayWindow",
+        "lineOrder",
+        "pixelAspectRatio",
+        "screenWindowCenter",
+        "screenWindowWidth",
+        "name",
+        "type",
+        "version",
+        "chunkCount",
     ];
     !REQUIRED.contains(&key)
 }

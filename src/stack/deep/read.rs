@@ -11,7 +11,8 @@ use crate::{Error, Result};
 
 /// Channel names for colour, alpha, depth and back depth: the standard short names, then the
 /// long ones some tools write.
-const CHANNEL_NAMES: [&[&str]; 6] = [&["R", "red"], &["G", "green"], &["B", "blue"], &["A", "alpha"], &["Z", "depth"], &["ZBack", "zback"]];
+const CHANNEL_NAMES: [&[&str]; 6] =
+    [&["R", "red"], &["G", "green"], &["B", "blue"], &["A", "alpha"], &["Z", "depth"], &["ZBack", "zback"]];
 
 /// Reads the deep parts of `path` that `options.part` chooses into one deep image.
 pub fn read_deep(path: &Path, options: &DeepReadOptions) -> Result<DeepImage> {
@@ -77,7 +78,10 @@ pub fn deep_info(path: &Path, options: &DeepReadOptions) -> Result<DeepFileInfo>
 }
 
 fn compression_name(code: i32) -> &'static str {
-    ["none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"].get(code as usize).copied().unwrap_or("unknown")
+    ["none", "rle", "zips", "zip", "piz", "pxr24", "b44", "b44a", "dwaa", "dwab"]
+        .get(code as usize)
+        .copied()
+        .unwrap_or("unknown")
 }
 
 fn headers(file: &DeepFile, path: &Path) -> Result<Vec<PartHeader>> {
@@ -88,14 +92,22 @@ fn headers(file: &DeepFile, path: &Path) -> Result<Vec<PartHeader>> {
 fn choose_parts(headers: &[PartHeader], choice: &PartChoice, path: &Path) -> Result<Vec<usize>> {
     let deep: Vec<usize> = (0..headers.len()).filter(|&i| headers[i].deep_tiled.is_some()).collect();
     let names = || {
-        headers.iter().enumerate().map(|(i, h)| format!("{i} '{}'", h.name.as_deref().unwrap_or("-"))).collect::<Vec<_>>().join(", ")
+        headers
+            .iter()
+            .enumerate()
+            .map(|(i, h)| format!("{i} '{}'", h.name.as_deref().unwrap_or("-")))
+            .collect::<Vec<_>>()
+            .join(", ")
     };
     match choice {
         _ if deep.is_empty() => Err(Error::input(path, "holds no deep part")),
         PartChoice::First => Ok(vec![deep[0]]),
         PartChoice::All => Ok(deep),
         PartChoice::Named(name) => {
-            let found = headers.iter().position(|h| h.name.as_deref() == Some(name.as_str())).or_else(|| name.parse::<usize>().ok());
+            let found = headers
+                .iter()
+                .position(|h| h.name.as_deref() == Some(name.as_str()))
+                .or_else(|| name.parse::<usize>().ok());
             match found {
                 Some(i) if deep.contains(&i) => Ok(vec![i]),
                 _ => Err(Error::input(path, format!("has no deep part '{name}' (parts: {})", names()))),
@@ -110,23 +122,43 @@ fn channel_slots(header: &PartHeader, path: &Path, part: &str) -> Result<[Option
     for (slot, names) in slots.iter_mut().zip(CHANNEL_NAMES) {
         *slot = header.channels.iter().position(|(n, ..)| names.iter().any(|m| n.eq_ignore_ascii_case(m)));
     }
-    let missing: Vec<&str> = [0, 1, 2, 3, 4].iter().filter(|&&s| slots[s].is_none()).map(|&s| CHANNEL_NAMES[s][0]).collect();
+    let missing: Vec<&str> =
+        [0, 1, 2, 3, 4].iter().filter(|&&s| slots[s].is_none()).map(|&s| CHANNEL_NAMES[s][0]).collect();
     if !missing.is_empty() {
-        return Err(Error::input(path, format!("{part}: no deep channel {} (needs R, G, B, A and Z; ZBack is optional)", missing.join(", "))));
+        return Err(Error::input(
+            path,
+            format!("{part}: no deep channel {} (needs R, G, B, A and Z; ZBack is optional)", missing.join(", ")),
+        ));
     }
     for (name, kind, sampling) in &header.channels {
         if *sampling != [1, 1] {
-            return Err(Error::input(path, format!("{part}: channel {name} is subsampled ({}x{}), which deep data cannot be", sampling[0], sampling[1])));
+            return Err(Error::input(
+                path,
+                format!(
+                    "{part}: channel {name} is subsampled ({}x{}), which deep data cannot be",
+                    sampling[0], sampling[1]
+                ),
+            ));
         }
         if *kind == ChannelType::Uint && slots.iter().flatten().any(|&s| &header.channels[s].0 == name) {
-            return Err(Error::input(path, format!("{part}: channel {name} holds integers; colour, alpha and depth must be half or float")));
+            return Err(Error::input(
+                path,
+                format!("{part}: channel {name} holds integers; colour, alpha and depth must be half or float"),
+            ));
         }
     }
     Ok(slots)
 }
 
 /// Reads one deep part onto its display window; also returns each data-window pixel's count.
-fn read_part(file: &DeepFile, path: &Path, index: usize, header: &PartHeader, max_pixels: u64, max_samples: u64) -> Result<(DeepImage, Vec<u64>)> {
+fn read_part(
+    file: &DeepFile,
+    path: &Path,
+    index: usize,
+    header: &PartHeader,
+    max_pixels: u64,
+    max_samples: u64,
+) -> Result<(DeepImage, Vec<u64>)> {
     let part = match &header.name {
         Some(name) => format!("part {index} '{name}'"),
         None => format!("part {index}"),
@@ -188,7 +220,10 @@ fn read_part(file: &DeepFile, path: &Path, index: usize, header: &PartHeader, ma
                 if c < previous {
                     return Err(Error::input(
                         path,
-                        format!("{}: the sample count table is inconsistent (cumulative count {c} after {previous})", pixel_name(x, y)),
+                        format!(
+                            "{}: the sample count table is inconsistent (cumulative count {c} after {previous})",
+                            pixel_name(x, y)
+                        ),
                     ));
                 }
                 previous = c;
@@ -242,7 +277,8 @@ fn read_part(file: &DeepFile, path: &Path, index: usize, header: &PartHeader, ma
                     let rgba = [get(0), get(1), get(2), get(3)].map(|v| v.unwrap_or(0.0));
                     let z = get(4).unwrap_or(0.0);
                     let z_back = get(5).unwrap_or(z);
-                    check_sample(&rgba, z, z_back).map_err(|why| Error::input(path, format!("{}: {why}", pixel_name(x, y))))?;
+                    check_sample(&rgba, z, z_back)
+                        .map_err(|why| Error::input(path, format!("{}: {why}", pixel_name(x, y))))?;
                     read.push((pixel as u32, DeepSample { rgba, z, z_back: z_back.max(z) }));
                 }
                 previous = end;
@@ -276,7 +312,14 @@ fn read_part(file: &DeepFile, path: &Path, index: usize, header: &PartHeader, ma
             fill[d] += 1;
         }
     }
-    let image = DeepImage { width: dw, height: dh, origin: [dx0, dy0], offsets, samples, attributes: header.attributes.clone() };
+    let image = DeepImage {
+        width: dw,
+        height: dh,
+        origin: [dx0, dy0],
+        offsets,
+        samples,
+        attributes: header.attributes.clone(),
+    };
     Ok((image, counts))
 }
 

@@ -42,7 +42,8 @@ pub fn write_deep(path: &Path, parts: &[(Option<&str>, &DeepImage)], options: &D
         version |= 0x200;
     }
     out.extend_from_slice(&version.to_le_bytes());
-    let chunk_lists: Vec<Vec<(i32, i32, usize, usize, usize, usize)>> = parts.iter().map(|(_, image)| chunks(image, options)).collect();
+    let chunk_lists: Vec<Vec<(i32, i32, usize, usize, usize, usize)>> =
+        parts.iter().map(|(_, image)| chunks(image, options)).collect();
     for ((name, image), chunk_list) in parts.iter().zip(&chunk_lists) {
         header(&mut out, *name, image, &names, &types, options, chunk_list.len());
     }
@@ -124,7 +125,15 @@ fn chunks(image: &DeepImage, options: &DeepWriteOptions) -> Vec<(i32, i32, usize
 }
 
 /// The cumulative per-line sample table and the samples (per line, per channel, per pixel).
-fn chunk_data(image: &DeepImage, x0: usize, y0: usize, w: usize, h: usize, names: &[&str], types: &[i32]) -> (Vec<u8>, Vec<u8>) {
+fn chunk_data(
+    image: &DeepImage,
+    x0: usize,
+    y0: usize,
+    w: usize,
+    h: usize,
+    names: &[&str],
+    types: &[i32],
+) -> (Vec<u8>, Vec<u8>) {
     let (mut table, mut data) = (Vec::new(), Vec::new());
     for y in y0..y0 + h {
         let mut cumulative = 0i32;
@@ -156,7 +165,15 @@ fn chunk_data(image: &DeepImage, x0: usize, y0: usize, w: usize, h: usize, names
 }
 
 #[allow(clippy::too_many_arguments)]
-fn header(out: &mut Vec<u8>, name: Option<&str>, image: &DeepImage, names: &[&str], types: &[i32], options: &DeepWriteOptions, chunk_count: usize) {
+fn header(
+    out: &mut Vec<u8>,
+    name: Option<&str>,
+    image: &DeepImage,
+    names: &[&str],
+    types: &[i32],
+    options: &DeepWriteOptions,
+    chunk_count: usize,
+) {
     let mut attribute = |name: &str, kind: &str, value: &[u8]| {
         out.extend_from_slice(name.as_bytes());
         out.push(0);
@@ -178,7 +195,10 @@ fn header(out: &mut Vec<u8>, name: Option<&str>, image: &DeepImage, names: &[&st
     attribute("channels", "chlist", &channels);
     attribute("compression", "compression", &[if options.zip { 2 } else { 0 }]);
     let [x0, y0] = image.origin;
-    let window: Vec<u8> = [x0, y0, x0 + image.width as i32 - 1, y0 + image.height as i32 - 1].iter().flat_map(|v| v.to_le_bytes()).collect();
+    let window: Vec<u8> = [x0, y0, x0 + image.width as i32 - 1, y0 + image.height as i32 - 1]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
     attribute("dataWindow", "box2i", &window);
     attribute("displayWindow", "box2i", &window);
     attribute("lineOrder", "lineOrder", &[0]);
