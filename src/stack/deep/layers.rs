@@ -188,7 +188,9 @@ fn cuts<'a>(
     let mut cuts: Vec<(f32, f32)> = gaps.collect();
     for (&(start, end), _) in runs.iter().zip(&overlapping).filter(|(_, &o)| o) {
         let width = (end - start) as f32 * bin;
-        let slices = (width / options.coc_spacing_px.max(1e-3)).ceil() as usize;
+        // No more slices than layers can be kept: a forged depth (Z of 1e-40) spans a CoC range
+        // so wide that uncapped slicing would allocate without bound (found by the fuzzer).
+        let slices = ((width / options.coc_spacing_px.max(1e-3)).ceil() as usize).min(options.max_layers.max(1));
         for s in 1..slices {
             cuts.push((lo + start as f32 * bin + width * s as f32 / slices as f32, 0.0));
         }

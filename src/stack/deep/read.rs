@@ -328,6 +328,10 @@ fn check_sample(rgba: &[f32; 4], z: f32, z_back: f32) -> std::result::Result<(),
     if z.is_nan() || z <= 0.0 {
         return Err(format!("Z is {z}; depth must be a positive number (a distance in front of the camera)"));
     }
+    if z.is_finite() && !(1.0 / z).is_finite() {
+        // Disparity (1 / Z) is what the renderers take; a denormal Z overflows it.
+        return Err(format!("Z is {z}, too close to the camera to render (1 / Z overflows)"));
+    }
     if z_back.is_nan() || z_back < z {
         return Err(format!("ZBack {z_back} is in front of Z {z}; a sample ends behind where it starts"));
     }
