@@ -167,7 +167,7 @@ impl Camera {
             fstop: self.fstop,
             focus_distance: self.focus_distance,
         };
-        let request = CameraRequest { physical, normalised, aperture };
+        let request = CameraRequest { physical, normalised, aperture, scene_unit: None };
         request.resolve(width, &CameraHints::default(), &CameraHints::default()).or_py()
     }
 }

@@ -7,7 +7,7 @@
 //!   bytes and a sample budget; Z that is NaN or negative; ZBack before Z.
 //! - [`merge`]: several deep images into one, as Nuke's DeepMerge does (samples side by side).
 //! - [`layers`]: deep pixels to the layer stack the layered renderers take.
-//! - [`write`]: a small writer of uncompressed deep scanline files (tests, benchmark, fuzz seeds).
+//! - [`mod@write`]: a small writer of uncompressed deep scanline files (tests, benchmark, fuzz seeds).
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
