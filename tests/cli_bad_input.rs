@@ -143,16 +143,18 @@ fn patch_box(bytes: &[u8], name: &[u8], x_max: i32, y_max: i32, nth: usize) -> V
     out
 }
 
+/// Deep files render (tests/deep_input.rs); one whose header lacks what OpenEXR requires of a
+/// deep part is refused before any pixel is read, naming the file and the missing attribute.
 #[test]
-fn deep_exr_is_refused_with_a_way_out() {
+fn malformed_deep_exr_is_refused_naming_what_is_missing() {
     let dir = common::temp_dir("bad-input", "deep");
     let deep = dir.join("deep.exr");
     std::fs::write(&deep, deep_scanline_file()).unwrap();
-    refused(&dir, &deep, &[], &["deep.exr", "deep", "flatten"]);
+    refused(&dir, &deep, &[], &["deep.exr", "chunkCount", "deep"]);
 }
 
-/// A hand-made single-part deep scanline file (the exr crate cannot write deep data): its
-/// header, an offset table, no chunks. Refusal must come from the header alone.
+/// A hand-made single-part deep scanline file: its header without the `chunkCount` attribute
+/// OpenEXR 2 requires of deep parts, an offset table, no chunks.
 fn deep_scanline_file() -> Vec<u8> {
     fn attribute(out: &mut Vec<u8>, name: &str, kind: &str, value: &[u8]) {
         for text in [name, kind] {
