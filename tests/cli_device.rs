@@ -273,13 +273,6 @@ fn devices_lists_llvmpipe_marks_the_chosen_one_and_follows_lensblur_device() {
 }
 
 #[test]
-fn version_names_the_crate_version() {
-    let output = common::lensblur(&["--version"], &[]);
-    assert!(output.status.success());
-    assert_eq!(String::from_utf8_lossy(&output.stdout).trim(), format!("lensblur {}", env!("CARGO_PKG_VERSION")));
-}
-
-#[test]
 fn output_into_a_closed_pipe_ends_quietly() {
     use std::process::{Command, Stdio};
     // The reader is gone before lensblur writes: its first line meets a closed pipe.
