@@ -41,7 +41,7 @@
 //! OpenImageIO and Nuke write, [`stack::write_image`] writes the result;
 //! `examples/render_stack.rs` does the whole round trip with a camera from the file's header.
 //!
-//! Layout (see README "Architecture"):
+//! Layout (see the book's architecture page, docs/book/src/architecture.md):
 //! - [`vk`]: the only place with raw Vulkan calls and `unsafe`.
 //! - [`camera`]: the circle-of-confusion model and aperture shapes, shared by CPU and GPU paths.
 //! - [`image`]: the in-memory RGBA float image.

@@ -1,4 +1,4 @@
-//! Every Vulkan method on frame tiles (`src/render/tiling.rs`): the output is bit-identical for
+//! Every Vulkan method on frame tiles (`src/render/tiler.rs`): the output is bit-identical for
 //! every tile size — odd sides, sides that do not divide the frame, one whole-frame tile — and
 //! a tiled render equals the method's CPU reference within the tolerance its own test states.
 mod common;

@@ -131,7 +131,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// Frames of the focus pull the README renders as a shot.
 const PULL_FRAMES: std::ops::RangeInclusive<i64> = 1001..=1006;
 
-/// A focus pull on the example, for the README's shot section: the layers as frames
+/// A focus pull on the example, for the book's shots page: the layers as frames
 /// 1001-1006 of `dir/layers.####.exr` with no camera in their headers (a locked-off shot), and
 /// `dir/camera.json`, the camera file pulling focus from the front layer to the back one.
 fn write_focus_pull(dir: &Path, stack: &LayerStack, camera: &PhysicalCamera) -> anyhow::Result<()> {

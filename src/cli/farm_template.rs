@@ -16,7 +16,7 @@ Examples:
   lensblur farm-template > lensblur-render.yaml
 
 Job parameters: Input, Output (frame patterns), Frames (range expression), ChunkSize, CameraFile
-(optional), Args (extra render flags); see the README's render-farm section.")]
+(optional), Args (extra render flags); see the book's page docs/book/src/shots.md.")]
 pub struct Args {
     /// Write the template here (appears atomically) instead of printing it.
     #[arg(short, long)]

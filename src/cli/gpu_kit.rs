@@ -1,4 +1,4 @@
-//! The GPU kit's two hidden subcommands (`gpu-kit/run` calls them; see the README's "GPU kit"):
+//! The GPU kit's two hidden subcommands (`gpu-kit/run` calls them; see docs/book/src/gpu-kit.md):
 //! `lensblur self-check` compares every device pass with its CPU reference (the library's
 //! [`lensblur::selfcheck`], which the tests run too) and the sequence path of this binary;
 //! `lensblur gpu-timings` times the fixed cases of [`lensblur::bench::device_timings`].
