@@ -231,7 +231,7 @@ fn reports_say_where_the_camera_came_from_and_print_plain_numbers() {
         camera_line,
         format!(
             "camera 50 mm, f/1.4, focus distance 4, sensor width 3 mm, aperture disk (focal-length, fstop, \
-             focus-distance, sensor-width from {shot}'s header)"
+             focus-distance, sensor-width from {shot}'s header); scene unit m"
         )
     );
     let (stdout, _) = ok(&dir, &["render", shot, "-o", "out.exr", "--fstop", "2", "--aperture", "polygon:6:rotation=15", "--json"], &[]);
