@@ -27,7 +27,8 @@ pub struct Args {
     pub flags: PerfFlags,
 }
 
-/// The suite's case selection, timing and output flags.
+/// The suite's case selection, timing and output flags (a struct of their own so that --help
+/// lists them under one heading).
 #[derive(clap::Args, Clone)]
 pub struct PerfFlags {
     /// Case groups to run: kernel (optimised vs baseline forward kernel), backward (forward vs
@@ -68,12 +69,10 @@ pub enum PerfGroup {
     Apertures,
 }
 
-pub fn run(args: Args) -> anyhow::Result<()> {
-    run_suite(args.quick, args.json.as_deref(), &args.flags)
-}
-
 /// The whole suite.
-pub fn run_suite(quick: bool, json: Option<&Path>, flags: &PerfFlags) -> anyhow::Result<()> {
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let Args { quick, json, flags } = args;
+    let (json, flags) = (json.as_deref(), &flags);
     let filters: Vec<String> = flags.cases.iter().flat_map(|c| c.split(',')).map(str::to_string).collect();
     let wanted = |name: &str| filters.is_empty() || filters.iter().any(|f| name.contains(f.as_str()));
     let group = |g: PerfGroup| flags.groups.contains(&g);
