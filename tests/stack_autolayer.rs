@@ -150,6 +150,19 @@ fn a_continuous_ramp_is_sliced_without_soft_bands() {
 }
 
 #[test]
+fn a_spacing_far_below_a_pixel_still_gives_at_most_max_layers_and_an_exact_composite() {
+    // `--layer-spacing 1e-6` (clamped to 1e-3 px): before the cap, this ramp over 8000 px of CoC
+    // asked for 8 million slices; now one per histogram bin at most, truncated to `max_layers`.
+    let (w, h) = (256, 4);
+    let image = Image::from_fn(w, h, |x, _| [x as f32 / w as f32, 0.5, 0.2, 1.0]);
+    let disparity: Vec<f32> = (0..w * h).map(|i| (i % w) as f32 / w as f32 * 400.0).collect();
+    let options = AutoLayerOptions { coc_spacing_px: 1e-6, ..AutoLayerOptions::default() };
+    let stack = split_into_layers(&image, &disparity, &coc(), &options);
+    assert_eq!(stack.layers.len(), options.max_layers, "a long ramp fills every layer allowed");
+    assert!(max_diff(&composite(&stack), &image) < 1e-6);
+}
+
+#[test]
 fn planes_whose_cocs_differ_by_more_than_a_pixel_get_layers_of_their_own() {
     // Issue 22's five planes at 256^2 (signed CoC +6.9, 0, -4.4, -6.9, -9.9 px: the last two
     // 3 px apart), as vertical strips, and two planes only 0.5 px apart that may share one.

@@ -1,9 +1,11 @@
 //! Interop with Blender (Debian's `blender` 3.4, run headless): a Cycles multilayer render
 //! with two view layers and the compositor's File Output node are read correctly, and the
 //! files we write load in Blender (image + compositor Image node) with the same pixels.
-//! Slow (several Blender starts), so it lives in its own test file. Fails, never skips,
-//! when Blender is missing: CI installs it.
+//! Blender 5's default multilayer EXR (multi-part, one part per pass) reads as the single-part
+//! file of the same render. Slow (several Blender starts), so it lives in its own test file.
+//! Fails, never skips, when Blender or a bpy virtualenv is missing: CI installs them.
 mod common;
+mod plugin_common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -243,4 +245,53 @@ fn our_files_load_in_blender_with_the_same_pixels() {
     let (report, pixels) = blender_roundtrip(&plain, "", (w, h));
     assert!(report.contains("\"IMAGE\""), "{report}");
     assert_eq!(pixels, colour);
+}
+
+/// Blender 5 saves a multilayer EXR multi-part unless told to interleave: one part per pass
+/// (`L_front.Combined`, `L_front.Depth`, ...), colour and depth of a layer in different parts.
+/// The same render saved both ways must give the same stack, sample for sample.
+fn blender_5_multi_part_render_reads_as_its_single_part_twin(version: &str) {
+    let blender = plugin_common::Blender::bpy(version);
+    let dir = common::temp_dir("blender", &format!("multipart-{version}"));
+    let output = blender.script_command(&script("blender_multipart.py")).arg(&*dir).output().unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success() && stdout.contains("LENSBLUR_MULTIPART_DONE"),
+        "bpy {version}: blender_multipart.py failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let (parts, interleaved) = (dir.join("parts.exr"), dir.join("interleaved.exr"));
+    let part_count = |path: &Path| exr::meta::MetaData::read_from_file(path, false).unwrap().headers.len();
+    assert_eq!(part_count(&parts), 6, "Blender's default: colour and depth parts for each of the 3 view layers");
+    assert_eq!(part_count(&interleaved), 1);
+
+    let split = read_stack(&parts, &ReadOptions::default()).unwrap();
+    let joined = read_stack(&interleaved, &ReadOptions::default()).unwrap();
+    for file in [&split, &joined] {
+        let names: Vec<&str> = file.stack.layers.iter().map(|l| l.name.as_str()).collect();
+        assert_eq!(names, ["L_front", "L_mid", "L_back"], "front to back");
+        assert!(file.info.layers.iter().all(|l| l.convention == Convention::BlenderMultilayer));
+    }
+    for (a, b) in split.stack.layers.iter().zip(&joined.stack.layers) {
+        assert!(a.rgba.pixels == b.rgba.pixels, "{}: colour differs between the two layouts", a.name);
+        assert!(a.disparity == b.disparity, "{}: depth differs between the two layouts", a.name);
+    }
+    // Not two equal misreadings: the planes' depths (1.5 m, 4 m, 15 m; Z is planar distance)
+    // where each layer is opaque.
+    for (layer, distance) in split.stack.layers.iter().zip([1.5f32, 4.0, 15.0]) {
+        let opaque: Vec<f32> =
+            layer.disparity.iter().zip(&layer.rgba.pixels).filter(|(_, p)| p[3] > 0.999).map(|(&d, _)| d).collect();
+        assert!(opaque.len() > 20, "{}: only {} opaque pixels", layer.name, opaque.len());
+        assert!(opaque.iter().all(|d| (d * distance - 1.0).abs() < 1e-3), "{}: disparity not 1/{distance}", layer.name);
+    }
+}
+
+#[test]
+fn blender_5_0_multi_part_render_reads_as_its_single_part_twin() {
+    blender_5_multi_part_render_reads_as_its_single_part_twin("5.0.1");
+}
+
+#[test]
+fn blender_5_3_multi_part_render_reads_as_its_single_part_twin() {
+    blender_5_multi_part_render_reads_as_its_single_part_twin("5.3.0");
 }

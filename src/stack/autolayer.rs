@@ -115,7 +115,9 @@ pub(crate) fn runs_between_gaps(histogram: &[usize], min_gap: usize) -> Vec<(usi
 /// each at the emptiest bin within half a slice of its target (priority 0).
 fn slice_run(histogram: &[usize], first: usize, end: usize, bin: f32, lo: f32, options: &AutoLayerOptions, cuts: &mut Vec<(f32, f32)>) {
     let width = (end - first) as f32 * bin;
-    let slices = (width / options.coc_spacing_px.max(1e-3)).ceil() as usize;
+    // At most one slice per bin: a spacing far below the bin width would otherwise loop (and
+    // push cuts) once per thousandth of a pixel, only for all but `max_layers` to be dropped.
+    let slices = ((width / options.coc_spacing_px.max(1e-3)).ceil() as usize).min(end - first);
     if slices < 2 {
         return;
     }

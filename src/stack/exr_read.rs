@@ -213,15 +213,53 @@ pub(super) fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
     Ok(meta)
 }
 
+/// Every part's pixels; a file whose parts only split one layout's passes comes back as one part
+/// (see [`join_split_passes`]).
 pub(super) fn read_pixels(path: &Path) -> Result<ExrImage> {
-    exr::prelude::read()
+    let image = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
         .all_layers()
         .all_attributes()
         .from_file(path)
-        .map_err(|e| Error::input(path, format!("cannot read EXR pixels: {e}")))
+        .map_err(|e| Error::input(path, format!("cannot read EXR pixels: {e}")))?;
+    Ok(join_split_passes(image))
+}
+
+/// Blender 5 writes multilayer EXRs multi-part by default, one part per pass (`ViewLayer.Combined`,
+/// `ViewLayer.Depth`, ...), each channel keeping its full name (`ViewLayer.Depth.Z`), as OpenEXR
+/// advises so that splitting a file into parts loses nothing. Colour and depth of one layer then
+/// sit in different parts. When every part is named, every channel of a part starts with the
+/// part's name, and all parts cover the same data window, the parts are one layout split up:
+/// their channels are joined into one part and read like the single-part file holding them.
+/// Anything else (stereo views, one layer per part with short channel names) stays as it is.
+fn join_split_passes(mut image: ExrImage) -> ExrImage {
+    let [first, rest @ ..] = image.layer_data.as_slice() else { return image };
+    let names: Vec<String> =
+        image.layer_data.iter().flat_map(|part| part.channel_data.list.iter().map(|c| c.name.to_string())).collect();
+    let split = !rest.is_empty()
+        && names.iter().collect::<HashSet<_>>().len() == names.len()
+        && image.layer_data.iter().all(|part| {
+            let Some(name) = part_name(part) else { return false };
+            let prefix = format!("{name}.");
+            part.size == first.size
+                && part.attributes.layer_position == first.attributes.layer_position
+                && part.channel_data.list.iter().all(|c| c.name.to_string().starts_with(&prefix))
+        });
+    if !split {
+        return image;
+    }
+    let mut parts = std::mem::take(&mut image.layer_data).into_iter();
+    let mut joined = parts.next().expect("two parts or more");
+    let mut channels = std::mem::take(&mut joined.channel_data.list);
+    for part in parts {
+        channels.extend(part.channel_data.list);
+    }
+    joined.channel_data = AnyChannels::sort(channels);
+    joined.attributes.layer_name = None;
+    image.layer_data.push(joined);
+    image
 }
 
 pub(super) fn window_of(bounds: &IntegerBounds) -> Window {
@@ -699,6 +737,59 @@ mod tests {
             }
         }
         out
+    }
+
+    /// A part named `name` of `size` at `position` holding zeroed channels `channels`.
+    fn part(name: Option<&str>, channels: &[&str], size: (usize, usize), position: (i32, i32)) -> ExrPart {
+        use exr::prelude::{AnyChannel, Encoding, LayerAttributes, Vec2};
+        let list = channels.iter().map(|c| AnyChannel::new(*c, FlatSamples::F32(vec![0.0; size.0 * size.1]))).collect();
+        let mut attributes = LayerAttributes::default();
+        attributes.layer_name = name.map(Into::into);
+        attributes.layer_position = Vec2(position.0, position.1);
+        exr::image::Layer::new(size, attributes, Encoding::FAST_LOSSLESS, AnyChannels::sort(list))
+    }
+
+    fn joined(parts: Vec<ExrPart>) -> Vec<(Option<String>, Vec<String>)> {
+        use exr::prelude::{ImageAttributes, IntegerBounds};
+        let image = ExrImage::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((4, 3))), parts);
+        join_split_passes(image)
+            .layer_data
+            .iter()
+            .map(|p| (part_name(p), p.channel_data.list.iter().map(|c| c.name.to_string()).collect()))
+            .collect()
+    }
+
+    #[test]
+    fn parts_that_split_one_layouts_passes_are_joined_and_other_multi_part_files_are_not() {
+        let colour = |layer: &str| {
+            let pass = format!("{layer}.Combined");
+            let names: Vec<String> = ["A", "B", "G", "R"].iter().map(|c| format!("{pass}.{c}")).collect();
+            (pass, names)
+        };
+        let (front, front_channels) = colour("Front");
+        let front_refs: Vec<&str> = front_channels.iter().map(String::as_str).collect();
+        let depth = || part(Some("Front.Depth"), &["Front.Depth.Z"], (4, 3), (0, 0));
+        // Blender 5: one part per pass, full channel names -> one part, sorted by name.
+        let got = joined(vec![part(Some(&front), &front_refs, (4, 3), (0, 0)), depth()]);
+        let mut want = front_channels.clone();
+        want.push("Front.Depth.Z".into());
+        assert_eq!(got, vec![(None, want)]);
+        // Stereo views and one-layer-per-part files use short names: left alone.
+        let got = joined(vec![part(Some("left"), &["R", "Z"], (4, 3), (0, 0)), part(Some("right"), &["R", "Z"], (4, 3), (0, 0))]);
+        assert_eq!(got.len(), 2);
+        // Parts over different data windows cannot be one part.
+        let got = joined(vec![part(Some(&front), &front_refs, (4, 3), (0, 0)), part(Some("Front.Depth"), &["Front.Depth.Z"], (4, 3), (1, 0))]);
+        assert_eq!(got.len(), 2);
+        let got = joined(vec![part(Some(&front), &front_refs, (4, 3), (0, 0)), part(Some("Front.Depth"), &["Front.Depth.Z"], (3, 3), (0, 0))]);
+        assert_eq!(got.len(), 2);
+        // An unnamed part, and a channel outside its part's name: left alone.
+        assert_eq!(joined(vec![part(None, &["Front.Depth.Z"], (4, 3), (0, 0)), depth()]).len(), 2);
+        assert_eq!(joined(vec![part(Some(&front), &["Back.Combined.R"], (4, 3), (0, 0)), depth()]).len(), 2);
+        // Nested part names whose channels would collide: left alone.
+        let got = joined(vec![part(Some("A"), &["A.B.R"], (4, 3), (0, 0)), part(Some("A.B"), &["A.B.R"], (4, 3), (0, 0))]);
+        assert_eq!(got.len(), 2);
+        // A single part is what it is.
+        assert_eq!(joined(vec![depth()]), vec![(Some("Front.Depth".into()), vec!["Front.Depth.Z".into()])]);
     }
 
     #[test]

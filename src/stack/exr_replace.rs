@@ -1,6 +1,9 @@
 //! Writing a file back with some of its channels replaced (`fit-depth`): every other channel,
 //! its sample type, the parts and their names, data and display windows, compression and
 //! header attributes stay as they were; a replaced channel keeps its name and sample type.
+//! A multi-part file that only splits one layout's passes into parts (Blender 5's default
+//! multilayer EXR) is read as one part and written back as that one part, which Blender reads
+//! the same way.
 use std::io::Write as _;
 use std::path::Path;
 

@@ -1,8 +1,8 @@
 """What differs between the Blender versions the add-on runs on (3.4 to 5.x), in one place, so
 the rest of the add-on has one code path:
 - Blender 5.0 moved multilayer EXR from `file_format` to the new `media_type`, and writes it
-  multi-part (one part per pass) unless `use_exr_interleave` asks for the single-part layout
-  that lensblur reads as view layers.
+  multi-part (one part per pass) unless `use_exr_interleave` asks for the single-part layout.
+  lensblur reads both; the add-on asks for the single part, which other tools read too.
 - Blender 5.0's compositor is a node group (`scene.compositing_node_group`, a Group Output node
   where the Composite node was); before, `scene.use_nodes` made `scene.node_tree`.
 - The Unit Scale (`scene.unit_settings.scale_length`): one Blender unit is that many metres."""
