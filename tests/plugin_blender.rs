@@ -175,6 +175,36 @@ print(json.dumps([[f32(v), camera.fmt(f32(v))] for v in values]))
     }
 }
 
+/// The Unit Scale as `--scene-unit`: Blender stores it as f32 (0.01 is 0.00999999977), the
+/// add-on names the units lensblur names and spells any other scale as metres per unit; every
+/// spelling parses in lensblur to the scale as Blender holds it.
+#[test]
+fn the_unit_scale_becomes_the_scene_unit_lensblur_parses() {
+    let program = r#"
+import importlib.util, json, struct, sys, types
+package = types.ModuleType("lensblur_addon")
+package.__path__ = [sys.argv[1]]
+sys.modules["lensblur_addon"] = package
+spec = importlib.util.spec_from_file_location("lensblur_addon.camera", sys.argv[1] + "/camera.py")
+camera = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(camera)
+f32 = lambda v: struct.unpack("f", struct.pack("f", v))[0]
+scene = lambda scale: types.SimpleNamespace(unit_settings=types.SimpleNamespace(scale_length=f32(scale)))
+scales = [1.0, 0.01, 0.001, 1000.0, 0.0254, 0.3048, 0.5, 1.0 / 3.0]
+print(json.dumps([[f32(s), camera.scene_unit(scene(s))] for s in scales]))
+"#;
+    let addon = plugins_dir().join("blender/lensblur");
+    let output = Command::new("python3").args(["-c", program, addon.to_str().unwrap()]).output().expect("python3");
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let pairs: Vec<(f64, String)> = serde_json::from_slice(&output.stdout).unwrap();
+    let spelled: Vec<&str> = pairs.iter().map(|(_, s)| s.as_str()).collect();
+    assert_eq!(spelled, ["m", "cm", "mm", "km", "in", "ft", "0.5", "0.33333334"]);
+    for (scale, text) in &pairs {
+        let unit: lensblur::camera::SceneUnit = text.parse().unwrap();
+        assert_eq!(unit.metres as f32, *scale as f32, "--scene-unit {text} is not the Unit Scale {scale}");
+    }
+}
+
 /// The add-on's method menu (`settings.METHODS`) is the registry: every method, in order, with
 /// the registry's label and one-line summary. Read from the source, so it needs no Blender.
 #[test]
@@ -197,7 +227,7 @@ fn addon_method_list_is_the_registry() {
 
 /// The Unit Scale (Scene > Units): the same scene built at 0.01 (one Blender unit a
 /// centimetre, so the Z pass and the focus distance are in centimetres, the lens still in
-/// millimetres) must blur as the scene does in metres: compared with Cycles' depth of field of
+/// millimetres; the add-on passes `--scene-unit cm`) must blur as the scene does in metres: compared with Cycles' depth of field of
 /// the scene built at scale 1, same threshold as there (measured 33.9 dB). Cycles' own render
 /// at 0.01 is not the reference: it ignores the Unit Scale (its aperture is the lens'
 /// millimetres read as 1e-3 units), and the add-on's physical result scored 19.7 dB against it
@@ -207,8 +237,14 @@ fn addon_method_list_is_the_registry() {
 fn blender_addon_honours_the_unit_scale(blender: &Blender) {
     let dir = fresh_dir(&format!("plugin-blender-units-{}", blender.name));
     let stdout = blender_with_addon(blender, &dir, "blender_unit_scale.py", "LENSBLUR_UNITS_DONE");
-    assert!(stdout.contains("--fstop 0.01 --focus-distance 400 "), "f/1 at 0.01 m per unit, focused at 4 m: {stdout}");
-    let camera = &json_after(&stdout, "LENSBLUR_UNITS_REPORT")["camera"];
+    assert!(
+        stdout.contains("--fstop 1 --focus-distance 400 --scene-unit cm "),
+        "f/1 focused at 400 units of 1 cm (4 m): {stdout}"
+    );
+    let report = json_after(&stdout, "LENSBLUR_UNITS_REPORT");
+    assert_eq!(report["scene_unit"]["metres"], 0.01, "{report}");
+    let camera = &report["camera"];
+    assert_eq!(camera["fstop"], 1.0, "the lens as set, not scaled: {camera}");
     let focus = camera["focus_distance"].as_f64().unwrap();
     assert!((focus - 400.0).abs() < 1e-3, "focus distance {focus} units (4 m), f32 round trip");
     let out = dir.join("out");

@@ -16,7 +16,7 @@ import subprocess
 
 import bpy
 
-from . import camera, checks, preferences, result, settings, stack
+from . import camera, checks, compat, preferences, result, settings, stack
 from .errors import LensblurError
 from .job import RenderJob, tool_message
 from .operator import POLL_SECONDS, report_failure
@@ -53,8 +53,9 @@ def overscan_margin(scene, frames):
             scene.frame_set(frame)
             _flags, summary, _warnings = camera.camera_flags(scene)
             focal_mm = summary["focal_length"]
-            k_px = focal_mm * 1e-3 / (2 * summary["lensblur_fstop"]) * focal_mm / summary["sensor_width"] * width
-            largest = max(largest, k_px / summary["focus_distance"])
+            # In metres: the aperture f / 2N is in millimetres, the focus distance in Blender units.
+            k_px = focal_mm * 1e-3 / (2 * summary["fstop"]) * focal_mm / summary["sensor_width"] * width
+            largest = max(largest, k_px / (summary["focus_distance"] * compat.metres_per_unit(scene)))
     finally:
         scene.frame_set(current)
     return min(math.ceil(largest) + 2, max(width, height) // 4)
@@ -144,7 +145,7 @@ class Shot:
         self.cameras[frame] = {
             "focal_length_mm": float(camera.fmt(summary["focal_length"])),
             "sensor_width_mm": float(camera.fmt(summary["sensor_width"])),
-            "fstop": float(camera.fmt(summary["lensblur_fstop"])),
+            "fstop": float(camera.fmt(summary["fstop"])),
             "focus_distance": float(camera.fmt(summary["focus_distance"])),
         }
         bpy.ops.render.render()
@@ -157,10 +158,12 @@ class Shot:
             json.dump({"frames": {str(k): v for k, v in self.cameras.items()}}, f, indent=2)
 
     def render_command(self, method):
-        # No camera flags: they would win over the camera file; the aperture is not in it.
+        # No camera flags: they would win over the camera file; the aperture and the unit of
+        # its distances are not in it.
         return [
             self.binary, "render", self.pattern("layers"), "-o", self.pattern("defocus"),
             "--frames", range_expression(self.frames), "--camera-file", self.camera_file,
+            "--scene-unit", camera.scene_unit(self.scene),
             "--layers", ",".join(self.layers), "--method", method, "--aperture", self.aperture,
             "--overscan", str(self.overscan), "--json",
         ]

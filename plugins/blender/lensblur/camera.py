@@ -3,10 +3,8 @@
 lensblur's physical camera is Cycles' thin lens: aperture radius focal_length / (2 f-stop),
 field of view from the focal length and the sensor width, and a planar focus distance in the
 units of the depth pass. Blender's Z pass and focus distance are in Blender units, the lens in
-millimetres; lensblur reads the lens as 1e-3 of its depth unit for the aperture. With a Unit
-Scale other than 1 (Scene > Units: one Blender unit is that many metres, as Cycles honours it)
-the f-number lensblur gets is scaled by it, which gives the aperture its physical size in
-Blender units and leaves the field of view alone (see `lensblur_fstop`). The camera's
+millimetres; `--scene-unit` tells lensblur how many metres a Blender unit is (the Unit Scale,
+Scene > Units), so a scene built in centimetres blurs as it would in metres. The camera's
 "Depth of Field" checkbox is ignored on purpose: the layers are rendered with it off (pinhole)
 and its settings describe the lens to simulate.
 """
@@ -35,8 +33,8 @@ def camera_flags(scene):
         "focal_length": cam.lens,
         "sensor_width": effective_sensor_width(scene, cam),
         "fstop": dof.aperture_fstop,
-        "lensblur_fstop": lensblur_fstop(scene, dof.aperture_fstop),
         "focus_distance": focus_distance(obj, dof),
+        "scene_unit": scene_unit(scene),
         "aperture": aperture_spec(dof),
     }
     if summary["focus_distance"] <= 0.0:
@@ -47,17 +45,23 @@ def camera_flags(scene):
     flags = [
         "--focal-length", fmt(summary["focal_length"]),
         "--sensor-width", fmt(summary["sensor_width"]),
-        "--fstop", fmt(summary["lensblur_fstop"]),
+        "--fstop", fmt(summary["fstop"]),
         "--focus-distance", fmt(summary["focus_distance"]),
+        "--scene-unit", summary["scene_unit"],
         "--aperture", summary["aperture"],
     ]
     return flags, summary, warnings_for(scene, dof)
 
 
-def lensblur_fstop(scene, fstop):
-    """The f-number that gives lensblur the camera's aperture in Blender units: its radius is
-    lens / (2 N) millimetres, lens * 1e-3 / (2 N scale) units at `scale` metres per unit."""
-    return fstop * compat.metres_per_unit(scene)
+# lensblur's unit names, by the shortest f32 spelling of their metres (what `fmt` prints).
+UNIT_NAMES = {"1": "m", "0.01": "cm", "0.001": "mm", "1000": "km", "0.0254": "in", "0.3048": "ft"}
+
+
+def scene_unit(scene):
+    """What one Blender unit is, as `--scene-unit` takes it: a unit name where the Unit Scale
+    is one (`cm` at 0.01), else metres per unit."""
+    metres = fmt(compat.metres_per_unit(scene))
+    return UNIT_NAMES.get(metres, metres)
 
 
 def fmt(value):
