@@ -145,13 +145,12 @@ fn blender_addon_bokeh_has_the_orientation_of_cycles(blender: &Blender) {
     assert!(addon >= wrong + 5.0, "add-on {addon:.2} dB vs mirrored {wrong:.2} dB");
 }
 
-/// Blender hands f32 settings to Python widened to f64: the printed command line must show
-/// the value as typed (`--fstop 1.4`, not 1.399999976158142; `rotation=0`, not -0), and each
-/// spelling must read back as the same f32. Runs the add-on's camera module in plain Python
-/// (it needs no bpy), so it checks values Blender cannot easily be made to produce.
-#[test]
-fn printed_camera_values_are_the_shortest_f32_spelling() {
-    let program = r#"
+/// Runs `body` in plain Python (no bpy) after loading the add-on's camera module as `camera`,
+/// with `json`, `types` and `f32` (a value rounded to 32-bit float) at hand; `body` prints a
+/// JSON list of [number, text] pairs, returned parsed.
+fn with_camera_module(body: &str) -> Vec<(f64, String)> {
+    let program = format!(
+        r#"
 import importlib.util, json, struct, sys, types
 package = types.ModuleType("lensblur_addon")
 package.__path__ = [sys.argv[1]]
@@ -160,13 +159,25 @@ spec = importlib.util.spec_from_file_location("lensblur_addon.camera", sys.argv[
 camera = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(camera)
 f32 = lambda v: struct.unpack("f", struct.pack("f", v))[0]
-values = [1.4, 2.8, 50.0, 36.0, 0.1, 3.3333333, -0.0, -10.0, 1e-7, 123456789.0]
-print(json.dumps([[f32(v), camera.fmt(f32(v))] for v in values]))
-"#;
+{body}
+"#
+    );
     let addon = plugins_dir().join("blender/lensblur");
-    let output = Command::new("python3").args(["-c", program, addon.to_str().unwrap()]).output().expect("python3");
+    let output = Command::new("python3").args(["-c", &program, addon.to_str().unwrap()]).output().expect("python3");
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-    let pairs: Vec<(f64, String)> = serde_json::from_slice(&output.stdout).unwrap();
+    serde_json::from_slice(&output.stdout).unwrap()
+}
+
+/// Blender hands f32 settings to Python widened to f64: the printed command line must show
+/// the value as typed (`--fstop 1.4`, not 1.399999976158142; `rotation=0`, not -0), and each
+/// spelling must read back as the same f32. Runs the add-on's camera module in plain Python
+/// (it needs no bpy), so it checks values Blender cannot easily be made to produce.
+#[test]
+fn printed_camera_values_are_the_shortest_f32_spelling() {
+    let pairs = with_camera_module(
+        "values = [1.4, 2.8, 50.0, 36.0, 0.1, 3.3333333, -0.0, -10.0, 1e-7, 123456789.0]
+print(json.dumps([[f32(v), camera.fmt(f32(v))] for v in values]))",
+    );
     let printed: Vec<&str> = pairs.iter().map(|(_, s)| s.as_str()).collect();
     assert_eq!(printed, ["1.4", "2.8", "50", "36", "0.1", "3.3333333", "0", "-10", "1e-07", "123456790"]);
     for (value, text) in &pairs {
@@ -180,23 +191,11 @@ print(json.dumps([[f32(v), camera.fmt(f32(v))] for v in values]))
 /// spelling parses in lensblur to the scale as Blender holds it.
 #[test]
 fn the_unit_scale_becomes_the_scene_unit_lensblur_parses() {
-    let program = r#"
-import importlib.util, json, struct, sys, types
-package = types.ModuleType("lensblur_addon")
-package.__path__ = [sys.argv[1]]
-sys.modules["lensblur_addon"] = package
-spec = importlib.util.spec_from_file_location("lensblur_addon.camera", sys.argv[1] + "/camera.py")
-camera = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(camera)
-f32 = lambda v: struct.unpack("f", struct.pack("f", v))[0]
-scene = lambda scale: types.SimpleNamespace(unit_settings=types.SimpleNamespace(scale_length=f32(scale)))
+    let pairs = with_camera_module(
+        "scene = lambda scale: types.SimpleNamespace(unit_settings=types.SimpleNamespace(scale_length=f32(scale)))
 scales = [1.0, 0.01, 0.001, 1000.0, 0.0254, 0.3048, 0.5, 1.0 / 3.0]
-print(json.dumps([[f32(s), camera.scene_unit(scene(s))] for s in scales]))
-"#;
-    let addon = plugins_dir().join("blender/lensblur");
-    let output = Command::new("python3").args(["-c", program, addon.to_str().unwrap()]).output().expect("python3");
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-    let pairs: Vec<(f64, String)> = serde_json::from_slice(&output.stdout).unwrap();
+print(json.dumps([[f32(s), camera.scene_unit(scene(s))] for s in scales]))",
+    );
     let spelled: Vec<&str> = pairs.iter().map(|(_, s)| s.as_str()).collect();
     assert_eq!(spelled, ["m", "cm", "mm", "km", "in", "ft", "0.5", "0.33333334"]);
     for (scale, text) in &pairs {
