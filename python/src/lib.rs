@@ -1,8 +1,8 @@
 //! The `lensblur._lensblur` native module: numpy arrays in and out of the lensblur library.
 //! A thin layer: every check, conversion and message is the library's (`stack::arrays`,
 //! `input`, `camera`, `render::grad`); this file only moves arrays and names things for Python.
-use std::cell::RefCell;
 use std::collections::HashMap;
+use std::sync::{Mutex, MutexGuard};
 use std::path::PathBuf;
 
 use lensblur::camera::{Aperture, CameraHints, CocModel, PhysicalCamera};
@@ -181,12 +181,23 @@ fn parse_depth_kind(name: &str) -> PyResult<DepthKind> {
 }
 
 /// One device, opened once, with every method's pipelines built on first use and kept.
-#[pyclass(unsendable, module = "lensblur")]
+/// Renders run with the GIL released (other Python threads go on: a data loader, a UI); the
+/// caches' locks make one render at a time per Renderer, so calls from several threads queue.
+#[pyclass(module = "lensblur")]
 struct Renderer {
     // Declared before the context: dropped first, while the device still exists.
-    prepared: RefCell<HashMap<&'static str, Box<dyn lensblur::render::Renderer>>>,
-    differentiable: RefCell<HashMap<(&'static str, bool), Box<dyn Differentiable>>>,
+    prepared: Mutex<HashMap<&'static str, Box<dyn lensblur::render::Renderer>>>,
+    differentiable: Mutex<HashMap<DifferentiableKey, Box<dyn Differentiable>>>,
     context: Option<Context>,
+}
+
+/// A method's name and whether its backward is the leaky one.
+type DifferentiableKey = (&'static str, bool);
+
+/// A cache's lock; a render that panicked while holding it left the cache consistent (entries
+/// are inserted whole), so the poison is ignored.
+fn lock<T>(cache: &Mutex<T>) -> MutexGuard<'_, T> {
+    cache.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
 /// The arrays and camera of one call, read by the library.
@@ -230,20 +241,27 @@ impl Renderer {
         self.context.as_ref().ok_or_else(|| LensblurError::new_err("this Renderer was closed"))
     }
 
-    /// Runs `f` with the method's backward-capable renderer, made on first use.
-    fn with_differentiable<T>(
+    /// Runs `f` with the method's backward-capable renderer, made on first use, the GIL released.
+    fn with_differentiable<T: Send>(
         &self,
+        py: Python<'_>,
         method: Method,
         leaky: bool,
-        f: impl FnOnce(&dyn Differentiable) -> lensblur::Result<T>,
+        f: impl FnOnce(&dyn Differentiable) -> lensblur::Result<T> + Send,
     ) -> PyResult<T> {
-        let key = (method.name(), leaky);
-        let mut cache = self.differentiable.borrow_mut();
-        if !cache.contains_key(&key) {
-            let slope = if leaky { Slope::Leaky } else { Slope::Exact };
-            cache.insert(key, method.differentiable(self.context()?, slope).or_py()?);
-        }
-        f(cache[&key].as_ref()).or_py()
+        let context = self.context()?;
+        py.detach(|| {
+            let mut cache = lock(&self.differentiable);
+            let renderer = match cache.entry((method.name(), leaky)) {
+                std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
+                std::collections::hash_map::Entry::Vacant(e) => {
+                    let slope = if leaky { Slope::Leaky } else { Slope::Exact };
+                    e.insert(method.differentiable(context, slope)?)
+                }
+            };
+            f(renderer.as_ref())
+        })
+        .or_py()
     }
 }
 
@@ -259,8 +277,8 @@ impl Renderer {
             options.device = device;
         }
         Ok(Self {
-            prepared: RefCell::default(),
-            differentiable: RefCell::default(),
+            prepared: Mutex::default(),
+            differentiable: Mutex::default(),
             context: Some(Context::new(&options).or_py()?),
         })
     }
@@ -292,18 +310,19 @@ impl Renderer {
         let lens = &camera.lens;
         let (stack, _) = layers_for(input.stack, input.single_image, &lens.coc, method.input(), &Default::default());
         let image = if leaky {
-            self.with_differentiable(method, true, |d| d.forward(&stack, lens))?
+            self.with_differentiable(py, method, true, |d| d.forward(&stack, lens))?
         } else {
-            let mut prepared = self.prepared.borrow_mut();
-            let renderer = match prepared.entry(method.name()) {
-                std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
-                std::collections::hash_map::Entry::Vacant(e) => {
-                    e.insert(method.prepare(Some(self.context()?)).or_py()?)
-                }
-            };
-            method
-                .render_prepared(renderer.as_ref(), &stack, lens, &RenderOptions::default(), &MethodSettings::default())
-                .or_py()?
+            let context = self.context()?;
+            py.detach(|| {
+                let mut prepared = lock(&self.prepared);
+                let renderer = match prepared.entry(method.name()) {
+                    std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
+                    std::collections::hash_map::Entry::Vacant(e) => e.insert(method.prepare(Some(context))?),
+                };
+                let (options, settings) = (RenderOptions::default(), MethodSettings::default());
+                method.render_prepared(renderer.as_ref(), &stack, lens, &options, &settings)
+            })
+            .or_py()?
         };
         image_to_numpy(py, image)
     }
@@ -336,7 +355,7 @@ impl Renderer {
         let (w, h) = (call.input.stack.width, call.input.stack.height);
         let grad = grad_output_from_array(grad.as_slice()?, &grad_shape, w, h).or_py()?;
         let grads =
-            self.with_differentiable(call.method, leaky, |d| d.backward(&call.input.stack, call.lens(), &grad))?;
+            self.with_differentiable(py, call.method, leaky, |d| d.backward(&call.input.stack, call.lens(), &grad))?;
         let (d_layers, d_depth) = call.input.gradients(&grads).or_py()?;
         let count = call.input.stack.layers.len();
         let pixel_shape: Vec<usize> = if call.input.single_image { vec![h, w] } else { vec![count, h, w] };
@@ -357,8 +376,8 @@ impl Renderer {
 
     /// Releases the device now, reporting any validation error (`LENSBLUR_VALIDATION=1`).
     fn close(&mut self) -> PyResult<()> {
-        self.prepared.borrow_mut().clear();
-        self.differentiable.borrow_mut().clear();
+        lock(&self.prepared).clear();
+        lock(&self.differentiable).clear();
         match self.context.take() {
             Some(context) => context.finish().or_py(),
             None => Ok(()),
@@ -385,7 +404,7 @@ fn read_stack<'py>(
         depth_image,
         ..InputOptions::default()
     };
-    let (stack, info, kind, _warnings) = read(&path, &options).or_py()?;
+    let (stack, info, kind, _warnings) = py.detach(|| read(&path, &options)).or_py()?;
     let (w, h, count) = (stack.width, stack.height, stack.layers.len());
     let names: Vec<String> = stack.layers.iter().map(|l| l.name.clone()).collect();
     let (rgba, depth) = stack_to_arrays(stack, kind);
@@ -410,7 +429,8 @@ fn read_stack<'py>(
 #[pyfunction]
 #[pyo3(signature = (path, *, layer = None))]
 fn read_image<'py>(py: Python<'py>, path: PathBuf, layer: Option<&str>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-    image_to_numpy(py, read_rgba(&path, layer, lensblur::stack::DEFAULT_MAX_PIXELS).or_py()?)
+    let image = py.detach(|| read_rgba(&path, layer, lensblur::stack::DEFAULT_MAX_PIXELS)).or_py()?;
+    image_to_numpy(py, image)
 }
 
 /// Writes premultiplied RGBA (H, W, 4) float32 as an EXR (32-bit float, ZIP), atomically.
@@ -436,7 +456,7 @@ fn raytrace<'py>(py: Python<'py>, scene: &str, scale: f32, samples: usize) -> Py
     use lensblur::raytrace::{builtin_scene, render_ground_truth, TraceOptions};
     let scene = builtin_scene(scene).or_py()?;
     let options = TraceOptions { samples_per_axis: samples, scale, ..TraceOptions::default() };
-    let truth = render_ground_truth(&scene, &options).or_py()?;
+    let truth = py.detach(|| render_ground_truth(&scene, &options)).or_py()?;
     let (w, h, count) = (truth.layers.width, truth.layers.height, truth.layers.layers.len());
     let (rgba, depth) = stack_to_arrays(truth.layers, DepthKind::Z);
     let c = truth.camera;

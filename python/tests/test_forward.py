@@ -1,5 +1,8 @@
 """The numpy API: forward against the command line, files, errors with the library's messages."""
 import subprocess
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -55,6 +58,49 @@ def test_a_renderer_keeps_its_device_and_renders_every_method_it_is_asked_for():
     r.close()
     with pytest.raises(lensblur.LensblurError, match="closed"):
         r.render(layers, depth, camera)
+
+
+def test_a_render_releases_the_gil_and_threads_sharing_a_renderer_queue():
+    """While a render runs, other Python threads run: a ticker thread stamps the clock between
+    the render's start and end (with the GIL held it could stamp nothing there, since stamping
+    takes the GIL). Several threads rendering on one Renderer queue on its lock and each gets
+    the result of a render alone."""
+    r = lensblur.Renderer()
+    camera = lensblur.Camera.physical(50, 1.4, 1.2)
+    # A frame large enough that the render outlasts thread switches (0.1 s or more).
+    for height, width in ((96, 128), (192, 256), (384, 512), (768, 1024)):
+        layers, depth = two_layer_stack(height, width)
+        expected = r.render(layers, depth, camera)  # also builds the pipelines
+        start = time.perf_counter()
+        r.render(layers, depth, camera)
+        if time.perf_counter() - start >= 0.1:
+            break
+    stamps, done = [], threading.Event()
+
+    def ticker():
+        while not done.is_set():
+            stamps.append(time.perf_counter())
+            time.sleep(0.001)
+
+    thread = threading.Thread(target=ticker)
+    thread.start()
+    time.sleep(0.02)
+    start = time.perf_counter()
+    image = r.render(layers, depth, camera)
+    end = time.perf_counter()
+    done.set()
+    thread.join()
+    during = [t for t in stamps if start < t < end]
+    # Measured here: ~160 stamps in a 0.2 s render with the GIL released, 1 with it held (taken
+    # between the clock read and the call).
+    assert len(during) >= 10, f"{len(during)} stamps during a {end - start:.3f} s render of {width}x{height}"
+    np.testing.assert_allclose(image, expected, atol=1e-6)
+
+    with ThreadPoolExecutor(3) as pool:
+        results = list(pool.map(lambda _: r.render(layers, depth, camera), range(3)))
+    for result in results:
+        np.testing.assert_allclose(result, expected, atol=1e-6)
+    r.close()
 
 
 @pytest.mark.parametrize(

@@ -34,7 +34,9 @@ pub struct StackGradients {
 
 /// A renderer with a backward pass: `backward` returns the vector-Jacobian product of the
 /// render at (`stack`, `lens`) with `grad_output` = dL/d(output premultiplied RGBA).
-pub trait Differentiable {
+/// `Send + Sync` as [`super::Renderer`]: bindings run it off the calling thread's lock (Python
+/// releases its GIL during a backward pass).
+pub trait Differentiable: Send + Sync {
     fn forward(&self, stack: &LayerStack, lens: &Lens) -> Result<Image>;
     fn backward(&self, stack: &LayerStack, lens: &Lens, grad_output: &Image) -> Result<StackGradients>;
 
