@@ -271,6 +271,26 @@ pub fn layers_for(
     (layered, Some(count))
 }
 
+/// Refuses, before any read, an input that `writer` (`"grad writes its gradients"`) could not
+/// write back channel by channel into an EXR laid out like the input: a deep EXR (or a `merge`
+/// of them), whose samples are no layer's channels, or a PNG/JPEG, which has no depth channel.
+pub fn require_channel_stack(path: &Path, options: &InputOptions, writer: &str) -> Result<()> {
+    let (kind, why, hint) = if !options.merge.is_empty() || is_deep_exr(path) {
+        ("a deep EXR", "a deep file's samples are no layer's channels", "; from deep data, Nuke's DeepToImage (one per layer) makes one")
+    } else if is_ldr_path(path) {
+        ("a PNG/JPEG image", "it has no depth channel", "")
+    } else {
+        return Ok(());
+    };
+    Err(Error::input(
+        path,
+        format!(
+            "is {kind}: {writer} channel by channel into an EXR laid out like its input, and {why}. \
+             Give it a layered EXR stack (layer.R,G,B,A,Z, or a plain R,G,B,A,Z image){hint}"
+        ),
+    ))
+}
+
 /// Reads `path` as [`load`] does, without resolving a camera or splitting layers: the stack
 /// (disparity), the EXR's header facts, the depth convention used, and the file's warnings.
 pub fn read(path: &Path, options: &InputOptions) -> Result<(LayerStack, Option<StackInfo>, DepthKind, Vec<String>)> {

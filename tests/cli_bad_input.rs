@@ -1,6 +1,7 @@
-//! `lensblur render` on bad input, through the real binary: every case must exit non-zero
-//! with a message naming the file (and layer/channel where there is one) and what to do,
-//! without panicking, and must leave no output and no temporary file behind.
+//! `lensblur render` (and `grad`, `fit-depth`) on bad input, through the real binary: every
+//! case must exit non-zero with a message naming the file (and layer/channel where there is
+//! one) and what to do, without panicking, and must leave no output and no temporary file
+//! behind.
 mod common;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -151,6 +152,34 @@ fn malformed_deep_exr_is_refused_naming_what_is_missing() {
     let deep = dir.join("deep.exr");
     std::fs::write(&deep, deep_scanline_file()).unwrap();
     refused(&dir, &deep, &[], &["deep.exr", "chunkCount", "deep"]);
+}
+
+/// `grad` and `fit-depth` write their result channel by channel into an EXR laid out like the
+/// input: a deep EXR (the Weta sample) or a PNG is refused before it is read, saying why and
+/// what to give instead, and nothing is written.
+#[test]
+fn grad_and_fit_depth_refuse_deep_and_png_inputs_saying_what_to_give_instead() {
+    let dir = common::temp_dir("bad-input", "channel-stack");
+    let deep = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/openexr-deep/Balls.exr");
+    let png = dir.join("photo.png");
+    image::RgbImage::new(W as u32, H as u32).save(&png).unwrap();
+    let target = valid_stack(&dir);
+    let before = listing(&dir);
+    let camera = ["--focal-length", "50", "--fstop", "2", "--focus-distance", "4"];
+    for (input, kind) in [(deep.as_path(), "is a deep EXR"), (png.as_path(), "is a PNG/JPEG image")] {
+        for (command, with) in [("grad", "--grad-output"), ("fit-depth", "--target")] {
+            let out = dir.join("out.exr");
+            let mut args = vec![command, input.to_str().unwrap(), with, target.to_str().unwrap(), "-o", out.to_str().unwrap()];
+            args.extend(camera);
+            let output = lensblur(&args);
+            let stderr = String::from_utf8_lossy(&output.stderr);
+            assert!(!output.status.success(), "{args:?} succeeded");
+            for needle in [input.to_str().unwrap(), kind, "channel by channel", "layer.R,G,B,A,Z"] {
+                assert!(stderr.contains(needle), "{args:?}: message lacks '{needle}': {stderr}");
+            }
+            assert_eq!(listing(&dir), before, "{args:?} left a file behind");
+        }
+    }
 }
 
 /// A hand-made single-part deep scanline file: its header without the `chunkCount` attribute

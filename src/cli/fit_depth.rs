@@ -81,6 +81,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // An output on an input is the graver mistake: said first.
     check_output_paths(&[("-o", &args.output)], &inputs)?;
     OutputFormat::for_output(&args.output, "-o", OutputFormat::EXR)?;
+    args.input_args.require_channel_stack(&args.input, "fit-depth writes the fitted depth")?;
     let loaded = args.input_args.load(&args.input, &args.camera, InputKind::SingleImage)?;
     let Some(info) = &loaded.info else { bail!("{}: fit-depth needs an EXR stack", args.input.display()) };
     let target = read_rgba(&args.target, None, args.input_args.max_pixels).context("--target")?;

@@ -82,6 +82,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let spinner = progress::spinner(args.json);
     spinner.set_message(format!("reading {}", args.input.display()));
     // No auto-layering: gradients must map back onto the file's own channels.
+    args.input_args.require_channel_stack(&args.input, "grad writes its gradients")?;
     let loaded = args.input_args.load(&args.input, &args.camera, InputKind::SingleImage)?;
     let Some(info) = &loaded.info else { bail!("{}: grad needs an EXR stack", args.input.display()) };
     let grad_output = read_grad_output(&args.grad_output, &loaded, args.input_args.max_pixels)?;

@@ -90,6 +90,12 @@ impl InputArgs {
         Ok(loaded)
     }
 
+    /// Refuses an input that `writer` cannot write back into channel by channel (deep,
+    /// PNG/JPEG), before reading it ([`lensblur::input::require_channel_stack`]).
+    pub fn require_channel_stack(&self, path: &Path, writer: &str) -> anyhow::Result<()> {
+        Ok(lensblur::input::require_channel_stack(path, &self.options(), writer)?)
+    }
+
     /// Files these flags read besides the input itself, described for [`check_output_paths`].
     pub fn files(&self) -> Vec<(&'static str, &Path)> {
         let depth = self.depth.iter().map(|p| ("the --depth input file", p.as_path()));
