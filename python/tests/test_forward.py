@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import lensblur
-from conftest import two_layer_stack
+from conftest import REPO, two_layer_stack
 
 
 def test_forward_equals_the_command_lines_render_of_the_example(cli, example, tmp_path):
@@ -139,3 +139,9 @@ def test_a_bad_camera_or_option_raises_the_librarys_message():
         lensblur.render_backward(layers, depth, camera, np.ones((8, 8, 4), np.float32))
     with pytest.raises(lensblur.LensblurError, match="No such file|not found|layers.exr"):
         lensblur.read_stack("no/such/layers.exr")
+
+
+def test_a_deep_file_is_refused_by_read_stack_pointing_at_what_reads_it():
+    deep = REPO / "tests" / "data" / "openexr-deep" / "Balls.exr"
+    with pytest.raises(lensblur.LensblurError, match=r"Balls\.exr: is a deep EXR, and this reader takes flat .* `lensblur render` reads deep files"):
+        lensblur.read_stack(str(deep))

@@ -202,8 +202,9 @@ pub(super) fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
         if header.deep {
             return Err(Error::input(
                 path,
-                "deep EXR data is not supported; flatten it to layers first (Nuke: DeepToImage per \
-                 layer; oiiotool --flatten)",
+                "is a deep EXR, and this reader takes flat (layered) EXRs. `lensblur render` reads \
+                 deep files, splitting their samples into layers by circle of confusion (the \
+                 library's `input::load`); or flatten it to layers (Nuke: DeepToImage per layer)",
             ));
         }
         for size in [display.size, header.layer_size] {
