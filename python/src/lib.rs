@@ -200,6 +200,18 @@ fn lock<T>(cache: &Mutex<T>) -> MutexGuard<'_, T> {
     cache.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
+/// The value cached under `key`, made by `make` on first use (a failure caches nothing).
+fn cached<K: std::hash::Hash + Eq, V>(
+    cache: &mut HashMap<K, V>,
+    key: K,
+    make: impl FnOnce() -> lensblur::Result<V>,
+) -> lensblur::Result<&mut V> {
+    Ok(match cache.entry(key) {
+        std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
+        std::collections::hash_map::Entry::Vacant(e) => e.insert(make()?),
+    })
+}
+
 /// The arrays and camera of one call, read by the library.
 struct Call {
     input: ArrayStack,
@@ -251,14 +263,9 @@ impl Renderer {
     ) -> PyResult<T> {
         let context = self.context()?;
         py.detach(|| {
+            let slope = if leaky { Slope::Leaky } else { Slope::Exact };
             let mut cache = lock(&self.differentiable);
-            let renderer = match cache.entry((method.name(), leaky)) {
-                std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
-                std::collections::hash_map::Entry::Vacant(e) => {
-                    let slope = if leaky { Slope::Leaky } else { Slope::Exact };
-                    e.insert(method.differentiable(context, slope)?)
-                }
-            };
+            let renderer = cached(&mut cache, (method.name(), leaky), || method.differentiable(context, slope))?;
             f(renderer.as_ref())
         })
         .or_py()
@@ -315,10 +322,7 @@ impl Renderer {
             let context = self.context()?;
             py.detach(|| {
                 let mut prepared = lock(&self.prepared);
-                let renderer = match prepared.entry(method.name()) {
-                    std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
-                    std::collections::hash_map::Entry::Vacant(e) => e.insert(method.prepare(Some(context))?),
-                };
+                let renderer = cached(&mut prepared, method.name(), || method.prepare(Some(context)))?;
                 let (options, settings) = (RenderOptions::default(), MethodSettings::default());
                 method.render_prepared(renderer.as_ref(), &stack, lens, &options, &settings)
             })
