@@ -226,13 +226,13 @@ fn addon_method_list_is_the_registry() {
 
 /// The Unit Scale (Scene > Units): the same scene built at 0.01 (one Blender unit a
 /// centimetre, so the Z pass and the focus distance are in centimetres, the lens still in
-/// millimetres; the add-on passes `--scene-unit cm`) must blur as the scene does in metres: compared with Cycles' depth of field of
-/// the scene built at scale 1, same threshold as there (measured 33.9 dB). Cycles' own render
-/// at 0.01 is not the reference: it ignores the Unit Scale (its aperture is the lens'
-/// millimetres read as 1e-3 units), and the add-on's physical result scored 19.7 dB against it
-/// (3.4 and 5.0 alike), the pinhole's score. Ignoring the scale would make the aperture 100
-/// times too small: next to no blur, about the pinhole's 19.3 dB against the truth. On
-/// Debian's 3.4 and bpy 5.0: the code path has no version branch.
+/// millimetres; the add-on passes `--scene-unit cm`) must blur as the scene does in metres:
+/// compared with Cycles' depth of field of the scene built at scale 1, same threshold as there
+/// (measured 33.9 dB). Cycles' own render at 0.01 is not the reference: it ignores the Unit
+/// Scale (its aperture is the lens' millimetres read as 1e-3 units), and the add-on's physical
+/// result scored 19.7 dB against it (3.4 and 5.0 alike), the pinhole's score. Ignoring the
+/// scale would make the aperture 100 times too small: next to no blur, about the pinhole's
+/// 19.3 dB against the truth. On Debian's 3.4 and bpy 5.0: the code path has no version branch.
 fn blender_addon_honours_the_unit_scale(blender: &Blender) {
     let dir = fresh_dir(&format!("plugin-blender-units-{}", blender.name));
     let stdout = blender_with_addon(blender, &dir, "blender_unit_scale.py", "LENSBLUR_UNITS_DONE");
