@@ -330,7 +330,8 @@ impl LoadedInput {
     /// channels are not a stack's) or a stack that was auto-layered.
     pub fn gradient_channels(&self, grads: &StackGradients) -> Result<Vec<(String, Vec<f32>)>> {
         let Some(info) = &self.info else {
-            return Err(Error::Unsupported("gradients map onto the channels of an EXR stack; this input is a PNG/JPEG".into()));
+            let kind = if self.deep_samples.is_some() { "a deep EXR" } else { "a PNG/JPEG" };
+            return Err(Error::unsupported(format!("gradients map onto the channels of an EXR stack; this input is {kind}")));
         };
         if self.auto_layered.is_some() {
             return Err(Error::unsupported(crate::stack::arrays::AUTO_LAYERED_GRADIENTS));
