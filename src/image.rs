@@ -2,7 +2,7 @@
 //! origin top-left. Every renderer consumes and produces this type.
 
 /// Labels for contact sheets (a 5x7 bitmap font, no font dependency).
-pub(crate) mod font;
+pub mod font;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use crate::camera::{Aperture, CameraHints, CocModel, PhysicalCamera, SceneUnit, SCENE_UNIT_ATTRIBUTE};
-use crate::render::grad::{stored_depth_gradient, StackGradients};
+use crate::stack::gradients::{stored_depth_gradient, StackGradients};
 use crate::render::{InputKind, Lens};
 use crate::stack::deep::{deep_to_layers, is_deep_exr, read_deep_files, DeepLayerOptions, DeepReadOptions};
 use crate::stack::{

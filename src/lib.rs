@@ -49,6 +49,8 @@
 //! - [`input`]: a render's input as a caller hands it: read the file, resolve the camera
 //!   (caller, header, shot camera file), auto-layer a flat image; map gradients back onto the
 //!   file's channels.
+//! - [`job`]: one render described once (input, camera, method and settings, lens character,
+//!   options), checked once and run: what the CLI, shots, Python and sessions all build.
 //! - [`cache_dir`]: the user cache folder every rebuildable file goes to.
 //! - [`atomic_file`]: outputs appear whole (temporary file, rename) and interrupts remove parts.
 //! - [`sequence`]: shots: frame ranges, frame file patterns, per-frame camera files.
@@ -56,8 +58,15 @@
 //! - [`character`]: lens character and artist controls layered on any method.
 //! - [`raytrace`] (feature `raytrace`): the thin-lens ground-truth ray tracer and the built-in scenes.
 //! - [`metrics`]: image quality metrics used by the benchmark.
-//! - [`selfcheck`]: every device pass against its CPU reference (the tests and the GPU kit).
-//! - [`bench`](mod@bench) (feature `bench`): the benchmark runner, report table and contact sheet.
+//!
+//! The command line (`cli/`), the benchmark and the device self-check (`dev/`) and the Python
+//! module (`python/`) are crates of their own that build on this one; none of them is a
+//! dependency of it.
+// Raw pointers only where a foreign API needs them: the Vulkan module and the deep reader's
+// OpenEXR bindings opt in (`#[allow(unsafe_code)]` on their `mod` lines); anywhere else
+// `unsafe` is a compile error.
+#![deny(unsafe_code)]
+
 pub mod atomic_file;
 pub mod cache_dir;
 pub mod camera;
@@ -65,18 +74,22 @@ pub mod character;
 pub mod error;
 pub mod image;
 pub mod input;
-#[cfg(feature = "bench")]
-pub mod bench;
+pub mod job;
 pub mod metrics;
 pub mod optim;
 #[cfg(feature = "raytrace")]
 pub mod raytrace;
 pub mod render;
-pub mod selfcheck;
 pub mod sequence;
 pub mod shaders;
 pub mod stack;
 pub mod tile_grid;
+#[allow(unsafe_code)]
 pub mod vk;
 
 pub use error::{Error, InputMismatch, Result};
+
+/// The build, for a front end's `--version`: the commit it was built from (`build.rs`) and
+/// its profile (`debug` or `release`).
+pub const BUILD_COMMIT: &str = env!("LENSBLUR_COMMIT");
+pub const BUILD_PROFILE: &str = env!("LENSBLUR_PROFILE");

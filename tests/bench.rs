@@ -3,7 +3,7 @@
 //! sheet work end to end, and that the scoring ranks a perfect method first.
 mod common;
 
-use lensblur::bench::{all_methods, contact_sheet, cpu_methods, run, select_methods, write_png, BenchMethod, InputKind};
+use lensblur_dev::bench::{all_methods, contact_sheet, cpu_methods, run, select_methods, write_png, BenchMethod, InputKind};
 use lensblur::camera::{Aperture, CocModel, PhysicalCamera};
 use lensblur::image::Image;
 use lensblur::raytrace::GroundTruth;
@@ -153,18 +153,18 @@ fn gpu_baselines_score_as_their_cpu_references() {
 fn a_peer_that_cannot_run_says_why_instead_of_scoring() {
     point_the_peer_nowhere();
     let scenes = scenes();
-    match lensblur::bench::run_opendefocus(&scenes) {
-        lensblur::bench::PeerRun::Unavailable(reason) => {
+    match lensblur_dev::bench::run_opendefocus(&scenes) {
+        lensblur_dev::bench::PeerRun::Unavailable(reason) => {
             assert!(reason.contains("not built") && reason.contains("/nonexistent/"), "{reason}")
         }
-        lensblur::bench::PeerRun::Rendered { .. } => panic!("no peer binary there"),
+        lensblur_dev::bench::PeerRun::Rendered { .. } => panic!("no peer binary there"),
     }
 }
 
 /// Every test of this binary that runs the peer sets the same value (so their order does not
 /// matter) and none removes it.
 fn point_the_peer_nowhere() {
-    std::env::set_var(lensblur::bench::OPENDEFOCUS_ENV, "/nonexistent/lensblur-peer-opendefocus");
+    std::env::set_var(lensblur_dev::bench::OPENDEFOCUS_ENV, "/nonexistent/lensblur-peer-opendefocus");
 }
 
 #[test]
@@ -172,7 +172,7 @@ fn single_image_table_has_a_row_per_scene_and_a_peer_column_that_says_why_it_is_
     point_the_peer_nowhere();
     let scenes = scenes();
     let methods = select_methods(cpu_methods(), &["gather-cpu".into()]).expect("registered");
-    let table = lensblur::bench::run_single_image(&scenes, &methods, &indicatif::ProgressBar::hidden(), false).expect("runs");
+    let table = lensblur_dev::bench::run_single_image(&scenes, &methods, &indicatif::ProgressBar::hidden(), false).expect("runs");
     assert!(table.peer_missing.as_deref().is_some_and(|r| r.contains("not built")));
     let text = table.to_string();
     for needle in ["opendefocus", "gather-cpu", "mild", "strong", "mean", "worst", "n/a, not built"] {
@@ -186,7 +186,7 @@ fn single_image_table_has_a_row_per_scene_and_a_peer_column_that_says_why_it_is_
 /// traced once into a cache under the target folder) and checks each scene's PSNR floor.
 fn assert_single_image_floors(method: &str, floors: [(&str, f64); 3]) {
     let cache = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("single-image-gt");
-    let truths = lensblur::bench::scenes::single_image_truths(&[], true, None, Some(&cache)).expect("ray traced");
+    let truths = lensblur_dev::bench::scenes::single_image_truths(&[], true, None, Some(&cache)).expect("ray traced");
     let ctx = common::gpu();
     let all = all_methods(Some(&ctx)).expect("pipelines build");
     let methods = select_methods(all, &[method.into()]).expect("registered");
@@ -207,7 +207,7 @@ fn assert_single_image_floors(method: &str, floors: [(&str, f64); 3]) {
 #[test]
 fn auto_layered_drbokeh_is_nowhere_much_worse_than_the_plain_gather() {
     let cache = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("single-image-gt");
-    let truths = lensblur::bench::scenes::single_image_truths(&[], true, None, Some(&cache)).expect("ray traced");
+    let truths = lensblur_dev::bench::scenes::single_image_truths(&[], true, None, Some(&cache)).expect("ray traced");
     let ctx = common::gpu();
     let all = all_methods(Some(&ctx)).expect("pipelines build");
     let methods = select_methods(all, &["drbokeh-auto".into(), "gather".into()]).expect("registered");
@@ -216,7 +216,7 @@ fn auto_layered_drbokeh_is_nowhere_much_worse_than_the_plain_gather() {
     let (layered, plain) = (position("drbokeh-auto"), position("gather"));
     for (scene, truth) in truths.iter().enumerate() {
         let renders = &report.renders[scene];
-        let gain = lensblur::bench::local_pick_gain(&renders[layered], &renders[plain], &truth.defocused).expect("same size");
+        let gain = lensblur_dev::bench::local_pick_gain(&renders[layered], &renders[plain], &truth.defocused).expect("same size");
         assert!((0.0..=0.45).contains(&gain), "{}: gather's blocks would gain {gain:.2} dB", truth.name);
     }
     drop(methods);

@@ -4,8 +4,8 @@
 //! floor. Fails, never skips, when Blender is missing: CI installs it.
 mod common;
 
-use lensblur::bench::cycles::{cycles_truths, CyclesSettings, CYCLES_SCENES};
-use lensblur::bench::{all_methods, run, select_methods};
+use lensblur_dev::bench::cycles::{cycles_truths, CyclesSettings, CYCLES_SCENES};
+use lensblur_dev::bench::{all_methods, run, select_methods};
 
 /// CI's rendering of the set: 128^2 with a 256-sample truth (the benchmark's is 192^2, 512):
 /// 3.6 minutes of Blender on 2 shared cores when the cache is cold (measured).

@@ -160,7 +160,7 @@ fn malformed_deep_exr_is_refused_naming_what_is_missing() {
 #[test]
 fn grad_and_fit_depth_refuse_deep_and_png_inputs_saying_what_to_give_instead() {
     let dir = common::temp_dir("bad-input", "channel-stack");
-    let deep = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/openexr-deep/Balls.exr");
+    let deep = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("tests/data/openexr-deep/Balls.exr");
     let png = dir.join("photo.png");
     image::RgbImage::new(W as u32, H as u32).save(&png).unwrap();
     let target = valid_stack(&dir);

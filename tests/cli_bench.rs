@@ -64,7 +64,7 @@ fn bench_prints_the_table_writes_json_and_sheet_and_runs_without_vulkan() {
 
     // Without Vulkan (the ground truth now comes from the cache): the CPU methods only.
     let (table, warning) = run_ok(&common, &common::NO_VULKAN);
-    let cpu: Vec<&str> = lensblur::bench::cpu_methods().iter().map(|m| m.name).collect();
+    let cpu: Vec<&str> = lensblur_dev::bench::cpu_methods().iter().map(|m| m.name).collect();
     assert!(warning.contains("no Vulkan device") && warning.contains(&cpu.join(", ")), "{warning}");
     assert!(table.contains("oracle ") && table.contains("gather-cpu ") && !table.contains("drbokeh"), "{table}");
     let mut args = common.to_vec();

@@ -1,7 +1,7 @@
 //! Deep EXR input (issue 39): deep files of the ray tracer's true layers render as the true
 //! layers do; the Weta passes merge without seam or halo; bad deep files are refused before
 //! rendering, naming file, part and pixel, with nothing written.
-#![cfg(feature = "deep")]
+// The command line always reads deep files (it builds the library with its `deep` feature).
 mod common;
 
 use std::path::{Path, PathBuf};
@@ -15,7 +15,7 @@ use lensblur::render::{InputKind, Method};
 use lensblur::stack::deep::{read_deep, write_deep, DeepImage, DeepReadOptions, DeepSample, DeepWriteOptions, PartChoice};
 
 fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/openexr-deep").join(name)
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("tests/data/openexr-deep").join(name)
 }
 
 fn request(focal_length_mm: f32, fstop: f32, focus_distance: f32, sensor_width_mm: f32) -> CameraRequest {

@@ -1,5 +1,5 @@
 //! The Dr.Bokeh backward shaders against finite differences of the GPU forward, for determinism
-//! and on tiles. Their comparison with the f64 CPU reference is in the self-check (src/selfcheck).
+//! and on tiles. Their comparison with the f64 CPU reference is in the self-check (dev/src/selfcheck).
 mod common;
 
 use common::{finish, gpu};
@@ -10,14 +10,14 @@ use lensblur::render::grad::{Differentiable, StackGradients};
 use lensblur::render::Lens;
 use lensblur::stack::LayerStack;
 
-use lensblur::selfcheck::scenes::{backward as scene, grad_output, hash};
+use lensblur_dev::selfcheck::scenes::{backward as scene, grad_output, hash};
 
 fn lens(aperture: Aperture) -> Lens {
     Lens { coc: CocModel::new(12.0, 0.5).unwrap(), aperture }
 }
 
 // The comparison with the f64 CPU reference for both models and every aperture, untiled and
-// tiled, is a self-check (src/selfcheck, run by tests/gpu_kit.rs and by the GPU kit).
+// tiled, is a self-check (dev/src/selfcheck, run by tests/gpu_kit.rs and by the GPU kit).
 
 fn projected(renderer: &DrBokehGpu, stack: &LayerStack, lens: &Lens, model: Model, u: &Image) -> f64 {
     let out = renderer.render(stack, lens, model).unwrap();

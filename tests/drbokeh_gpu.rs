@@ -1,6 +1,6 @@
 //! The Dr.Bokeh shaders: the optimised kernel against the baseline and further properties. The
 //! comparison of every aperture path with the f64 CPU reference is in the self-check
-//! (src/selfcheck, run by tests/gpu_kit.rs).
+//! (dev/src/selfcheck, run by tests/gpu_kit.rs).
 mod common;
 
 use common::{finish, gpu};
@@ -9,14 +9,14 @@ use lensblur::render::drbokeh::{render_cpu, DrBokehGpu, LayerKernel, Model};
 use lensblur::render::Lens;
 use lensblur::stack::LayerStack;
 
-use lensblur::selfcheck::scenes::forward as scene;
+use lensblur_dev::selfcheck::scenes::forward as scene;
 
 // Largest difference relative to max(1, |cpu|) (HDR highlights reach ~40): the self-check's
 // metric.
-use lensblur::selfcheck::image_difference as worst_relative;
+use lensblur_dev::selfcheck::image_difference as worst_relative;
 
 // Every aperture path of both models against the CPU reference, untiled and tiled, is a
-// self-check (src/selfcheck, run by tests/gpu_kit.rs and by the GPU kit on real GPUs).
+// self-check (dev/src/selfcheck, run by tests/gpu_kit.rs and by the GPU kit on real GPUs).
 
 #[test]
 fn optimised_kernel_matches_the_baseline_kernel_for_both_models_and_every_aperture() {

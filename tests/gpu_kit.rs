@@ -1,7 +1,7 @@
 //! The GPU kit (`gpu-kit/run`) on this machine's Vulkan device (lavapipe in CI) with its small
 //! timing cases: the same script, the same self-check and the same report a lent GPU produces,
 //! so the kit cannot rot between the sessions that are lent one. The self-check is the one copy
-//! of the GPU-against-CPU-reference comparisons (src/selfcheck): every method's forward pass and
+//! of the GPU-against-CPU-reference comparisons (dev/src/selfcheck): every method's forward pass and
 //! every backward pass, untiled and tiled, each aperture path and the sequence path.
 mod common;
 
@@ -14,7 +14,7 @@ fn the_kit_passes_every_self_check_and_times_every_case_on_this_device() {
     let dir = temp_dir("gpu_kit", "run");
     let out = dir.join("out");
     let run = Command::new("bash")
-        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/gpu-kit/run"))
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/../gpu-kit/run"))
         .args(["--small", "--repeats", "2", "--bin", env!("CARGO_BIN_EXE_lensblur"), "--out"])
         .arg(&out)
         .env_remove("LENSBLUR_DEVICE")
@@ -46,7 +46,7 @@ fn the_kit_passes_every_self_check_and_times_every_case_on_this_device() {
             "{method}: forward untiled and tiled checks: {names:?}"
         );
     }
-    for (aperture, _) in lensblur::selfcheck::apertures() {
+    for (aperture, _) in lensblur_dev::selfcheck::apertures() {
         assert!(has(&["forward drbokeh ", aperture, "tiles"]), "forward {aperture} tiled: {names:?}");
     }
     for aperture in ["disk", "polygon:6", "anamorphic", "ring", "image"] {
@@ -61,7 +61,7 @@ fn the_kit_passes_every_self_check_and_times_every_case_on_this_device() {
 
     // Every timing case has positive wall and device times (lavapipe has timestamp queries).
     let cases = report["timings"]["cases"].as_array().unwrap_or_else(|| panic!("no timings; log:\n{log}"));
-    assert_eq!(cases.len(), lensblur::bench::device_timings::timing_cases(true).len());
+    assert_eq!(cases.len(), lensblur_dev::bench::device_timings::timing_cases(true).len());
     for case in cases {
         let positive = |key: &str| case[key].as_f64().is_some_and(|v| v > 0.0 && v.is_finite());
         assert!(positive("wall_ms") && positive("device_ms") && positive("effective_taps_per_second"), "{case}");

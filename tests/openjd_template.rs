@@ -10,7 +10,7 @@ use std::process::{Command, Output};
 
 use common::shot::{self, write_camera_file, write_focus_pull};
 
-const TEMPLATE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/plugins/openjd/lensblur-render.yaml");
+const TEMPLATE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../plugins/openjd/lensblur-render.yaml");
 
 /// Runs `openjd` with the lensblur under test first on PATH; a missing runner fails the test.
 fn openjd(args: &[&str]) -> Output {

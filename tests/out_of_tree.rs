@@ -8,7 +8,8 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-const REPO: &str = env!("CARGO_MANIFEST_DIR");
+// The repository root: these tests belong to the cli package (cli/Cargo.toml).
+const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
 
 const MANIFEST: &str = r#"[package]
 name = "lensblur-dependent"

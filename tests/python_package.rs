@@ -9,7 +9,8 @@ use std::time::SystemTime;
 
 use lensblur::cache_dir::cache_subdir;
 
-const REPO: &str = env!("CARGO_MANIFEST_DIR");
+// The repository root: these tests belong to the cli package (cli/Cargo.toml).
+const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
 const FIX: &str = "run `bash .ci/setup` (it builds this checkout's package into the environment \
                    with maturin, and installs numpy, pytest and torch there if missing)";
 

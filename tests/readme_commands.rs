@@ -16,7 +16,8 @@ use std::process::{Command, Output};
 use lensblur::render::Method;
 
 const README: &str = include_str!("../README.md");
-const REPO: &str = env!("CARGO_MANIFEST_DIR");
+// The repository root: these tests belong to the cli package (cli/Cargo.toml).
+const REPO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
 
 /// One command as a user would type it, with the document and line it starts on.
 #[derive(Debug)]
@@ -75,7 +76,7 @@ fn code_lines(text: &str) -> Vec<Option<String>> {
 }
 
 /// The commands in the documents' code that start with `lensblur` or run it through `cargo run
-/// --release --` (the set-up, which is `lensblur` once built). A trailing `\` joins the next
+/// --release -p lensblur-cli --` (the set-up, which is `lensblur` once built). A trailing `\` joins the next
 /// line; two or more spaces end the command (the tour's descriptions follow them on the same
 /// line).
 fn readme_commands() -> Vec<ReadmeCommand> {
@@ -97,7 +98,7 @@ fn document_commands(name: &str, text: &str) -> Vec<ReadmeCommand> {
         i += 1;
         let Some(code) = line.strip_prefix("    ") else { continue };
         let mut text = command_part(code);
-        if let Some((_, args)) = text.split_once("cargo run --release -- ") {
+        if let Some((_, args)) = text.split_once("cargo run --release -p lensblur-cli -- ") {
             text = format!("lensblur {args}");
         }
         if !text.starts_with("lensblur ") {
@@ -179,9 +180,9 @@ fn every_readme_command_runs_as_written() {
 
 #[test]
 fn the_readme_says_how_to_get_lensblur_on_path_before_using_it() {
-    let install = README.find("cargo install --path .").expect("the README says how to install the binary");
+    let install = README.find("cargo install --path cli").expect("the README says how to install the binary");
     let first_use = README.find("\n    lensblur ").expect("the README uses lensblur");
-    assert!(install < first_use, "`cargo install --path .` comes after the first `lensblur` command");
+    assert!(install < first_use, "`cargo install --path cli` comes after the first `lensblur` command");
 }
 
 /// Relative links in the README and the book exist, the book's stay inside its source folder

@@ -18,7 +18,7 @@ use lensblur::stack::{
 
 
 fn script(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
         .join("tests/interop")
         .join(name)
 }

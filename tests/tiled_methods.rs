@@ -56,7 +56,7 @@ fn lens(aperture: Aperture) -> Lens {
 /// Few samples keep lavapipe fast; a tilted focal plane makes Virtual DSLR's relative
 /// disparity depend on the position relative to the frame centre.
 fn settings() -> MethodSettings {
-    lensblur::selfcheck::scenes::few_samples()
+    lensblur_dev::selfcheck::scenes::few_samples()
 }
 
 fn bits(image: &Image) -> Vec<u32> {
@@ -123,7 +123,7 @@ fn staged_transfers_give_the_bytes_of_direct_ones() {
         let (a, b) = (run(&direct), run(&staged));
         assert!(bits(&a) == bits(&b), "{method}: staged transfers change the render by {}", max_abs_diff(&a, &b));
     }
-    let grad_output = lensblur::selfcheck::scenes::grad_output(WIDTH, HEIGHT);
+    let grad_output = lensblur_dev::selfcheck::scenes::grad_output(WIDTH, HEIGHT);
     let gradients = |ctx: &Context| {
         let renderer = lensblur::render::drbokeh::DrBokehGpuGrad::new(
             ctx,
@@ -184,7 +184,7 @@ fn tiles_grow_after_the_first_batch_measures_the_device() {
 }
 
 // Tiled and untiled renders of every method against its CPU reference are self-checks
-// (src/selfcheck, run by tests/gpu_kit.rs and by the GPU kit on real GPUs).
+// (dev/src/selfcheck, run by tests/gpu_kit.rs and by the GPU kit on real GPUs).
 
 /// Multiview's tiles read windows of the layers aligned to the top mip level their cones read.
 /// Wider cones (top levels 4 and 5: windows aligned to 16 and 32 px, cut at the frame's edges)

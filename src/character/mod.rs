@@ -47,6 +47,23 @@ pub struct Character {
 }
 
 impl Character {
+    /// Checks every control's values (before any input is read).
+    pub fn validate(&self) -> Result<()> {
+        self.remap.validate()?;
+        if let Some(bloom) = &self.bloom {
+            bloom.validate()?;
+        }
+        if let Some(offsets) = self.chromatic {
+            if offsets.iter().any(|o| !o.is_finite()) {
+                return Err(Error::invalid("chromatic", format!("chromatic focus offsets must be finite numbers, got {offsets:?}")));
+            }
+        }
+        if let Some(eye) = &self.cats_eye {
+            eye.validate()?;
+        }
+        Ok(())
+    }
+
     /// The stack and lens a renderer sees: focus picked, then disparities remapped (around the
     /// final focus), then highlights boosted. Borrowed unchanged when nothing applies.
     pub fn prepare<'a>(&self, stack: &'a LayerStack, lens: &Lens) -> Result<(Cow<'a, LayerStack>, Lens)> {
@@ -106,16 +123,16 @@ impl Character {
         // single focus it moves. Cat's-eye renders crops, which would move a tilt's pivot (the
         // crop's centre); planes are absolute and do not mind.
         let controls = [
-            (self.focus_at.is_some(), "--focus-at", true),
-            (!self.remap.is_identity(), "--near-blur/--far-blur/--max-blur", true),
-            (self.chromatic.is_some(), "--chromatic", planes),
-            (self.cats_eye.is_some(), "--cats-eye", tilt),
+            (self.focus_at.is_some(), "`focus_at`", true),
+            (!self.remap.is_identity(), "`near_blur`/`far_blur`/`max_blur`", true),
+            (self.chromatic.is_some(), "`chromatic`", planes),
+            (self.cats_eye.is_some(), "`cats_eye`", tilt),
         ];
         let conflicts: Vec<&str> = controls.iter().filter(|(on, _, conflicts)| *on && *conflicts).map(|c| c.1).collect();
         if conflicts.is_empty() {
             return Ok(());
         }
-        let field = if tilt { "--tilt-shift" } else { "--focal-planes" };
+        let field = if tilt { "`tilt_shift`" } else { "`focal_planes`" };
         Err(Error::invalid("lens character", format!(
             "{} cannot be combined with {field}: they act on one focal plane through the frame centre; drop one of them",
             conflicts.join(", ")

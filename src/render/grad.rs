@@ -8,29 +8,11 @@ use crate::camera::{CocModel, PhysicalCamera};
 use crate::image::Image;
 use crate::render::tiler::{RenderOptions, RenderStats};
 use crate::render::Lens;
-use crate::stack::fill::push_pull_adjoint;
-use crate::stack::{DepthKind, Layer, LayerStack};
-use crate::{Error, Result};
-
-/// dL/d(input) of one layer.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct LayerGradients {
-    /// dL/d(premultiplied R, G, B, A) per pixel.
-    pub rgba: Vec<[f32; 4]>,
-    /// dL/d(disparity) per pixel.
-    pub disparity: Vec<f32>,
-}
-
-/// dL/d(everything a render depends on), for one loss.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct StackGradients {
-    /// Same order as the stack's layers (front to back).
-    pub layers: Vec<LayerGradients>,
-    /// dL/dK (pixels of CoC per unit disparity).
-    pub k_px: f64,
-    /// dL/d(focus disparity).
-    pub focus_disparity: f64,
-}
+use crate::stack::LayerStack;
+// The gradient types are the stack's shape and live with it (the stack module never imports
+// a renderer); re-exported here, where every backward pass names them.
+pub use crate::stack::gradients::{stored_depth_gradient, LayerGradients, StackGradients};
+use crate::Result;
 
 /// A renderer with a backward pass: `backward` returns the vector-Jacobian product of the
 /// render at (`stack`, `lens`) with `grad_output` = dL/d(output premultiplied RGBA).
@@ -65,32 +47,6 @@ pub enum Slope {
     Leaky,
 }
 
-/// dL/d(stored depth) of one layer read from a file with depth convention `kind`, from
-/// dL/d(disparity) `grad`. `weights` are the reader's per-pixel depth weights: where it did
-/// not read the stored depth (weight 0: no coverage) the layer's disparity was filled from the
-/// covered pixels, so the gradient that reached it flows back through the fill onto them; then
-/// dL/d(stored) = dL/d(disparity) * d(disparity)/d(stored) on the covered pixels, 0 elsewhere.
-pub fn stored_depth_gradient(kind: DepthKind, layer: &Layer, weights: &[f32], grad: &[f32]) -> Result<Vec<f32>> {
-    let (w, h) = (layer.rgba.width, layer.rgba.height);
-    if weights.len() != w * h || grad.len() != w * h {
-        return Err(Error::Unsupported(format!(
-            "layer '{}': {} depth weights and {} gradients for {w}x{h} pixels",
-            layer.name,
-            weights.len(),
-            grad.len()
-        )));
-    }
-    let through_fill = push_pull_adjoint(w, h, weights, grad);
-    let chain = |((&g, &d), &weight): ((&f32, &f32), &f32)| {
-        if weight > 0.0 {
-            g * kind.disparity_derivative(kind.from_disparity(d))
-        } else {
-            0.0
-        }
-    };
-    Ok(through_fill.iter().zip(&layer.disparity).zip(weights).map(chain).collect())
-}
-
 /// dL/d(camera parameter): the CoC model's two, and with a physical camera its own three.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct CameraGradients {
@@ -120,7 +76,6 @@ impl CameraGradients {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::image::Image;
 
     /// A loss linear in K and d_f (L = a K + b d_f) has dL/dK = a, dL/dd_f = b; the chain
     /// rule's physical gradients must match central differences of L through the camera.
@@ -150,23 +105,4 @@ mod tests {
         assert_eq!(CameraGradients::new(&grads, &coc, None).fstop, None);
     }
 
-    /// Planar Z: d(disparity)/dZ = -1/Z^2 on covered pixels; uncovered pixels pass their
-    /// gradient through the fill's adjoint onto covered ones, so the total is kept there.
-    #[test]
-    fn stored_depth_gradient_applies_the_convention_and_routes_uncovered_pixels_through_the_fill() {
-        let (w, h) = (4, 1);
-        let z = [2.0f32, 4.0, 5.0, 8.0];
-        let layer = Layer { name: "l".into(), rgba: Image::new(w, h), disparity: z.iter().map(|z| 1.0 / z).collect() };
-        let all = stored_depth_gradient(DepthKind::Z, &layer, &[1.0; 4], &[1.0; 4]).unwrap();
-        for (g, z) in all.iter().zip(z) {
-            assert!((g + 1.0 / (z * z)).abs() < 1e-6, "{g} at Z {z}");
-        }
-        let weights = [1.0, 1.0, 0.0, 1.0];
-        let grad = [0.0, 0.0, 1.0, 0.0];
-        let routed = stored_depth_gradient(DepthKind::Disparity, &layer, &weights, &grad).unwrap();
-        assert_eq!(routed[2], 0.0, "the uncovered pixel keeps none");
-        let total: f32 = routed.iter().sum();
-        assert!((total - 1.0).abs() < 1e-5, "the fill's adjoint keeps the gradient's sum: {total}");
-        assert!(stored_depth_gradient(DepthKind::Z, &layer, &[1.0; 3], &[1.0; 4]).is_err());
-    }
 }

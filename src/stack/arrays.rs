@@ -6,7 +6,7 @@ use std::path::Path;
 use super::exr_read::{check_finite, depth_to_disparity};
 use super::{DepthKind, Layer, LayerStack};
 use crate::image::Image;
-use crate::render::grad::{stored_depth_gradient, StackGradients};
+use crate::stack::gradients::{stored_depth_gradient, StackGradients};
 use crate::{Error, Result};
 
 /// A stack read from arrays, with what mapping its gradients back needs.

@@ -14,6 +14,7 @@ pub mod exr_replace;
 pub mod file_output_slots;
 pub mod file_channels;
 pub mod fill;
+pub mod gradients;
 pub mod info;
 pub mod ldr;
 pub mod naming;

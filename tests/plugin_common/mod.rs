@@ -16,7 +16,7 @@ pub fn fresh_dir(test: &str) -> ScratchDir {
 
 /// The repository's `plugins/` folder.
 pub fn plugins_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("plugins")
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("plugins")
 }
 
 /// Reads the first RGBA layer of an EXR (plain R,G,B,A or one named layer) as written by
@@ -63,7 +63,7 @@ impl Blender {
     pub fn bpy(version: &str) -> Self {
         let listed = bpy_versions();
         assert!(listed.iter().any(|v| v == version), "bpy {version} is not in .ci/bpy-versions ({listed:?})");
-        let python = lensblur::bench::blender::bpy_python(version).unwrap_or_else(|e| panic!("{e}"));
+        let python = lensblur_dev::bench::blender::bpy_python(version).unwrap_or_else(|e| panic!("{e}"));
         Blender { name: format!("bpy-{version}"), python: Some(python) }
     }
 
@@ -85,7 +85,7 @@ impl Blender {
 
 /// The bpy versions of `.ci/bpy-versions` (its first column).
 pub fn bpy_versions() -> Vec<String> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(".ci/bpy-versions");
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join(".ci/bpy-versions");
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     text.lines()
         .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
@@ -147,7 +147,7 @@ pub fn blender_ui_with_addon(dir: &Path, script: &str, done: &str) -> String {
 }
 
 pub fn interop_script(script: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/interop").join(script)
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/..")).join("tests/interop").join(script)
 }
 
 fn install_addon_link(dir: &Path) {

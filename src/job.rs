@@ -1,0 +1,443 @@
+//! One render, described once for every front end: the input and how to read it, the camera,
+//! the method and its settings, the lens character and the options that cut the work. The
+//! command line (one file or a shot's frames), the Python package and a resident session all
+//! build a [`RenderJob`], have it checked once ([`RenderJob::new`], before any file is read),
+//! and run it; no front end assembles a render of its own.
+//!
+//! Messages name the job's options by their snake_case names in backticks (`` `samples` ``,
+//! `` `tilt_shift` ``), which is how Python spells them; a front end with other spellings (the
+//! command line's `--samples`) rewrites the backticked names with [`spell_options`].
+use std::borrow::Cow;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use crate::camera::{disparity_from_z, CameraHints, FocusField};
+use crate::character::Character;
+use crate::image::Image;
+use crate::input::{layers_for, load, CameraRequest, InputOptions, LoadedInput};
+use crate::render::placement::{place, DevicePreference, Placement};
+use crate::render::tiler::RenderOptions;
+use crate::render::vdslr::Highlight;
+use crate::render::{Lens, Method, MethodSettings, Renderer, Setting};
+use crate::stack::arrays::ArrayStack;
+use crate::stack::{DepthKind, LayerStack};
+use crate::vk::{Context, ContextOptions};
+use crate::{Error, Result};
+
+/// The settings of the lens-sampling methods as a caller gives them; `None` keeps the method's
+/// tuned default. A setting the chosen method does not read is refused, never ignored.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MethodOptions {
+    /// Lens samples per pixel (vdslr, multiview); rounded up to a square.
+    pub samples: Option<u32>,
+    /// Intersection search iterations per lens ray (vdslr).
+    pub iterations: Option<u32>,
+    /// Highlight weighting of the colour blend, sigma in linear units; 0 turns it off (vdslr).
+    pub highlight_sigma: Option<f32>,
+    /// A tilted focal plane: focus offsets in CoC pixels at the right and bottom frame edges,
+    /// linear across the frame and zero at its centre (positive = focused nearer) (vdslr).
+    pub tilt_shift: Option<[f32; 2]>,
+    /// Several focal planes at once: distances in scene units for a physical camera,
+    /// disparities for the normalised model; the first becomes the camera's focus (vdslr).
+    pub focal_planes: Option<Vec<f32>>,
+}
+
+impl MethodOptions {
+    /// The option name of `setting`, as messages and Python spell it.
+    pub fn option_name(setting: Setting) -> &'static str {
+        match setting {
+            Setting::Samples => "samples",
+            Setting::Iterations => "iterations",
+            Setting::HighlightSigma => "highlight_sigma",
+            Setting::TiltShift => "tilt_shift",
+            Setting::FocalPlanes => "focal_planes",
+        }
+    }
+
+    fn given(&self) -> [(Setting, bool); 5] {
+        [
+            (Setting::Samples, self.samples.is_some()),
+            (Setting::Iterations, self.iterations.is_some()),
+            (Setting::HighlightSigma, self.highlight_sigma.is_some()),
+            (Setting::TiltShift, self.tilt_shift.is_some()),
+            (Setting::FocalPlanes, self.focal_planes.is_some()),
+        ]
+    }
+
+    /// Refuses settings `method` does not read, two focus fields at once and values out of
+    /// range, before any reading.
+    pub fn check(&self, method: Method) -> Result<()> {
+        if let Some((setting, _)) = self.given().into_iter().find(|(setting, on)| *on && !method.reads(*setting)) {
+            let readers: Vec<&str> = Method::readers(setting).map(Method::name).collect();
+            let methods = match readers.split_last() {
+                Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+                _ => readers.join(""),
+            };
+            return Err(Error::invalid(
+                "method settings",
+                format!(
+                    "`{}` applies to `method` {methods}, not {method}: drop it or pick one of those methods",
+                    Self::option_name(setting)
+                ),
+            ));
+        }
+        if self.tilt_shift.is_some() && self.focal_planes.is_some() {
+            return Err(Error::invalid("method settings", "`tilt_shift` and `focal_planes` each set the focus field: give one of them"));
+        }
+        if let Some(sigma) = self.highlight_sigma {
+            if !(sigma.is_finite() && sigma >= 0.0) {
+                return Err(Error::invalid(
+                    "method settings",
+                    format!("`highlight_sigma` must be a positive number (0 turns it off), got {sigma}"),
+                ));
+            }
+        }
+        if let Some([x, y]) = self.tilt_shift {
+            if !(x.is_finite() && y.is_finite()) {
+                return Err(Error::invalid("method settings", format!("`tilt_shift` must be two finite numbers, got {x},{y}")));
+            }
+        }
+        match &self.focal_planes {
+            Some(planes) if planes.is_empty() => {
+                Err(Error::invalid("method settings", "`focal_planes` needs at least one plane"))
+            }
+            Some(planes) if planes.iter().any(|d| !d.is_finite()) => {
+                Err(Error::invalid("method settings", format!("`focal_planes` must be finite numbers, got {planes:?}")))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The settings `method` renders a `width x height` frame through `lens` with; `physical`:
+    /// the camera is physical (focal planes are distances, not disparities).
+    pub fn resolve(&self, lens: &Lens, physical: bool, width: usize, height: usize) -> Result<MethodSettings> {
+        let mut settings = MethodSettings::default();
+        if let Some(samples) = self.samples {
+            settings.vdslr.samples = samples;
+            settings.multiview.samples = samples;
+        }
+        if let Some(iterations) = self.iterations {
+            settings.vdslr.iterations = iterations;
+        }
+        if let Some(sigma) = self.highlight_sigma {
+            settings.vdslr.highlight = (sigma > 0.0).then_some(Highlight { sigma, white: 1.0 });
+        }
+        if let Some([x, y]) = self.tilt_shift {
+            settings.vdslr.focus = tilt(x, y, lens, width, height)?;
+        }
+        if let Some(planes) = &self.focal_planes {
+            let disparities = if physical {
+                if let Some(bad) = planes.iter().find(|d| **d <= 0.0) {
+                    return Err(Error::invalid(
+                        "method settings",
+                        format!("`focal_planes`: distances must be positive (scene units), got {bad}"),
+                    ));
+                }
+                planes.iter().copied().map(disparity_from_z).collect()
+            } else {
+                planes.clone()
+            };
+            settings.vdslr.focus = FocusField::Planes(disparities);
+        }
+        Ok(settings)
+    }
+
+    /// The focus field these options ask for, before the lens is known (for the checks).
+    fn focus_kind(&self) -> FocusField {
+        if self.tilt_shift.is_some() {
+            FocusField::Tilt { gradient: [0.0, 0.0] }
+        } else if let Some(planes) = &self.focal_planes {
+            FocusField::Planes(planes.clone())
+        } else {
+            FocusField::Plane
+        }
+    }
+}
+
+/// The tilted focus field whose focus, relative to the centre, is `x` CoC pixels nearer at the
+/// right edge and `y` at the bottom edge (disparity is linear in image position on any plane).
+fn tilt(x: f32, y: f32, lens: &Lens, width: usize, height: usize) -> Result<FocusField> {
+    let k = lens.coc.k_px;
+    if k <= 0.0 {
+        return Err(Error::invalid(
+            "method settings",
+            format!("`tilt_shift`: the camera does not blur (K = {k}): a tilted focal plane changes nothing"),
+        ));
+    }
+    // From the centre pixel to the edge pixel: (n - 1) / 2 pixels (a 1-pixel axis has no tilt).
+    let per_pixel = |offset: f32, n: usize| if n > 1 { offset / k / ((n as f32 - 1.0) * 0.5) } else { 0.0 };
+    Ok(FocusField::Tilt { gradient: [per_pixel(x, width), per_pixel(y, height)] })
+}
+
+/// Everything one render needs but the pixels. Build it, check it once with [`RenderJob::new`]
+/// (before any file is read), then [`load`](RenderJob::load) inputs and
+/// [`render`](RenderJob::render) them: a shot renders every frame with one job.
+#[derive(Clone, Debug, Default)]
+pub struct JobSpec {
+    pub method: Method,
+    /// What the caller says about the camera (the rest comes from the input's header).
+    pub camera: CameraRequest,
+    /// How a file is read and a flat image split into layers.
+    pub input: InputOptions,
+    pub method_options: MethodOptions,
+    /// Lens character and artist controls (blur remap, focus pick, bloom, chromatic
+    /// aberration, cat's-eye).
+    pub character: Character,
+    /// The input carries this many extra pixels on every side (overscan): rendered, then cut
+    /// from the result.
+    pub overscan: usize,
+    /// Frame tile side in pixels on the Vulkan device (`None`: the largest that fits).
+    pub tile: Option<usize>,
+    /// Most bytes the render may hold, host and device together.
+    pub max_memory: Option<u64>,
+    /// Where a Vulkan method runs.
+    pub device: DevicePreference,
+}
+
+/// A checked [`JobSpec`]: every front end renders through one of these.
+#[derive(Clone, Debug)]
+pub struct RenderJob {
+    spec: JobSpec,
+}
+
+/// A render of one input with its lens character applied, and what the reports and debug
+/// views describe.
+pub struct Rendered<'a> {
+    /// The defocused frame, overscan included (see [`RenderJob::output`]).
+    pub image: Image,
+    /// The stack as rendered (after the blur remap and bloom).
+    pub prepared: Cow<'a, LayerStack>,
+    /// The lens as rendered (after a focus pick).
+    pub lens: Lens,
+    /// The focus field the method rendered.
+    pub focus: FocusField,
+    pub render_time: Duration,
+}
+
+impl RenderJob {
+    /// Checks everything that needs no input: the method's settings, the character's values,
+    /// tiling against where the method runs, and controls that exclude each other.
+    pub fn new(spec: JobSpec) -> Result<Self> {
+        spec.method_options.check(spec.method)?;
+        spec.character.validate()?;
+        spec.character.check_focus_field(&spec.method_options.focus_kind())?;
+        let tiling = match (spec.tile, spec.max_memory) {
+            (Some(_), _) => Some("tile"),
+            (None, Some(_)) => Some("max_memory"),
+            (None, None) => None,
+        };
+        if let Some(option) = tiling {
+            if !spec.method.uses_gpu() {
+                return Err(Error::invalid(
+                    "tiling",
+                    format!(
+                        "`{option}` cuts the frames of the Vulkan methods; {} runs on the CPU over whole layers, untiled (drop it)",
+                        spec.method
+                    ),
+                ));
+            }
+            if spec.device == DevicePreference::Cpu {
+                return Err(Error::invalid(
+                    "tiling",
+                    format!("`{option}` cuts the frames of the Vulkan renderers; `device` cpu runs the CPU reference over the whole frame (drop one)"),
+                ));
+            }
+        }
+        if spec.tile == Some(0) {
+            return Err(Error::invalid("tiling", "`tile` must be at least 1 pixel"));
+        }
+        let mut spec = spec;
+        // The first focal plane stands for the camera's focus: what reports and the other
+        // controls' checks see.
+        if let Some(&first) = spec.method_options.focal_planes.as_ref().and_then(|p| p.first()) {
+            match &mut spec.camera.normalised {
+                Some(coc) => coc.focus_disparity = first,
+                None => spec.camera.physical.focus_distance = Some(first),
+            }
+        }
+        Ok(Self { spec })
+    }
+
+    pub fn spec(&self) -> &JobSpec {
+        &self.spec
+    }
+
+    pub fn method(&self) -> Method {
+        self.spec.method
+    }
+
+    /// Where the method runs: the Vulkan device (`LENSBLUR_DEVICE` picks one), or the CPU
+    /// reference, with the reason (see [`place`]).
+    pub fn place(&self) -> Result<Placement> {
+        place(self.spec.method, self.spec.device, &ContextOptions::from_env())
+    }
+
+    /// Reads `path` for this job: the camera resolved (the job's values, then the header, then
+    /// `camera_file`: a shot's entry for the frame) and a flat image split into layers for a
+    /// layered method.
+    pub fn load(&self, path: &Path, camera_file: &CameraHints) -> Result<LoadedInput> {
+        load(path, &self.spec.input, &self.spec.camera, camera_file, self.spec.method.input())
+    }
+
+    /// Takes a stack handed over as arrays ([`crate::stack::arrays`]) for this job: the camera
+    /// is the job's alone (arrays have no header).
+    pub fn load_arrays(&self, arrays: ArrayStack) -> Result<LoadedInput> {
+        let start = Instant::now();
+        let none = CameraHints::default();
+        let camera = self.spec.camera.resolve(arrays.stack.width, &none, &none)?;
+        let mut warnings = Vec::new();
+        if camera.physical.is_some() {
+            warnings.extend(arrays.depth_kind.physical_camera_warning());
+        }
+        let (stack, auto_layered) = layers_for(
+            arrays.stack,
+            arrays.single_image,
+            &camera.lens.coc,
+            self.spec.method.input(),
+            &self.spec.input.auto_layer,
+        );
+        Ok(LoadedInput {
+            stack,
+            info: None,
+            depth_kind: arrays.depth_kind,
+            camera,
+            auto_layered,
+            warnings,
+            read_time: Duration::ZERO,
+            layering_time: start.elapsed(),
+            deep_samples: None,
+        })
+    }
+
+    /// The method's settings for a loaded input (a tilt and focal planes depend on its lens
+    /// and size).
+    pub fn settings(&self, loaded: &LoadedInput) -> Result<MethodSettings> {
+        let (lens, stack) = (&loaded.camera.lens, &loaded.stack);
+        self.spec.method_options.resolve(lens, loaded.camera.physical.is_some(), stack.width, stack.height)
+    }
+
+    /// How many method renders [`Self::render`] makes of `loaded` (x3 for chromatic
+    /// aberration, x grid nodes for cat's-eye), for progress displays.
+    pub fn render_count(&self, loaded: &LoadedInput) -> usize {
+        let (look, lens) = self.spec.character.for_method(self.spec.method, &loaded.camera.lens);
+        look.render_count(&loaded.stack, &lens)
+    }
+
+    /// Renders `loaded` on `ctx` (the CPU reference without one); `progress` is called after
+    /// each finished tile with (tiles done, tiles in all) of the current method render.
+    pub fn render<'a>(
+        &self,
+        ctx: Option<&Context>,
+        loaded: &'a LoadedInput,
+        progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+    ) -> Result<Rendered<'a>> {
+        let renderer = self.spec.method.prepare(ctx)?;
+        self.render_with(renderer.as_ref(), loaded, progress)
+    }
+
+    /// [`Self::render`] on a renderer the job's method prepared once ([`Method::prepare`]), for
+    /// callers that render many times on one device (Python, a resident session).
+    pub fn render_with<'a>(
+        &self,
+        renderer: &dyn Renderer,
+        loaded: &'a LoadedInput,
+        progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+    ) -> Result<Rendered<'a>> {
+        let start = Instant::now();
+        let method = self.spec.method;
+        let settings = self.settings(loaded)?;
+        let character = &self.spec.character;
+        character.check_focus_field(settings.focus(method))?;
+        let (prepared, lens) = character.prepare(&loaded.stack, &loaded.camera.lens)?;
+        let (look, lens) = character.for_method(method, &lens);
+        let options = RenderOptions { tile: self.spec.tile, max_memory: self.spec.max_memory, progress, ..RenderOptions::default() };
+        let render = |s: &LayerStack, l: &Lens| method.render_prepared(renderer, s, l, &options, &settings);
+        let image = look.render_prepared(&render, &prepared, &lens)?;
+        Ok(Rendered { image, prepared, lens, focus: settings.focus(method).clone(), render_time: start.elapsed() })
+    }
+
+    /// The frame a caller keeps: `image` without the overscan margin.
+    pub fn output<'i>(&self, image: &'i Image) -> Result<Cow<'i, Image>> {
+        match self.spec.overscan {
+            0 => Ok(Cow::Borrowed(image)),
+            margin => image.without_border(margin).map(Cow::Owned).ok_or_else(|| {
+                Error::invalid(
+                    "overscan",
+                    format!(
+                        "`overscan` {margin} cuts {margin} px from each side of a {}x{} frame: nothing is left (give the margin the input was rendered with)",
+                        image.width, image.height
+                    ),
+                )
+            }),
+        }
+    }
+
+    /// The depth convention of a file this job reads, before reading it (for messages).
+    pub fn depth_kind(&self) -> Option<DepthKind> {
+        self.spec.input.depth_kind
+    }
+}
+
+/// `message` with every backticked option name (`` `tilt_shift` ``) spelled by `spell`, for a
+/// front end whose options are named otherwise (the command line: `--tilt-shift`). Backticked
+/// text that is not a lowercase snake_case name is kept as it is.
+pub fn spell_options(message: &str, spell: impl Fn(&str) -> String) -> String {
+    let mut out = String::with_capacity(message.len());
+    let mut rest = message;
+    while let Some(open) = rest.find('`') {
+        let after = &rest[open + 1..];
+        let Some(close) = after.find('`') else { break };
+        let name = &after[..close];
+        out.push_str(&rest[..open]);
+        if !name.is_empty() && name.chars().all(|c| c.is_ascii_lowercase() || c == '_' || c.is_ascii_digit()) {
+            out.push_str(&spell(name));
+        } else {
+            out.push_str(&rest[open..open + close + 2]);
+        }
+        rest = &after[close + 1..];
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn option_names_are_spelled_by_the_front_end_and_other_code_is_kept() {
+        let flag = |name: &str| format!("--{}", name.replace('_', "-"));
+        let message = "`tilt_shift` and `focal_planes` each set the focus field; see `lensblur methods`";
+        assert_eq!(
+            spell_options(message, flag),
+            "--tilt-shift and --focal-planes each set the focus field; see `lensblur methods`"
+        );
+        assert_eq!(spell_options("no names here", flag), "no names here");
+        assert_eq!(spell_options("an `unclosed quote", flag), "an `unclosed quote");
+    }
+
+    #[test]
+    fn a_setting_the_method_does_not_read_is_refused_naming_its_readers() {
+        let spec = JobSpec { method_options: MethodOptions { samples: Some(64), ..Default::default() }, ..Default::default() };
+        let error = RenderJob::new(spec).unwrap_err().to_string();
+        assert_eq!(error, "`samples` applies to `method` multiview and vdslr, not drbokeh: drop it or pick one of those methods");
+        let both = MethodOptions { tilt_shift: Some([1.0, 0.0]), focal_planes: Some(vec![2.0]), ..Default::default() };
+        let error = RenderJob::new(JobSpec { method: Method::Vdslr, method_options: both, ..Default::default() }).unwrap_err();
+        assert!(error.to_string().contains("each set the focus field"), "{error}");
+    }
+
+    #[test]
+    fn tiling_is_refused_where_nothing_would_read_it() {
+        let spec = JobSpec { method: Method::Oracle, tile: Some(64), ..Default::default() };
+        assert!(RenderJob::new(spec).unwrap_err().to_string().starts_with("`tile` cuts the frames"));
+        let spec = JobSpec { device: DevicePreference::Cpu, max_memory: Some(1 << 30), ..Default::default() };
+        assert!(RenderJob::new(spec).unwrap_err().to_string().contains("`device` cpu"));
+    }
+
+    #[test]
+    fn the_first_focal_plane_becomes_the_cameras_focus() {
+        let planes = MethodOptions { focal_planes: Some(vec![1.5, 6.0]), ..Default::default() };
+        let job = RenderJob::new(JobSpec { method: Method::Vdslr, method_options: planes, ..Default::default() }).unwrap();
+        assert_eq!(job.spec().camera.physical.focus_distance, Some(1.5));
+    }
+}
