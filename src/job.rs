@@ -113,17 +113,16 @@ impl MethodOptions {
     pub fn resolve(&self, lens: &Lens, physical: bool, width: usize, height: usize) -> Result<MethodSettings> {
         let mut settings = MethodSettings::default();
         if let Some(samples) = self.samples {
-            settings.vdslr.samples = samples;
-            settings.multiview.samples = samples;
+            settings.samples = samples;
         }
         if let Some(iterations) = self.iterations {
-            settings.vdslr.iterations = iterations;
+            settings.iterations = iterations;
         }
         if let Some(sigma) = self.highlight_sigma {
-            settings.vdslr.highlight = (sigma > 0.0).then_some(Highlight { sigma, white: 1.0 });
+            settings.highlight = (sigma > 0.0).then_some(Highlight { sigma, white: 1.0 });
         }
         if let Some([x, y]) = self.tilt_shift {
-            settings.vdslr.focus = tilt(x, y, lens, width, height)?;
+            settings.focus = tilt(x, y, lens, width, height)?;
         }
         if let Some(planes) = &self.focal_planes {
             let disparities = if physical {
@@ -137,7 +136,7 @@ impl MethodOptions {
             } else {
                 planes.clone()
             };
-            settings.vdslr.focus = FocusField::Planes(disparities);
+            settings.focus = FocusField::Planes(disparities);
         }
         Ok(settings)
     }

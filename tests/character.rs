@@ -384,7 +384,9 @@ fn every_method_honours_kernel_apertures_and_cats_eye() {
             .collect();
         taps.iter().sum::<f32>() / taps.len() as f32
     };
-    for method in Method::ALL.iter().map(|m| m.name()) {
+    // GaussPSF blurs with a Gaussian, which has no shape: it refuses any aperture but the disk
+    // (src/render/gausspsf.rs tests), so it is the one method left out here.
+    for method in Method::ALL.iter().filter(|m| **m != Method::GaussPsf).map(|m| m.name()) {
         // Disparity 0, focus 0.5: K = 24 gives the light a 12 px CoC, K = 12 a 6 px one.
         let flags = |k: &'static str, extra: &[&'static str]| {
             [&["--method", method, "--blur", k, "--focus-disparity", "0.5"][..], extra].concat()

@@ -239,3 +239,22 @@ fn fitted_focus_moves_toward_the_truth_when_a_layer_depth_is_fixed() {
     assert!(text.status.success() && stdout.contains("fitted focus: distance") && stdout.contains("disparity"), "{stdout}");
 }
 
+
+/// `--renderer` is a registry method: one without a backward pass is refused before any work
+/// (the files are not even read), naming those that have one (GaussPSF among them), and an
+/// unknown name lists the methods.
+#[test]
+fn renderers_are_the_registered_methods_with_a_backward_pass() {
+    let dir = common::temp_dir("cli-fit", "renderer");
+    let (input, target, out) = (dir.join("missing.exr"), dir.join("target.exr"), dir.join("fitted.exr"));
+    let paths = [input.to_str().unwrap(), "--target", target.to_str().unwrap(), "-o", out.to_str().unwrap()];
+    let refused = |renderer: &str| {
+        let run = fit_depth(&[&paths[..], &["--blur", "16", "--focus-disparity", "0.1", "--renderer", renderer]].concat());
+        assert!(!run.status.success() && !out.exists());
+        String::from_utf8_lossy(&run.stderr).into_owned()
+    };
+    let stderr = refused("gather");
+    assert!(stderr.contains("method 'gather' has no backward pass; use drbokeh or drbokeh-compat or gausspsf"), "{stderr}");
+    let stderr = refused("nope");
+    assert!(stderr.contains("unknown method 'nope' (available: drbokeh,"), "{stderr}");
+}

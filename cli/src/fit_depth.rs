@@ -9,8 +9,7 @@ use std::time::Instant;
 use anyhow::{bail, Context as _};
 use indicatif::{ProgressBar, ProgressStyle};
 use lensblur::optim::{fit_depth, FitOptions};
-use lensblur::render::gausspsf::GaussPsf;
-use lensblur::render::grad::{Differentiable, Slope};
+use lensblur::render::grad::Slope;
 use lensblur::render::Method;
 use lensblur::render::InputKind;
 use lensblur::render::Lens;
@@ -34,7 +33,8 @@ channels changed (where alpha > 0; same sample type, parts, windows and header);
 stamps the fitted focus distance into its 'focus' attribute. --fixed-layers keeps the depth of known
 layers, which is what lets --fit-focus find the focus. The loss is L1 +
 edge-aware depth smoothness + hierarchical SSIM (windows 5, 11, 21, 31). --renderer gausspsf
-uses the occlusion-free Gaussian-PSF baseline (GaussPSF, Gur & Wolf 2019) for comparison.";
+uses the occlusion-free Gaussian-PSF baseline (GaussPSF, Gur & Wolf 2019) for comparison;
+`lensblur methods` lists every method.";
 
 #[derive(clap::Args)]
 #[command(after_help = EXAMPLES)]
@@ -64,11 +64,10 @@ pub struct Args {
     /// Layers (names or globs, comma-separated) whose depth is known and kept as it is.
     #[arg(long, value_name = "NAME,...", value_delimiter = ',')]
     pub fixed_layers: Vec<String>,
-    /// Differentiable renderer: a method with a backward pass (drbokeh, drbokeh-compat; leaky
-    /// soft steps), or gausspsf (the Gaussian-PSF baseline of the Dr.Bokeh paper, which has no
-    /// forward method of its own).
+    /// Differentiable renderer: a method with a backward pass, run with leaky soft steps
+    /// (drbokeh, drbokeh-compat, or gausspsf, the Gaussian-PSF baseline of the Dr.Bokeh paper).
     #[arg(long, default_value = "drbokeh")]
-    pub renderer: String,
+    pub renderer: Method,
     /// Print a JSON report (loss history, time) on stdout.
     #[arg(long)]
     pub json: bool,
@@ -81,18 +80,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // An output on an input is the graver mistake: said first.
     check_output_paths(&[("-o", &args.output)], &inputs)?;
     OutputFormat::for_output(&args.output, "-o", OutputFormat::EXR)?;
+    // Refused before any work: a method without a backward pass.
+    if !args.renderer.is_differentiable() {
+        bail!("{}", args.renderer.differentiable_error());
+    }
     args.input_args.require_channel_stack(&args.input, "fit-depth writes the fitted depth")?;
     let loaded = args.input_args.load(&args.input, &args.camera, InputKind::SingleImage)?;
     let Some(info) = &loaded.info else { bail!("{}: fit-depth needs an EXR stack", args.input.display()) };
     let target = read_rgba(&args.target, None, args.input_args.max_pixels).context("--target")?;
     let ctx = Context::from_env().context("opening the Vulkan device")?;
-    let renderer: Box<dyn Differentiable> = match args.renderer.as_str() {
-        "gausspsf" => Box::new(GaussPsf::default()),
-        name => match name.parse::<Method>() {
-            Ok(method) if method.is_differentiable() => method.differentiable(&ctx, Slope::Leaky)?,
-            _ => bail!("unknown renderer '{name}' ({}, gausspsf)", Method::differentiable_names().join(", ")),
-        },
-    };
+    let renderer = args.renderer.differentiable(&ctx, Slope::Leaky)?;
     let options = FitOptions {
         iterations: args.iters,
         learning_rate: args.lr,

@@ -49,7 +49,7 @@ pub struct Args {
     pub input_args: InputArgs,
     #[command(flatten)]
     pub camera: CameraArgs,
-    /// drbokeh or drbokeh-compat (the methods with a backward pass).
+    /// A method with a backward pass: drbokeh, drbokeh-compat or gausspsf (CPU).
     #[arg(long, default_value = "drbokeh")]
     pub method: Method,
     /// Leaky soft step: the scatter edge keeps a small slope so far-away sources still get

@@ -24,14 +24,43 @@
 //! Both passes are gathers (one owner per output value, deterministic): the forward gathers
 //! sources into each output pixel; the backward gathers output gradients into each source.
 //! The math runs in f64 so finite differences of the forward can check the backward tightly.
+//!
+//! Registered as the method `gausspsf` ([`METHOD`]): both passes run on the CPU (there is no
+//! shader), the forward for `lensblur render`, the backward for `grad` and `fit-depth`. A
+//! Gaussian has no aperture shape, so the forward refuses any aperture but the disk.
 use rayon::prelude::*;
 
-use crate::camera::CocModel;
+use crate::camera::{Aperture, CocModel};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
+use crate::render::method::{InputKind, MethodInput, MethodSettings, MethodSpec};
+use crate::render::tiler::RenderOptions;
 use crate::render::Lens;
 use crate::stack::{Layer, LayerStack};
 use crate::{Error, Result};
+
+/// GaussPSF in the registry: CPU only, differentiable. Its soft Gaussian has no step to leak,
+/// so both [`crate::render::grad::Slope`]s get the same exact gradient.
+pub const METHOD: MethodSpec = MethodSpec {
+    name: "gausspsf",
+    label: "GaussPSF",
+    summary: "Gaussian blur per layer composited over, no occlusion within a layer (Gur & Wolf 2019, CPU)",
+    input: InputKind::Layers,
+    uses_gpu: false,
+    settings: &[],
+    prepare: |_| Ok(Box::new(|input: MethodInput<'_>, lens: &Lens, _: &RenderOptions, _: &MethodSettings| render(input.layers()?, lens))),
+    differentiable: Some(|_, _| Ok(Box::new(GaussPsf::default()))),
+};
+
+/// The forward pass of the default [`GaussPsf`], for `lensblur render`.
+fn render(stack: &LayerStack, lens: &Lens) -> Result<Image> {
+    if lens.aperture != Aperture::Disk {
+        return Err(Error::unsupported(
+            "gausspsf blurs with a Gaussian, which has no aperture shape: it renders the disk aperture only (the default)",
+        ));
+    }
+    GaussPsf::default().forward(stack, lens)
+}
 
 type Px = [f64; 4];
 
@@ -364,7 +393,7 @@ impl Differentiable for GaussPsf {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::Aperture;
+    use crate::render::Method;
 
     fn lens(k_px: f32, focus: f32) -> Lens {
         Lens {
@@ -374,6 +403,20 @@ mod tests {
             },
             aperture: Aperture::Disk,
         }
+    }
+
+    /// `--method gausspsf` renders the forward pass of the default model, on the CPU, and
+    /// refuses an aperture shape it cannot draw instead of drawing a Gaussian.
+    #[test]
+    fn the_registered_method_renders_the_forward_pass_and_refuses_shaped_apertures() {
+        let stack = random_stack(9, 7, 2, 3);
+        let method = Method::GaussPsf;
+        assert!(!method.uses_gpu() && method.is_differentiable());
+        let rendered = method.render(None, &stack, &lens(3.0, 0.5)).unwrap();
+        assert_eq!(rendered, GaussPsf::default().forward(&stack, &lens(3.0, 0.5)).unwrap());
+        let ring = Lens { aperture: Aperture::Ring { inner: 0.5 }, ..lens(3.0, 0.5) };
+        let error = method.render(None, &stack, &ring).unwrap_err().to_string();
+        assert!(error.contains("disk aperture only"), "{error}");
     }
 
     /// Deterministic pseudo-random numbers in [0, 1).

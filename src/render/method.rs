@@ -1,14 +1,14 @@
-//! The rendering-method interface: what every method declares once ([`MethodSpec`]) and how it
-//! renders ([`Renderer`]). The list of methods is [`Method::ALL`] (in `registry.rs`); the CLI's
+//! The rendering-method interface: what every method declares once ([`MethodSpec`]), how it
+//! renders ([`Renderer`]) and the settings a caller may give it ([`MethodSettings`], which each
+//! method turns into its own parameters). It names no method: each method's module declares
+//! its spec, and the list of methods is [`Method::ALL`] (in `registry.rs`); the CLI's
 //! `--method` and flag checks, the benchmark, the tests and the Blender add-on all read it.
 use std::str::FromStr;
 
+use crate::camera::FocusField;
 use crate::image::Image;
 use crate::render::grad::{Differentiable, Slope};
-use crate::render::tiler::RenderOptions;
-use crate::render::multiview::MultiviewParams;
-use crate::camera::FocusField;
-use crate::render::vdslr::VdslrParams;
+use crate::render::tiler::{RenderOptions, RenderStats};
 use crate::render::Lens;
 use crate::stack::LayerStack;
 use crate::vk::Context;
@@ -90,6 +90,22 @@ where
     }
 }
 
+/// The renderer of a single-image baseline (gather, scatter): its one tiled pass on the device
+/// when `gpu` was made, else its CPU reference.
+pub(crate) fn single_image_baseline<G: Send + Sync + 'static>(
+    gpu: Option<G>,
+    run: fn(&G, &Image, &[f32], &Lens, &RenderOptions) -> Result<(Image, RenderStats)>,
+    cpu: fn(&Image, &[f32], &Lens) -> Image,
+) -> Box<dyn Renderer> {
+    Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, _: &MethodSettings| {
+        let (image, disparity) = input.single_image()?;
+        match &gpu {
+            Some(gpu) => Ok(run(gpu, image, disparity, lens, options)?.0),
+            None => Ok(cpu(image, disparity, lens)),
+        }
+    })
+}
+
 /// Everything about one method, declared once.
 pub struct MethodSpec {
     /// The `--method` value.
@@ -166,7 +182,7 @@ impl Method {
         }
     }
 
-    /// "method 'x' has no backward pass; use drbokeh or drbokeh-compat".
+    /// "method 'x' has no backward pass; use drbokeh or drbokeh-compat or gausspsf".
     pub fn differentiable_error(self) -> String {
         format!("method '{}' has no backward pass; use {}", self.name(), Method::differentiable_names().join(" or "))
     }
@@ -238,17 +254,29 @@ impl Method {
     }
 }
 
-/// Settings of the methods that take any (the lens-sampling renderers); the rest have none.
+/// The method-specific settings a caller may give, in no method's terms: each method that reads
+/// any turns them into its own parameters (`VdslrParams::from_settings`,
+/// `MultiviewParams::from_settings`); the others read none. Which [`Setting`]s a method reads
+/// is in its spec, and the front ends refuse any other.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MethodSettings {
-    pub vdslr: VdslrParams,
-    pub multiview: MultiviewParams,
+    /// Lens samples per pixel ([`Setting::Samples`]; rounded up to a square number of strata).
+    pub samples: u32,
+    /// Intersection search steps per lens ray ([`Setting::Iterations`]).
+    pub iterations: u32,
+    /// Highlight weighting of the colour blend ([`Setting::HighlightSigma`]); `None`: off.
+    pub highlight: Option<Highlight>,
+    /// The focus field ([`Setting::TiltShift`], [`Setting::FocalPlanes`]); the plane of the
+    /// lens by default.
+    pub focus: FocusField,
 }
 
 impl Default for MethodSettings {
-    /// What `--method` and the benchmark use: each method's tuned parameters.
+    /// What `--method` and the benchmark use: the values the lens-sampling methods are tuned
+    /// for (`VdslrParams::tuned`, `MultiviewParams::tuned`, which their modules' tests check
+    /// these give).
     fn default() -> Self {
-        Self { vdslr: VdslrParams::tuned(), multiview: MultiviewParams::tuned() }
+        Self { samples: 512, iterations: 10, highlight: None, focus: FocusField::Plane }
     }
 }
 
@@ -257,11 +285,24 @@ impl MethodSettings {
     /// (Virtual DSLR edits its disparity map).
     pub fn focus(&self, method: Method) -> &FocusField {
         if Setting::ALL.into_iter().any(|s| s.is_focus_field() && method.reads(s)) {
-            &self.vdslr.focus
+            &self.focus
         } else {
             &FocusField::Plane
         }
     }
+}
+
+/// Highlight weighting of the colour blend (Virtual DSLR's Eq. 5),
+/// `w = exp(-(min(m, white) - white)^2 / (2 sigma^2))` with `m` the largest RGB component of a
+/// sample. The paper's reference 255 is the top of its 8-bit range; on linear HDR data that top
+/// is display `white` (1.0 by default), and everything at or above it gets full weight (a
+/// Gaussian centred at white would wrongly *down*-weight brighter-than-white highlights).
+/// `sigma` is in the same linear units. Linear data already integrates radiance, so the
+/// weighting is an optional stylisation, off by default.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Highlight {
+    pub sigma: f32,
+    pub white: f32,
 }
 
 impl FromStr for Method {

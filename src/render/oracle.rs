@@ -6,8 +6,22 @@
 //! methods can reach and is the reference the benchmark ranks the others against.
 use crate::image::Image;
 use crate::render::disk::{disk_blur_cpu, DiskKernel};
+use crate::render::method::{InputKind, MethodInput, MethodSettings, MethodSpec};
+use crate::render::tiler::RenderOptions;
 use crate::render::Lens;
 use crate::stack::{Layer, LayerStack};
+
+/// The oracle in the registry: CPU only.
+pub const METHOD: MethodSpec = MethodSpec {
+    name: "oracle",
+    label: "Per-layer blur",
+    summary: "Blur each layer and composite it over (CPU)",
+    input: InputKind::Layers,
+    uses_gpu: false,
+    settings: &[],
+    prepare: |_| Ok(Box::new(|input: MethodInput<'_>, lens: &Lens, _: &RenderOptions, _: &MethodSettings| Ok(render_oracle(input.layers()?, lens)))),
+    differentiable: None,
+};
 
 /// Renders `stack` (front to back, premultiplied) through `lens`, one aperture image per layer.
 pub fn render_oracle(stack: &LayerStack, lens: &Lens) -> Image {

@@ -1,36 +1,33 @@
-//! The method registry: every rendering method, declared once. A new method is its module
-//! (exporting a [`MethodSpec`], say `foo::METHOD`) plus one line `Method(&foo::METHOD)` in
+//! The method registry: the list of every rendering method, and nothing else. A new method is
+//! its module, which declares its [`MethodSpec`] (say `foo::METHOD`: name, label, input,
+//! settings, how to prepare its renderer and its backward pass if it has one) and turns
+//! [`MethodSettings`] into its own parameters, plus one line `Method(&foo::METHOD)` in
 //! [`Method::ALL`] (a named constant below is optional); `--method`, its flag checks and help,
-//! `grad` and `fit-depth` (through its backward pass, [`MethodSpec::differentiable`]),
-//! `lensblur methods`, the benchmark and the tests' method loops follow. The Blender add-on's
-//! list and the README's method table are checked against it by tests.
-use crate::image::Image;
-use crate::render::drbokeh::{render_cpu, BackwardOptions, DrBokehGpu, DrBokehGpuGrad, Model};
-use crate::render::grad::{Differentiable, Slope};
-use crate::render::gather::{render_gather_cpu, Gather};
-use crate::render::method::{InputKind, Method, MethodInput, MethodSpec, Renderer, Setting};
-use crate::render::multiview::{render_multiview_cpu, Multiview};
-use crate::render::oracle::render_oracle;
-use crate::render::scatter::{render_scatter_cpu, Scatter};
-use crate::render::tiler::{RenderOptions, RenderStats};
-use crate::render::vdslr::{render_vdslr_cpu, Vdslr};
-use crate::render::{Lens, MethodSettings};
-use crate::vk::Context;
-use crate::Result;
+//! `grad` and `fit-depth` (through the backward pass, [`MethodSpec::differentiable`]),
+//! `lensblur methods` (whose `--json` the Blender add-on reads for its menu), the benchmark and
+//! the tests' method loops follow. The README's method table is checked against it by a test.
+//!
+//! [`MethodSpec`]: crate::render::MethodSpec
+//! [`MethodSettings`]: crate::render::MethodSettings
+//! [`MethodSpec::differentiable`]: crate::render::MethodSpec::differentiable
+use crate::render::method::Method;
+use crate::render::{drbokeh, gather, gausspsf, multiview, oracle, scatter, vdslr};
 
 // The CamelCase names keep the spelling of the enum these replaced (`Method::DrBokeh`), so code
 // written against it still compiles.
 #[allow(non_upper_case_globals)]
 impl Method {
-    pub const DrBokeh: Method = Method(&DRBOKEH);
-    pub const DrBokehCompat: Method = Method(&DRBOKEH_COMPAT);
-    pub const Multiview: Method = Method(&MULTIVIEW);
-    pub const Vdslr: Method = Method(&VDSLR);
-    pub const Oracle: Method = Method(&ORACLE);
-    pub const Gather: Method = Method(&GATHER);
-    pub const Scatter: Method = Method(&SCATTER);
+    pub const DrBokeh: Method = Method(&drbokeh::METHOD);
+    pub const DrBokehCompat: Method = Method(&drbokeh::METHOD_COMPAT);
+    pub const Multiview: Method = Method(&multiview::METHOD);
+    pub const Vdslr: Method = Method(&vdslr::METHOD);
+    pub const Oracle: Method = Method(&oracle::METHOD);
+    pub const Gather: Method = Method(&gather::METHOD);
+    pub const Scatter: Method = Method(&scatter::METHOD);
+    pub const GaussPsf: Method = Method(&gausspsf::METHOD);
 
-    /// Every method, in the order `--help`, `lensblur methods` and the add-on list them.
+    /// Every method, in the order `--help`, `lensblur methods` and the add-on list them (the
+    /// default first: the add-on's menu starts on it).
     pub const ALL: &'static [Method] = &[
         Method::DrBokeh,
         Method::DrBokehCompat,
@@ -39,146 +36,17 @@ impl Method {
         Method::Oracle,
         Method::Gather,
         Method::Scatter,
+        Method::GaussPsf,
     ];
-}
-
-const DRBOKEH: MethodSpec = MethodSpec {
-    name: "drbokeh",
-    label: "Dr.Bokeh",
-    summary: "Layered occlusion-aware gather (Vulkan); the default",
-    input: InputKind::Layers,
-    uses_gpu: true,
-    settings: &[],
-    prepare: |ctx| drbokeh(ctx, Model::DrBokeh),
-    differentiable: Some(|ctx, slope| drbokeh_backward(ctx, Model::DrBokeh, slope)),
-};
-
-const DRBOKEH_COMPAT: MethodSpec = MethodSpec {
-    name: "drbokeh-compat",
-    label: "Dr.Bokeh (released code)",
-    summary: "Dr.Bokeh with the formulas of its released code (Vulkan)",
-    input: InputKind::Layers,
-    uses_gpu: true,
-    settings: &[],
-    prepare: |ctx| drbokeh(ctx, Model::Compat),
-    differentiable: Some(|ctx, slope| drbokeh_backward(ctx, Model::Compat, slope)),
-};
-
-const MULTIVIEW: MethodSpec = MethodSpec {
-    name: "multiview",
-    label: "Multiview",
-    summary: "Lens rays through the layers (Lee et al. 2009, Vulkan)",
-    input: InputKind::Layers,
-    uses_gpu: true,
-    settings: &[Setting::Samples],
-    prepare: multiview,
-    differentiable: None,
-};
-
-const VDSLR: MethodSpec = MethodSpec {
-    name: "vdslr",
-    label: "Virtual DSLR",
-    summary: "Pseudo ray tracing of the flattened image + depth (Yang et al. 2016, Vulkan)",
-    input: InputKind::SingleImage,
-    uses_gpu: true,
-    settings: &Setting::ALL,
-    prepare: vdslr,
-    differentiable: None,
-};
-
-const ORACLE: MethodSpec = MethodSpec {
-    name: "oracle",
-    label: "Per-layer blur",
-    summary: "Blur each layer and composite it over (CPU)",
-    input: InputKind::Layers,
-    uses_gpu: false,
-    settings: &[],
-    prepare: |_| Ok(Box::new(|input: MethodInput<'_>, lens: &Lens, _: &RenderOptions, _: &MethodSettings| Ok(render_oracle(input.layers()?, lens)))),
-    differentiable: None,
-};
-
-const GATHER: MethodSpec = MethodSpec {
-    name: "gather",
-    label: "Gather",
-    summary: "Single-image gather baseline, like the Defocus node (Vulkan)",
-    input: InputKind::SingleImage,
-    uses_gpu: true,
-    settings: &[],
-    prepare: |ctx| Ok(baseline(ctx.map(Gather::new).transpose()?, Gather::run_with, render_gather_cpu)),
-    differentiable: None,
-};
-
-const SCATTER: MethodSpec = MethodSpec {
-    name: "scatter",
-    label: "Scatter",
-    summary: "Single-image scatter baseline (BokehMe's classical renderer, Vulkan)",
-    input: InputKind::SingleImage,
-    uses_gpu: true,
-    settings: &[],
-    prepare: |ctx| Ok(baseline(ctx.map(Scatter::new).transpose()?, Scatter::run_with, render_scatter_cpu)),
-    differentiable: None,
-};
-
-fn drbokeh(ctx: Option<&Context>, model: Model) -> Result<Box<dyn Renderer>> {
-    let gpu = ctx.map(DrBokehGpu::new).transpose()?;
-    Ok(Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, _: &MethodSettings| {
-        let stack = input.layers()?;
-        match &gpu {
-            Some(gpu) => Ok(gpu.render_with(stack, lens, model, options)?.0),
-            None => render_cpu(stack, lens, model),
-        }
-    }))
-}
-
-fn drbokeh_backward(ctx: &Context, model: Model, slope: Slope) -> Result<Box<dyn Differentiable>> {
-    let options = match slope {
-        Slope::Exact => BackwardOptions::exact(),
-        Slope::Leaky => BackwardOptions::leaky(),
-    };
-    Ok(Box::new(DrBokehGpuGrad::new(ctx, model, options)?))
-}
-
-fn multiview(ctx: Option<&Context>) -> Result<Box<dyn Renderer>> {
-    let gpu = ctx.map(Multiview::new).transpose()?;
-    Ok(Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, settings: &MethodSettings| {
-        let stack = input.layers()?;
-        match &gpu {
-            Some(gpu) => Ok(gpu.run_with(stack, lens, &settings.multiview, options)?.0),
-            None => render_multiview_cpu(stack, lens, &settings.multiview),
-        }
-    }))
-}
-
-fn vdslr(ctx: Option<&Context>) -> Result<Box<dyn Renderer>> {
-    let gpu = ctx.map(Vdslr::new).transpose()?;
-    Ok(Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, settings: &MethodSettings| {
-        let (image, disparity) = input.single_image()?;
-        match &gpu {
-            Some(gpu) => Ok(gpu.run_with(image, disparity, lens, &settings.vdslr, options)?.0),
-            None => render_vdslr_cpu(image, disparity, lens, &settings.vdslr),
-        }
-    }))
-}
-
-/// The single-image baselines: one tiled GPU pass, or its CPU reference.
-fn baseline<G: Send + Sync + 'static>(
-    gpu: Option<G>,
-    run: fn(&G, &Image, &[f32], &Lens, &RenderOptions) -> Result<(Image, RenderStats)>,
-    cpu: fn(&Image, &[f32], &Lens) -> Image,
-) -> Box<dyn Renderer> {
-    Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, _: &MethodSettings| {
-        let (image, disparity) = input.single_image()?;
-        match &gpu {
-            Some(gpu) => Ok(run(gpu, image, disparity, lens, options)?.0),
-            None => Ok(cpu(image, disparity, lens)),
-        }
-    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::camera::{Aperture, CocModel};
+    use crate::image::Image;
+    use crate::render::tiler::RenderOptions;
+    use crate::render::{InputKind, Lens, MethodInput, MethodSettings};
     use crate::stack::{Layer, LayerStack};
 
     const COLOUR: [f32; 4] = [0.25, 0.5, 0.75, 1.0];
@@ -202,8 +70,7 @@ mod tests {
     fn every_registered_method_renders_and_keeps_one_colour() {
         let n = 16;
         let lens = Lens { coc: CocModel { k_px: 4.0, focus_disparity: 0.5 }, aperture: Aperture::Disk };
-        let mut settings = MethodSettings::default();
-        (settings.vdslr.samples, settings.multiview.samples) = (16, 16);
+        let settings = MethodSettings { samples: 16, ..MethodSettings::default() };
         let stack = one_colour_stack(n);
         for method in Method::ALL {
             let image = method
@@ -224,7 +91,8 @@ mod tests {
             assert_eq!(method.name().parse::<Method>().unwrap(), *method);
             assert_eq!(Method::ALL.iter().filter(|m| m.name() == method.name()).count(), 1, "{method}");
         }
-        assert!(Method::ALL.contains(&Method::default()));
+        // First: the Blender add-on's menu (a dynamic enum) starts on its first item.
+        assert_eq!(Method::ALL[0], Method::default());
         let error = "nope".parse::<Method>().unwrap_err().to_string();
         assert!(error.contains("unknown method 'nope' (available: drbokeh, drbokeh-compat"), "{error}");
     }

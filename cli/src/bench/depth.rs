@@ -3,17 +3,17 @@
 //! each differentiable renderer, and report depth error and re-render PSNR before and after.
 use anyhow::{bail, Context as _};
 use lensblur::optim::{experiment_truths, format_results, run_experiment, ExperimentOptions, FitOptions};
-use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpuGrad, Model};
-use lensblur::render::gausspsf::GaussPsf;
-use lensblur::render::grad::Differentiable;
+use lensblur::render::grad::Slope;
+use lensblur::render::Method;
 use lensblur::vk::Context as GpuContext;
 
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  lensblur bench depth --scenes portrait-night,letters --iters 100\n  lensblur bench depth --renderers drbokeh,gausspsf --scale 0.5 --json out.json")]
 pub struct Args {
-    /// Differentiable renderers to compare: drbokeh, drbokeh-compat, gausspsf.
+    /// Differentiable renderers to compare (methods with a backward pass, leaky soft steps as
+    /// in fit-depth): drbokeh, drbokeh-compat, gausspsf.
     #[arg(long, value_delimiter = ',', default_value = "drbokeh,gausspsf")]
-    renderers: Vec<String>,
+    renderers: Vec<Method>,
     /// Built-in scenes (default: all).
     #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
@@ -29,18 +29,16 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(method) = args.renderers.iter().find(|m| !m.is_differentiable()) {
+        bail!("{}", method.differentiable_error());
+    }
     let ctx = GpuContext::from_env().context("opening the Vulkan device")?;
     let fit = FitOptions { iterations: args.iters, ..FitOptions::default() };
     let options = ExperimentOptions { scale: args.scale, fit, ..ExperimentOptions::default() };
     let truths = experiment_truths(&args.scenes, &options).context("ray tracing the scenes")?;
     let mut all = serde_json::Map::new();
-    for name in &args.renderers {
-        let renderer: Box<dyn Differentiable> = match name.as_str() {
-            "drbokeh" => Box::new(DrBokehGpuGrad::new(&ctx, Model::DrBokeh, BackwardOptions::leaky())?),
-            "drbokeh-compat" => Box::new(DrBokehGpuGrad::new(&ctx, Model::Compat, BackwardOptions::leaky())?),
-            "gausspsf" => Box::new(GaussPsf::default()),
-            other => bail!("unknown renderer '{other}' (drbokeh, drbokeh-compat, gausspsf)"),
-        };
+    for method in &args.renderers {
+        let (name, renderer) = (method.name(), method.differentiable(&ctx, Slope::Leaky)?);
         let results = run_experiment(renderer.as_ref(), &truths, &options.fit, |scene, i, loss| {
             if i % 50 == 0 {
                 eprintln!("{name} {scene} {i:4} loss {loss:.5}");
@@ -60,7 +58,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             mean(&|r| r.psnr_before),
             mean(&|r| r.psnr_after),
         );
-        all.insert(name.clone(), serde_json::to_value(&results)?);
+        all.insert(name.to_string(), serde_json::to_value(&results)?);
     }
     if let Some(path) = &args.json {
         std::fs::write(path, serde_json::to_string_pretty(&all)?).with_context(|| format!("writing {}", path.display()))?;

@@ -90,8 +90,8 @@ impl BenchMethod {
 /// The GPU baselines whose CPU references the benchmark also scores (cheap enough to keep).
 const CPU_REFERENCES: [(Method, &str); 2] = [(Method::Gather, "gather-cpu"), (Method::Scatter, "scatter-cpu")];
 
-/// The CPU methods: those of the registry that need no device (the layered oracle), then the
-/// references of the single-image baselines (`gather-cpu`, `scatter-cpu`).
+/// The CPU methods: those of the registry that need no device (the layered oracle, GaussPSF),
+/// then the references of the single-image baselines (`gather-cpu`, `scatter-cpu`).
 pub fn cpu_methods() -> Vec<BenchMethod> {
     let registry = Method::ALL.iter().filter(|m| !m.uses_gpu()).map(|m| BenchMethod::on_cpu(*m, m.name()));
     registry.chain(CPU_REFERENCES.iter().map(|(m, name)| BenchMethod::on_cpu(*m, name))).collect()

@@ -113,8 +113,6 @@ pub fn grad_output(w: usize, h: usize) -> Image {
 /// Few lens samples keep the CPU references of the lens-sampling renderers quick; a tilted
 /// focal plane makes Virtual DSLR's relative disparity depend on the position in the frame.
 pub fn few_samples() -> MethodSettings {
-    let mut settings = MethodSettings::default();
-    (settings.vdslr.samples, settings.multiview.samples) = (24, 24);
-    settings.vdslr.focus = lensblur::render::vdslr::FocusField::Tilt { gradient: [0.004, -0.006] };
-    settings
+    let focus = lensblur::render::vdslr::FocusField::Tilt { gradient: [0.004, -0.006] };
+    MethodSettings { samples: 24, focus, ..MethodSettings::default() }
 }

@@ -28,6 +28,10 @@
 use std::borrow::Cow;
 
 use crate::camera::{Aperture, CocModel, Eye, CATS_EYE_SHAPE};
+use crate::render::grad::{Differentiable, Slope};
+use crate::render::method::{InputKind, MethodInput, MethodSettings, MethodSpec, Renderer};
+use crate::render::Lens;
+use crate::vk::Context;
 
 pub mod backward;
 pub mod backward_cpu;
@@ -49,6 +53,47 @@ pub use cpu::{render_cpu, render_cpu_params, render_cpu_terms, LayerTerms, Terms
 pub use gpu::{DrBokehGpu, LayerKernel, RenderOptions, RenderStats};
 pub use gpu_backward::DrBokehGpuGrad;
 pub use params::Params;
+
+/// Dr.Bokeh in the registry: the default method, and differentiable.
+pub const METHOD: MethodSpec = MethodSpec {
+    name: "drbokeh",
+    label: "Dr.Bokeh",
+    summary: "Layered occlusion-aware gather (Vulkan); the default",
+    input: InputKind::Layers,
+    uses_gpu: true,
+    settings: &[],
+    prepare: |ctx| renderer(ctx, Model::DrBokeh),
+    differentiable: Some(|ctx, slope| differentiable(ctx, Model::DrBokeh, slope)),
+};
+
+/// Dr.Bokeh with the formulas of its released code ([`Model::Compat`]); otherwise as [`METHOD`].
+pub const METHOD_COMPAT: MethodSpec = MethodSpec {
+    name: "drbokeh-compat",
+    label: "Dr.Bokeh (released code)",
+    summary: "Dr.Bokeh with the formulas of its released code (Vulkan)",
+    prepare: |ctx| renderer(ctx, Model::Compat),
+    differentiable: Some(|ctx, slope| differentiable(ctx, Model::Compat, slope)),
+    ..METHOD
+};
+
+fn renderer(ctx: Option<&Context>, model: Model) -> crate::Result<Box<dyn Renderer>> {
+    let gpu = ctx.map(DrBokehGpu::new).transpose()?;
+    Ok(Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, _: &MethodSettings| {
+        let stack = input.layers()?;
+        match &gpu {
+            Some(gpu) => Ok(gpu.render_with(stack, lens, model, options)?.0),
+            None => render_cpu(stack, lens, model),
+        }
+    }))
+}
+
+fn differentiable(ctx: &Context, model: Model, slope: Slope) -> crate::Result<Box<dyn Differentiable>> {
+    let options = match slope {
+        Slope::Exact => BackwardOptions::exact(),
+        Slope::Leaky => BackwardOptions::leaky(),
+    };
+    Ok(Box::new(DrBokehGpuGrad::new(ctx, model, options)?))
+}
 
 /// Side of the square output tile a workgroup owns, in pixels (`local_size` 16x16).
 pub const TILE: usize = 16;

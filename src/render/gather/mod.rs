@@ -16,7 +16,20 @@ use rayon::prelude::*;
 
 use crate::camera::Aperture;
 use crate::image::Image;
+use crate::render::method::{single_image_baseline, InputKind, MethodSpec};
 use crate::render::Lens;
+
+/// The gather baseline in the registry.
+pub const METHOD: MethodSpec = MethodSpec {
+    name: "gather",
+    label: "Gather",
+    summary: "Single-image gather baseline, like the Defocus node (Vulkan)",
+    input: InputKind::SingleImage,
+    uses_gpu: true,
+    settings: &[],
+    prepare: |ctx| Ok(single_image_baseline(ctx.map(Gather::new).transpose()?, Gather::run_with, render_gather_cpu)),
+    differentiable: None,
+};
 
 /// Width in pixels of the anti-aliased rim of the acceptance test.
 const EDGE_WIDTH: f32 = 1.0;

@@ -34,10 +34,37 @@ pub use gpu::Multiview;
 use rayon::prelude::*;
 
 use crate::image::Image;
+use crate::render::method::{InputKind, MethodInput, MethodSettings, MethodSpec, Renderer, Setting};
+use crate::render::tiler::RenderOptions;
 use crate::render::Lens;
 use crate::stack::LayerStack;
+use crate::vk::Context;
 use crate::{Error, Result};
 use prepare::Prepared;
+
+/// Multiview in the registry: reads the lens sample count.
+pub const METHOD: MethodSpec = MethodSpec {
+    name: "multiview",
+    label: "Multiview",
+    summary: "Lens rays through the layers (Lee et al. 2009, Vulkan)",
+    input: InputKind::Layers,
+    uses_gpu: true,
+    settings: &[Setting::Samples],
+    prepare: renderer,
+    differentiable: None,
+};
+
+fn renderer(ctx: Option<&Context>) -> Result<Box<dyn Renderer>> {
+    let gpu = ctx.map(Multiview::new).transpose()?;
+    Ok(Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, settings: &MethodSettings| {
+        let stack = input.layers()?;
+        let params = MultiviewParams::from_settings(settings);
+        match &gpu {
+            Some(gpu) => Ok(gpu.run_with(stack, lens, &params, options)?.0),
+            None => render_multiview_cpu(stack, lens, &params),
+        }
+    }))
+}
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct MultiviewParams {
@@ -60,6 +87,12 @@ impl MultiviewParams {
     /// at 64 samples and nothing at 512, where it is kept (it never hurt).
     pub fn tuned() -> Self {
         Self { samples: 512, cone_scale: 1.0, ..Self::default() }
+    }
+
+    /// The tuned parameters with the lens sample count `settings` gives, the one setting
+    /// multiview reads (the default settings give [`Self::tuned`]).
+    pub fn from_settings(settings: &MethodSettings) -> Self {
+        Self { samples: settings.samples, ..Self::tuned() }
     }
 }
 
@@ -161,4 +194,15 @@ fn intersect(pr: &Prepared, l: usize, p: [f32; 2], u: [f32; 2], lo: f32, hi: f32
         }
     }
     tb
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--method multiview` without settings renders with the tuned parameters.
+    #[test]
+    fn default_settings_are_the_tuned_parameters() {
+        assert_eq!(MultiviewParams::from_settings(&MethodSettings::default()), MultiviewParams::tuned());
+    }
 }

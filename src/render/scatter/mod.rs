@@ -18,7 +18,20 @@ use rayon::prelude::*;
 
 use crate::camera::Aperture;
 use crate::image::Image;
+use crate::render::method::{single_image_baseline, InputKind, MethodSpec};
 use crate::render::Lens;
+
+/// The scatter baseline in the registry.
+pub const METHOD: MethodSpec = MethodSpec {
+    name: "scatter",
+    label: "Scatter",
+    summary: "Single-image scatter baseline (BokehMe's classical renderer, Vulkan)",
+    input: InputKind::SingleImage,
+    uses_gpu: true,
+    settings: &[],
+    prepare: |ctx| Ok(single_image_baseline(ctx.map(Scatter::new).transpose()?, Scatter::run_with, render_scatter_cpu)),
+    differentiable: None,
+};
 
 /// Sharpness of the soft disk edge (BokehMe's constant): the weight falls from 0.98 to 0.02
 /// over about one pixel.

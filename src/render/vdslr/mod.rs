@@ -41,27 +41,44 @@
 mod gpu;
 
 pub use gpu::Vdslr;
-// The focus field is camera math (the debug views read it too); vdslr is the method that renders it.
+// The focus field is camera math (the debug views read it too), the highlight weighting a
+// method setting (`MethodSettings`); vdslr is the method that renders them.
 pub use crate::camera::FocusField;
+pub use crate::render::method::Highlight;
 
 use rayon::prelude::*;
 
 use crate::image::Image;
 use crate::render::lens_samples::LensSamples;
+use crate::render::method::{InputKind, MethodInput, MethodSettings, MethodSpec, Renderer, Setting};
+use crate::render::tiler::RenderOptions;
 use crate::render::Lens;
 use crate::tile_grid::Rect;
+use crate::vk::Context;
 use crate::{Error, Result};
 
-/// Eq. 5's highlight weighting, `w = exp(-(min(m, white) - white)^2 / (2 sigma^2))` with `m`
-/// the largest RGB component of a sample. The paper's reference 255 is the top of its 8-bit
-/// range; on linear HDR data that top is display `white` (1.0 by default), and everything at
-/// or above it gets full weight (a Gaussian centred at white would wrongly *down*-weight
-/// brighter-than-white highlights). `sigma` is in the same linear units. Linear data already
-/// integrates radiance, so the weighting is an optional stylisation, off by default.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Highlight {
-    pub sigma: f32,
-    pub white: f32,
+/// Virtual DSLR in the registry: reads every method setting.
+pub const METHOD: MethodSpec = MethodSpec {
+    name: "vdslr",
+    label: "Virtual DSLR",
+    summary: "Pseudo ray tracing of the flattened image + depth (Yang et al. 2016, Vulkan)",
+    input: InputKind::SingleImage,
+    uses_gpu: true,
+    settings: &Setting::ALL,
+    prepare: renderer,
+    differentiable: None,
+};
+
+fn renderer(ctx: Option<&Context>) -> Result<Box<dyn Renderer>> {
+    let gpu = ctx.map(Vdslr::new).transpose()?;
+    Ok(Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, settings: &MethodSettings| {
+        let (image, disparity) = input.single_image()?;
+        let params = VdslrParams::from_settings(settings);
+        match &gpu {
+            Some(gpu) => Ok(gpu.run_with(image, disparity, lens, &params, options)?.0),
+            None => render_vdslr_cpu(image, disparity, lens, &params),
+        }
+    }))
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -94,6 +111,13 @@ impl VdslrParams {
     /// linear HDR input already carries the highlights' energy that the weighting fakes.
     pub fn tuned() -> Self {
         Self { samples: 512, iterations: 10, ..Self::default() }
+    }
+
+    /// The tuned parameters with what `settings` gives: samples, iterations, highlight
+    /// weighting and focus field (the default settings give [`Self::tuned`]).
+    pub fn from_settings(settings: &MethodSettings) -> Self {
+        let MethodSettings { samples, iterations, highlight, focus } = settings.clone();
+        Self { samples, iterations, highlight, focus, ..Self::tuned() }
     }
 }
 
@@ -477,6 +501,12 @@ mod tests {
 
     fn lens(k: f32, focus: f32) -> Lens {
         Lens { coc: CocModel::new(k, focus).unwrap(), aperture: Aperture::Disk }
+    }
+
+    /// `--method vdslr` without settings renders with the tuned parameters.
+    #[test]
+    fn default_settings_are_the_tuned_parameters() {
+        assert_eq!(VdslrParams::from_settings(&MethodSettings::default()), VdslrParams::tuned());
     }
 
     #[test]
