@@ -149,23 +149,30 @@ fn blender_addon_bokeh_has_the_orientation_of_cycles(blender: &Blender) {
 /// with `json`, `types` and `f32` (a value rounded to 32-bit float) at hand; `body` prints a
 /// JSON list of [number, text] pairs, returned parsed.
 fn with_camera_module(body: &str) -> Vec<(f64, String)> {
+    serde_json::from_str(&with_addon_module("camera", body, &[])).unwrap()
+}
+
+/// Runs `body` in plain Python (no bpy) after loading the add-on's module `name` (a file of the
+/// add-on that imports no bpy) under its own name, with `json`, `sys`, `types` and `f32` at
+/// hand and `args` as `sys.argv[2:]`; returns what it printed.
+fn with_addon_module(name: &str, body: &str, args: &[&str]) -> String {
     let program = format!(
         r#"
 import importlib.util, json, struct, sys, types
 package = types.ModuleType("lensblur_addon")
 package.__path__ = [sys.argv[1]]
 sys.modules["lensblur_addon"] = package
-spec = importlib.util.spec_from_file_location("lensblur_addon.camera", sys.argv[1] + "/camera.py")
-camera = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(camera)
+spec = importlib.util.spec_from_file_location("lensblur_addon.{name}", sys.argv[1] + "/{name}.py")
+{name} = importlib.util.module_from_spec(spec)
+spec.loader.exec_module({name})
 f32 = lambda v: struct.unpack("f", struct.pack("f", v))[0]
 {body}
 "#
     );
     let addon = plugins_dir().join("blender/lensblur");
-    let output = Command::new("python3").args(["-c", &program, addon.to_str().unwrap()]).output().expect("python3");
+    let output = Command::new("python3").args(["-c", &program, addon.to_str().unwrap()]).args(args).output().expect("python3");
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-    serde_json::from_slice(&output.stdout).unwrap()
+    String::from_utf8(output.stdout).unwrap()
 }
 
 /// Blender hands f32 settings to Python widened to f64: the printed command line must show
@@ -204,24 +211,36 @@ print(json.dumps([[f32(s), camera.scene_unit(scene(s))] for s in scales]))",
     }
 }
 
-/// The add-on's method menu (`settings.METHODS`) is the registry: every method, in order, with
-/// the registry's label and one-line summary. Read from the source, so it needs no Blender.
+/// The add-on's method menu is `lensblur methods --json` of the binary it runs, so it is the
+/// registry (every method, in order, with its label and one-line summary) with no copy to keep
+/// in step; a binary that cannot be run leaves the default method alone, with the reason for the
+/// panel. Runs the add-on's `methods` module in plain Python (it needs no bpy); the menu in
+/// Blender is checked by `blender_addon_matches_cycles_depth_of_field_and_reads_the_camera`.
 #[test]
-fn addon_method_list_is_the_registry() {
-    let source = std::fs::read_to_string(plugins_dir().join("blender/lensblur/settings.py")).unwrap();
-    let listed: Vec<Vec<String>> = source
-        .lines()
-        .skip_while(|l| !l.starts_with("METHODS = ["))
-        .skip(1)
-        .take_while(|l| !l.starts_with(']'))
-        .map(|l| {
-            let inner = l.trim().strip_prefix("(\"").and_then(|l| l.strip_suffix("\"),"));
-            inner.unwrap_or_else(|| panic!("not a (name, label, summary) tuple: {l}")).split("\", \"").map(String::from).collect()
-        })
-        .collect();
-    let registry: Vec<Vec<String>> =
-        Method::ALL.iter().map(|m| [m.spec().name, m.spec().label, m.spec().summary].map(String::from).to_vec()).collect();
-    assert_eq!(listed, registry, "plugins/blender/lensblur/settings.py METHODS vs `lensblur methods`");
+fn addon_method_menu_is_what_lensblur_methods_json_lists() {
+    let stdout = with_addon_module(
+        "methods",
+        r#"binary, missing = sys.argv[2], sys.argv[2] + "-missing"
+items, error = methods.menu(lambda: binary)
+cached = methods.menu(lambda: binary)[0] is items
+fallback, why = methods.menu(lambda: missing)
+print(json.dumps({"items": items, "error": error, "cached": cached, "fallback": fallback, "why": why}))"#,
+        &[env!("CARGO_BIN_EXE_lensblur")],
+    );
+    let got: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let registry: Vec<[&str; 3]> = Method::ALL.iter().map(|m| [m.spec().name, m.spec().label, m.spec().summary]).collect();
+    assert_eq!(got["items"], serde_json::json!(registry), "the add-on's menu vs `lensblur methods --json`");
+    assert_eq!(got["error"], Value::Null);
+    assert_eq!(got["cached"], true, "the tool is asked once per binary, not on every redraw");
+    let why = got["why"].as_str().unwrap();
+    assert!(why.contains("lensblur-missing methods --json") && why.contains("only drbokeh is offered"), "{why}");
+    assert_eq!(got["fallback"], serde_json::json!([["drbokeh", "drbokeh", why]]));
+    // No copy of the list is left in the add-on: every method property reads the menu.
+    for file in ["settings.py", "operator.py", "animation.py"] {
+        let source = std::fs::read_to_string(plugins_dir().join("blender/lensblur").join(file)).unwrap();
+        let enums: Vec<&str> = source.lines().filter(|l| l.trim_start().starts_with("method: bpy.props.EnumProperty")).collect();
+        assert!(!enums.is_empty() && enums.iter().all(|l| l.contains("items=method_items") || l.contains("items=settings.method_items")), "{file}: {enums:?}");
+    }
 }
 
 /// The Unit Scale (Scene > Units): the same scene built at 0.01 (one Blender unit a

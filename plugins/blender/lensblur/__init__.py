@@ -29,12 +29,12 @@ if "bpy" in locals():
     # Script reload (F8 / Reload Scripts): pick up edited submodules.
     import importlib
 
-    for _module in (errors, compat, job, camera, checks, stack, runner, result, preferences, settings, operator, animation, panel):
+    for _module in (errors, compat, job, camera, checks, stack, runner, result, preferences, methods, settings, operator, animation, panel):
         importlib.reload(_module)
 
 import bpy
 
-from . import errors, compat, job, camera, checks, stack, runner, result, preferences, settings, operator, animation, panel
+from . import errors, compat, job, camera, checks, stack, runner, result, preferences, methods, settings, operator, animation, panel
 
 _classes = (
     preferences.LensblurPreferences,

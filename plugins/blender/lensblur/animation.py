@@ -200,7 +200,7 @@ class ShotOperator:
     directory: bpy.props.StringProperty(name="Folder", description=DIRECTORY_HELP, subtype="DIR_PATH", default="//lensblur/")
     layers: bpy.props.StringProperty(name="Layers", description=settings.LAYERS_HELP)
     exclude: bpy.props.StringProperty(name="Exclude", description=settings.EXCLUDE_HELP)
-    method: bpy.props.EnumProperty(name="Method", items=settings.METHODS, default="drbokeh")
+    method: bpy.props.EnumProperty(name="Method", items=settings.method_items)
 
     def start_shot(self, context):
         frames = frame_list(context.scene, self.frame_start, self.frame_end)

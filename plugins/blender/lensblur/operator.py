@@ -53,7 +53,7 @@ class LENSBLUR_OT_defocus(bpy.types.Operator):
     )
     layers: bpy.props.StringProperty(name="Layers", description=settings.LAYERS_HELP)
     exclude: bpy.props.StringProperty(name="Exclude", description=settings.EXCLUDE_HELP)
-    method: bpy.props.EnumProperty(name="Method", items=settings.METHODS, default="drbokeh")
+    method: bpy.props.EnumProperty(name="Method", items=settings.method_items)
     save_path: bpy.props.StringProperty(
         name="Save to", description=settings.SAVE_HELP, subtype="FILE_PATH"
     )

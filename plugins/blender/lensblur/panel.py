@@ -1,7 +1,7 @@
 """A small panel in Properties > Render: the settings, the camera in use, and the button."""
 import bpy
 
-from . import camera, compat
+from . import camera, compat, settings
 from .errors import LensblurError
 
 
@@ -18,6 +18,9 @@ class LENSBLUR_PT_render(bpy.types.Panel):
         layout.use_property_split = True
         for name in ("filepath", "layers", "exclude", "method", "save_path", "use_node"):
             layout.prop(s, name)
+        error = settings.method_error(context)
+        if error:
+            layout.label(text=f"Methods: {error}", icon="ERROR")
         self.draw_camera(layout, context.scene)
         op = layout.operator("lensblur.defocus", icon="RENDER_RESULT")
         for name in ("filepath", "layers", "exclude", "method", "save_path", "use_node"):

@@ -1,17 +1,25 @@
 """Per-scene settings the panel edits; the operator's properties mirror them."""
 import bpy
 
-# Every `lensblur render --method`, as `lensblur methods --json` lists them (name, label,
-# summary); tests/plugin_blender.rs checks this list equals the tool's registry.
-METHODS = [
-    ("drbokeh", "Dr.Bokeh", "Layered occlusion-aware gather (Vulkan); the default"),
-    ("drbokeh-compat", "Dr.Bokeh (released code)", "Dr.Bokeh with the formulas of its released code (Vulkan)"),
-    ("multiview", "Multiview", "Lens rays through the layers (Lee et al. 2009, Vulkan)"),
-    ("vdslr", "Virtual DSLR", "Pseudo ray tracing of the flattened image + depth (Yang et al. 2016, Vulkan)"),
-    ("oracle", "Per-layer blur", "Blur each layer and composite it over (CPU)"),
-    ("gather", "Gather", "Single-image gather baseline, like the Defocus node (Vulkan)"),
-    ("scatter", "Scatter", "Single-image scatter baseline (BokehMe's classical renderer, Vulkan)"),
-]
+from . import methods, preferences
+
+
+def _method_menu(context):
+    """(items, error) of the method menu for the binary in use (see `methods.menu`)."""
+    return methods.menu(lambda: preferences.find_binary(context or bpy.context))
+
+
+def method_items(self, context):
+    """The method menu (an EnumProperty's items; `context` may be None): the methods of
+    `lensblur methods --json`, asked of the binary in use and cached. Its first item, the
+    tool's default, is the property's default."""
+    return _method_menu(context)[0]
+
+
+def method_error(context):
+    """Why the method menu holds only the default method (the tool could not be asked), or None."""
+    return _method_menu(context)[1]
+
 
 LAYERS_HELP = (
     "View layers forming the stack: names or globs, comma-separated (empty: every view "
@@ -27,6 +35,6 @@ class LensblurSettings(bpy.types.PropertyGroup):
     filepath: bpy.props.StringProperty(name="EXR", description=FILEPATH_HELP, subtype="FILE_PATH")
     layers: bpy.props.StringProperty(name="Layers", description=LAYERS_HELP)
     exclude: bpy.props.StringProperty(name="Exclude", description=EXCLUDE_HELP)
-    method: bpy.props.EnumProperty(name="Method", items=METHODS, default="drbokeh")
+    method: bpy.props.EnumProperty(name="Method", items=method_items)
     save_path: bpy.props.StringProperty(name="Save to", description=SAVE_HELP, subtype="FILE_PATH")
     use_node: bpy.props.BoolProperty(name="Image node", description=NODE_HELP, default=True)
