@@ -19,6 +19,39 @@ use crate::stack::{
 use crate::error::InputMismatch;
 use crate::{Error, Result};
 
+/// What kind of source a render reads, decided once from the path and the options (a deep
+/// file by its header's type, a PNG/JPEG by its extension): every reader, refusal and
+/// description matches on this instead of asking the file again. Arrays handed over in memory
+/// are the fourth kind ([`crate::stack::arrays`], [`crate::job::RenderJob::load_arrays`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SourceKind {
+    /// An OpenEXR file of flat images: layers in any naming convention, or one image with Z.
+    Exr,
+    /// A PNG/JPEG, with its depth in a separate grey image.
+    Image,
+    /// A deep OpenEXR file, or several merged (`InputOptions::merge`).
+    Deep,
+}
+
+impl SourceKind {
+    /// The kind of `path` read with `options`.
+    pub fn of(path: &Path, options: &InputOptions) -> Self {
+        Self::of_path(path, !options.merge.is_empty())
+    }
+
+    /// The kind of `path`; `merged`: other deep files are merged with it (which makes it deep).
+    pub fn of_path(path: &Path, merged: bool) -> Self {
+        if merged || is_deep_exr(path) {
+            SourceKind::Deep
+        } else if is_ldr_path(path) {
+            SourceKind::Image
+        } else {
+            SourceKind::Exr
+        }
+    }
+}
+
 /// What a caller says about the camera. The physical parameters it leaves out come from the
 /// file's header, then from a shot's camera file; `normalised` replaces the physical camera.
 #[derive(Clone, Debug, Default)]
@@ -189,7 +222,7 @@ pub fn load(
     camera_file: &CameraHints,
     wants: InputKind,
 ) -> Result<LoadedInput> {
-    if !options.merge.is_empty() || is_deep_exr(path) {
+    if SourceKind::of(path, options) == SourceKind::Deep {
         return load_deep(path, options, camera, camera_file, wants);
     }
     let start = Instant::now();
@@ -219,7 +252,7 @@ fn header_scene_unit(attributes: &std::collections::BTreeMap<String, String>, pa
 /// takes one image gets the deep pixels flattened, with the depth of the nearest layer.
 fn load_deep(path: &Path, options: &InputOptions, camera: &CameraRequest, camera_file: &CameraHints, wants: InputKind) -> Result<LoadedInput> {
     let paths: Vec<PathBuf> = std::iter::once(path.to_path_buf()).chain(options.merge.iter().cloned()).collect();
-    if let Some(flat) = paths.iter().find(|p| !is_deep_exr(p)) {
+    if let Some(flat) = paths.iter().find(|p| SourceKind::of_path(p, false) != SourceKind::Deep) {
         if !flat.exists() {
             return Err(Error::Io { path: flat.clone(), source: std::io::Error::from(std::io::ErrorKind::NotFound) });
         }
@@ -275,12 +308,12 @@ pub fn layers_for(
 /// write back channel by channel into an EXR laid out like the input: a deep EXR (or a `merge`
 /// of them), whose samples are no layer's channels, or a PNG/JPEG, which has no depth channel.
 pub fn require_channel_stack(path: &Path, options: &InputOptions, writer: &str) -> Result<()> {
-    let (kind, why, hint) = if !options.merge.is_empty() || is_deep_exr(path) {
-        ("a deep EXR", "a deep file's samples are no layer's channels", "; from deep data, Nuke's DeepToImage (one per layer) makes one")
-    } else if is_ldr_path(path) {
-        ("a PNG/JPEG image", "it has no depth channel", "")
-    } else {
-        return Ok(());
+    let (kind, why, hint) = match SourceKind::of(path, options) {
+        SourceKind::Deep => {
+            ("a deep EXR", "a deep file's samples are no layer's channels", "; from deep data, Nuke's DeepToImage (one per layer) makes one")
+        }
+        SourceKind::Image => ("a PNG/JPEG image", "it has no depth channel", ""),
+        SourceKind::Exr => return Ok(()),
     };
     Err(Error::input(
         path,
@@ -294,7 +327,7 @@ pub fn require_channel_stack(path: &Path, options: &InputOptions, writer: &str) 
 /// Reads `path` as [`load`] does, without resolving a camera or splitting layers: the stack
 /// (disparity), the EXR's header facts, the depth convention used, and the file's warnings.
 pub fn read(path: &Path, options: &InputOptions) -> Result<(LayerStack, Option<StackInfo>, DepthKind, Vec<String>)> {
-    if is_ldr_path(path) {
+    if SourceKind::of(path, options) == SourceKind::Image {
         let Some(depth_path) = &options.depth_image else {
             return Err(Error::InputMismatch { path: path.into(), mismatch: InputMismatch::MissingDepthImage });
         };

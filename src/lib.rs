@@ -62,9 +62,9 @@
 //! The command line (`cli/`), the benchmark and the device self-check (`dev/`) and the Python
 //! module (`python/`) are crates of their own that build on this one; none of them is a
 //! dependency of it.
-// Raw pointers only where a foreign API needs them: the Vulkan module and the deep reader's
-// OpenEXR bindings opt in (`#[allow(unsafe_code)]` on their `mod` lines); anywhere else
-// `unsafe` is a compile error.
+// Raw pointers only where a foreign API needs them: the Vulkan module (`#[allow(unsafe_code)]`
+// on its `mod` line below) and the deep reader's OpenEXR bindings (`src/stack/deep/ffi.rs`)
+// opt in; anywhere else `unsafe` is a compile error (tests/architecture.rs checks both).
 #![deny(unsafe_code)]
 
 pub mod atomic_file;

@@ -1,7 +1,8 @@
 //! `lensblur info FILE`: what a stack file holds and how lensblur will interpret it.
 use std::path::PathBuf;
 
-use lensblur::stack::{is_ldr_path, ldr_size, read_ldr, read_parts, read_stack, DepthKind, ReadOptions, StackInfo};
+use lensblur::input::SourceKind;
+use lensblur::stack::{ldr_size, read_ldr, read_parts, read_stack, DepthKind, ReadOptions, StackInfo};
 
 use super::input_args::input_flag_error;
 
@@ -25,11 +26,10 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
-    if is_ldr_path(&args.file) {
-        return ldr_info(&args);
-    }
-    if lensblur::stack::deep::is_deep_exr(&args.file) {
-        return deep_info(&args);
+    match SourceKind::of_path(&args.file, false) {
+        SourceKind::Image => return ldr_info(&args),
+        SourceKind::Deep => return deep_info(&args),
+        SourceKind::Exr => {}
     }
     if args.depth.is_some() {
         let mismatch = lensblur::InputMismatch::DepthImageBesideStack;

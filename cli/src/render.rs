@@ -6,11 +6,12 @@ use anyhow::Context as _;
 use indicatif::ProgressBar;
 use lensblur::camera::CameraHints;
 use lensblur::image::Image;
+use lensblur::input::SourceKind;
 use lensblur::job::{JobSpec, RenderJob, Rendered};
 use lensblur::render::{Lens, Method};
 use lensblur::sequence::FramePattern;
 use lensblur::stack::{
-    is_ldr_path, write_image, write_ldr, LayerStack, OutputFormat, SampleType, StackNaming, WriteOptions,
+    write_image, write_ldr, LayerStack, OutputFormat, SampleType, StackNaming, WriteOptions,
 };
 use lensblur::render::placement::{CpuReason, DevicePreference, Placement};
 use lensblur::vk::{Context, ContextOptions};
@@ -239,7 +240,7 @@ pub(super) fn check_flags(args: &Args) -> anyhow::Result<(OutputFormat, RenderJo
     if let Some(preview) = &args.preview {
         OutputFormat::for_output(preview, "--preview", OutputFormat::LDR)?;
     }
-    if args.keep_channels && is_ldr_path(&args.input) {
+    if args.keep_channels && SourceKind::of_path(&args.input, false) == SourceKind::Image {
         anyhow::bail!(
             "--keep-channels copies the other channels of an EXR input; {} is a PNG/JPEG and has none \
              (drop the flag)",

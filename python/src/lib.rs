@@ -5,15 +5,20 @@ use std::collections::HashMap;
 use std::sync::{Mutex, MutexGuard};
 use std::path::PathBuf;
 
-use lensblur::camera::{Aperture, CameraHints, CocModel, PhysicalCamera};
+use lensblur::camera::{Aperture, CameraHints, CocModel, PhysicalCamera, SceneUnit};
+use lensblur::character::bloom::DEFAULT_BLOOM_GAIN;
+use lensblur::character::{BlurRemap, Bloom, CatsEye, Character};
 use lensblur::image::Image;
-use lensblur::input::{layers_for, read, CameraRequest, InputOptions, ResolvedCamera};
+use lensblur::input::{read, CameraRequest, InputOptions, ResolvedCamera};
+use lensblur::job::{JobSpec, LoadedInput, MethodOptions, RenderJob};
 use lensblur::render::grad::{CameraGradients, Differentiable, Slope};
 use lensblur::render::tiler::RenderOptions;
-use lensblur::render::{Lens, Method, MethodSettings};
-use lensblur::stack::arrays::AUTO_LAYERED_GRADIENTS;
+use lensblur::render::{Lens, Method, MethodInput, MethodSettings};
+use lensblur::stack::deep::{DeepReadOptions, PartChoice, DEFAULT_MAX_SAMPLES};
+use lensblur::stack::DEFAULT_MAX_PIXELS;
+use lensblur::stack::arrays::{ArrayStack, AUTO_LAYERED_GRADIENTS};
 use lensblur::stack::{
-    grad_output_from_array, read_rgba, stack_from_arrays, stack_to_arrays, ArrayStack, DepthKind, WriteOptions,
+    grad_output_from_array, read_rgba, stack_from_arrays, stack_to_arrays, DepthKind, WriteOptions,
 };
 use lensblur::vk::{Context, ContextOptions};
 use numpy::{PyArray1, PyArrayDescrMethods, PyArrayDyn, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
@@ -155,20 +160,153 @@ impl Camera {
 }
 
 impl Camera {
-    /// The lens for an image `width` pixels wide, by the library's camera policy.
-    fn resolve(&self, width: usize, aperture: Aperture) -> PyResult<ResolvedCamera> {
-        let normalised = match (self.k_px, self.focus_disparity) {
+    /// The library's camera request for this camera (None: everything from the file's header).
+    fn request(camera: Option<&Self>, aperture: Aperture, scene_unit: Option<SceneUnit>) -> PyResult<CameraRequest> {
+        let Some(camera) = camera else {
+            return Ok(CameraRequest { aperture, scene_unit, ..CameraRequest::default() });
+        };
+        let normalised = match (camera.k_px, camera.focus_disparity) {
             (Some(k), Some(focus)) => Some(CocModel::new(k, focus).or_py()?),
             _ => None,
         };
         let physical = CameraHints {
-            focal_length_mm: self.focal_length_mm,
-            sensor_width_mm: self.sensor_width_mm,
-            fstop: self.fstop,
-            focus_distance: self.focus_distance,
+            focal_length_mm: camera.focal_length_mm,
+            sensor_width_mm: camera.sensor_width_mm,
+            fstop: camera.fstop,
+            focus_distance: camera.focus_distance,
         };
-        let request = CameraRequest { physical, normalised, aperture, scene_unit: None };
+        Ok(CameraRequest { physical, normalised, aperture, scene_unit })
+    }
+
+    /// The lens for an image `width` pixels wide, by the library's camera policy.
+    fn resolve(&self, width: usize, aperture: Aperture) -> PyResult<ResolvedCamera> {
+        let request = Self::request(Some(self), aperture, None)?;
         request.resolve(width, &CameraHints::default(), &CameraHints::default()).or_py()
+    }
+}
+
+/// `bloom=`: a threshold (gain 4, as `--bloom THRESHOLD`), or `(threshold, gain)`.
+#[derive(FromPyObject)]
+enum BloomArg {
+    Pair(f32, f32),
+    Threshold(f32),
+}
+
+/// The keyword options of every render, in the order `help` lists them: `lensblur render`'s
+/// image-changing flags in snake_case (the camera's own flags are the `Camera`'s fields).
+const RENDER_OPTIONS: [&str; 20] = [
+    "method", "aperture", "scene_unit", "layer_spacing", "max_layers", "near_blur", "far_blur", "max_blur",
+    "focus_at", "bloom", "chromatic", "cats_eye", "samples", "iterations", "highlight_sigma", "tilt_shift",
+    "focal_planes", "overscan", "tile", "max_memory",
+];
+
+/// The further options of a render read from a file: how the file is read (`--layers`,
+/// `--depth`, `--depth-kind`, the deep flags).
+const FILE_OPTIONS: [&str; 9] =
+    ["layers", "depth", "depth_kind", "max_pixels", "replace_nonfinite", "merge", "max_samples", "deep_part", "deep_flatten"];
+
+/// A render's keyword options, read into the library's render job: each one is checked by the
+/// library, with its message.
+struct JobArgs<'py> {
+    options: Option<&'py Bound<'py, PyDict>>,
+}
+
+impl<'py> JobArgs<'py> {
+    /// `options`, refusing a name that is no option (`file`: the file options are accepted).
+    fn new(options: Option<&'py Bound<'py, PyDict>>, file: bool) -> PyResult<Self> {
+        for key in options.iter().flat_map(|o| o.keys()) {
+            let key: String = key.extract()?;
+            if !RENDER_OPTIONS.contains(&key.as_str()) && !(file && FILE_OPTIONS.contains(&key.as_str())) {
+                let mut known: Vec<&str> = RENDER_OPTIONS.to_vec();
+                if file {
+                    known.extend(FILE_OPTIONS);
+                }
+                let hint = if FILE_OPTIONS.contains(&key.as_str()) { " (a file option: render_file takes it)" } else { "" };
+                return Err(PyTypeError::new_err(format!("unknown option '{key}'{hint}; the options are: {}", known.join(", "))));
+            }
+        }
+        Ok(Self { options })
+    }
+
+    /// Option `name`, None when not given (or given as None).
+    fn get<T: for<'a> FromPyObject<'a, 'py>>(&self, name: &str) -> PyResult<Option<T>> {
+        let Some(value) = self.options.map(|o| o.get_item(name)).transpose()?.flatten() else { return Ok(None) };
+        if value.is_none() {
+            return Ok(None);
+        }
+        value.extract::<T>().map(Some).map_err(|e| {
+            let error: PyErr = e.into();
+            PyTypeError::new_err(format!("option {name}: {error}"))
+        })
+    }
+
+    fn method(&self) -> PyResult<Method> {
+        parse_method(&self.get::<String>("method")?.unwrap_or_else(|| "drbokeh".into()))
+    }
+
+    /// How a file is read (the file options).
+    fn input(&self) -> PyResult<InputOptions> {
+        let defaults = InputOptions::default();
+        let deep = DeepReadOptions {
+            max_samples: self.get("max_samples")?.unwrap_or(DEFAULT_MAX_SAMPLES),
+            max_pixels: self.get("max_pixels")?.unwrap_or(DEFAULT_MAX_PIXELS),
+            part: match self.get::<String>("deep_part")? {
+                Some(part) => part.parse::<PartChoice>().or_py()?,
+                None => PartChoice::default(),
+            },
+        };
+        Ok(InputOptions {
+            layers: self.get("layers")?,
+            depth_kind: self.get::<String>("depth_kind")?.as_deref().map(parse_depth_kind).transpose()?,
+            depth_image: self.get("depth")?,
+            max_pixels: deep.max_pixels,
+            replace_nonfinite: self.get("replace_nonfinite")?.unwrap_or(false),
+            merge: self.get("merge")?.unwrap_or_default(),
+            deep,
+            deep_flatten: self.get("deep_flatten")?.unwrap_or(false),
+            ..defaults
+        })
+    }
+
+    /// The render job: `camera` (None: the file's header) and the options.
+    fn job(&self, camera: Option<&Camera>) -> PyResult<RenderJob> {
+        let scene_unit = self.get::<String>("scene_unit")?.as_deref().map(str::parse::<SceneUnit>).transpose().or_py()?;
+        let aperture = Aperture::parse(&self.get::<String>("aperture")?.unwrap_or_else(|| "disk".into())).or_py()?;
+        let mut input = self.input()?;
+        input.auto_layer.coc_spacing_px = self.get("layer_spacing")?.unwrap_or(input.auto_layer.coc_spacing_px);
+        input.auto_layer.max_layers = self.get("max_layers")?.unwrap_or(input.auto_layer.max_layers);
+        let bloom = self.get::<BloomArg>("bloom")?.map(|b| match b {
+            BloomArg::Pair(threshold, gain) => Bloom { threshold, gain },
+            BloomArg::Threshold(threshold) => Bloom { threshold, gain: DEFAULT_BLOOM_GAIN },
+        });
+        let spec = JobSpec {
+            method: self.method()?,
+            camera: Camera::request(camera, aperture, scene_unit)?,
+            input,
+            method_options: MethodOptions {
+                samples: self.get("samples")?,
+                iterations: self.get("iterations")?,
+                highlight_sigma: self.get("highlight_sigma")?,
+                tilt_shift: self.get("tilt_shift")?,
+                focal_planes: self.get("focal_planes")?,
+            },
+            character: Character {
+                remap: BlurRemap {
+                    near: self.get("near_blur")?.unwrap_or(1.0),
+                    far: self.get("far_blur")?.unwrap_or(1.0),
+                    max_px: self.get("max_blur")?,
+                },
+                focus_at: self.get("focus_at")?,
+                bloom,
+                chromatic: self.get("chromatic")?,
+                cats_eye: self.get::<f32>("cats_eye")?.map(CatsEye::new).transpose().or_py()?,
+            },
+            overscan: self.get("overscan")?.unwrap_or(0),
+            tile: self.get("tile")?,
+            max_memory: self.get("max_memory")?,
+            ..JobSpec::default()
+        };
+        RenderJob::new(spec).or_py()
     }
 }
 
@@ -228,17 +366,7 @@ impl Call {
         aperture: &str,
         depth_kind: &str,
     ) -> PyResult<Self> {
-        let (layers, layers_shape) = f32_array("layers", layers)?;
-        let (depth, depth_shape) = f32_array("depth", depth)?;
-        let (layers, depth) = (layers.readonly(), depth.readonly());
-        let input = stack_from_arrays(
-            layers.as_slice()?,
-            &layers_shape,
-            depth.as_slice()?,
-            &depth_shape,
-            parse_depth_kind(depth_kind)?,
-        )
-        .or_py()?;
+        let input = read_arrays(layers, depth, depth_kind)?;
         let camera = camera.resolve(input.stack.width, Aperture::parse(aperture).or_py()?)?;
         Ok(Self { input, camera, method: parse_method(method)? })
     }
@@ -248,9 +376,43 @@ impl Call {
     }
 }
 
+/// Reads `layers` and `depth` arrays (see `Renderer.render`) with the library's checks.
+fn read_arrays(layers: &Bound<'_, PyAny>, depth: &Bound<'_, PyAny>, depth_kind: &str) -> PyResult<ArrayStack> {
+    let (layers, layers_shape) = f32_array("layers", layers)?;
+    let (depth, depth_shape) = f32_array("depth", depth)?;
+    let (layers, depth) = (layers.readonly(), depth.readonly());
+    stack_from_arrays(layers.as_slice()?, &layers_shape, depth.as_slice()?, &depth_shape, parse_depth_kind(depth_kind)?)
+        .or_py()
+}
+
 impl Renderer {
     fn context(&self) -> PyResult<&Context> {
         self.context.as_ref().ok_or_else(|| LensblurError::new_err("this Renderer was closed"))
+    }
+
+    /// Runs `job` on `loaded` with the GIL released, on the method's renderer made once per
+    /// Renderer (`leaky`: the leaky backward's forward), and cuts the overscan.
+    fn render_job(&self, py: Python<'_>, job: &RenderJob, loaded: &LoadedInput, leaky: bool) -> PyResult<Image> {
+        let method = job.method();
+        let render = |renderer: &dyn lensblur::render::Renderer| -> lensblur::Result<Image> {
+            let rendered = job.render_with(renderer, loaded, None)?;
+            Ok(job.output(&rendered.image)?.into_owned())
+        };
+        if leaky {
+            return self.with_differentiable(py, method, true, |d| {
+                let forward = |input: MethodInput<'_>, lens: &Lens, _: &RenderOptions, _: &MethodSettings| {
+                    d.forward(input.layers()?, lens)
+                };
+                render(&forward)
+            });
+        }
+        let context = self.context()?;
+        py.detach(|| {
+            let mut prepared = lock(&self.prepared);
+            let renderer = cached(&mut prepared, method.name(), || method.prepare(Some(context)))?;
+            render(renderer.as_ref())
+        })
+        .or_py()
     }
 
     /// Runs `f` with the method's backward-capable renderer, made on first use, the GIL released.
@@ -299,35 +461,44 @@ impl Renderer {
     /// Renders premultiplied RGBA `layers` (L, H, W, 4) float32, front to back, with `depth`
     /// (L, H, W) stored as `depth_kind`; or one image (H, W, 4) with depth (H, W), split into
     /// layers for a layered method. `leaky=True` renders the forward of the leaky backward.
-    /// Returns the defocused premultiplied RGBA, (H, W, 4) float32.
-    #[pyo3(signature = (layers, depth, camera, *, method = "drbokeh", aperture = "disk", depth_kind = "z", leaky = false))]
-    #[allow(clippy::too_many_arguments)]
+    /// `options` are `lensblur render`'s image-changing flags in snake_case (`render_options()`
+    /// lists them), checked by the library as the command line's are. Returns the defocused
+    /// premultiplied RGBA, (H, W, 4) float32.
+    #[pyo3(signature = (layers, depth, camera, *, depth_kind = "z", leaky = false, **options))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         layers: &Bound<'py, PyAny>,
         depth: &Bound<'py, PyAny>,
         camera: &Camera,
-        method: &str,
-        aperture: &str,
         depth_kind: &str,
         leaky: bool,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let Call { input, camera, method } = Call::new(layers, depth, camera, method, aperture, depth_kind)?;
-        let lens = &camera.lens;
-        let (stack, _) = layers_for(input.stack, input.single_image, &lens.coc, method.input(), &Default::default());
-        let image = if leaky {
-            self.with_differentiable(py, method, true, |d| d.forward(&stack, lens))?
-        } else {
-            let context = self.context()?;
-            py.detach(|| {
-                let mut prepared = lock(&self.prepared);
-                let renderer = cached(&mut prepared, method.name(), || method.prepare(Some(context)))?;
-                let (options, settings) = (RenderOptions::default(), MethodSettings::default());
-                method.render_prepared(renderer.as_ref(), &stack, lens, &options, &settings)
-            })
-            .or_py()?
-        };
+        let job = JobArgs::new(options, false)?.job(Some(camera))?;
+        let arrays = read_arrays(layers, depth, depth_kind)?;
+        let loaded = job.load_arrays(arrays).or_py()?;
+        let image = self.render_job(py, &job, &loaded, leaky)?;
+        image_to_numpy(py, image)
+    }
+
+    /// Reads `path` as `lensblur render` does (a layered, flat or deep EXR, or a PNG/JPEG with
+    /// `depth=` its depth image) and renders it through `camera` (None: the camera in the
+    /// file's header; a `Camera` overrides it). `options` are the render options and the file
+    /// options (`layers`, `depth`, `depth_kind`, `max_pixels`, `replace_nonfinite`, `merge`,
+    /// `max_samples`, `deep_part`, `deep_flatten`). Returns the defocused premultiplied RGBA,
+    /// (H, W, 4) float32, the image `lensblur render` writes.
+    #[pyo3(signature = (path, camera = None, **options))]
+    fn render_file<'py>(
+        &self,
+        py: Python<'py>,
+        path: PathBuf,
+        camera: Option<&Camera>,
+        options: Option<&Bound<'py, PyDict>>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let job = JobArgs::new(options, true)?.job(camera)?;
+        let loaded = py.detach(|| job.load(&path, &CameraHints::default())).or_py()?;
+        let image = self.render_job(py, &job, &loaded, false)?;
         image_to_numpy(py, image)
     }
 
@@ -479,6 +650,13 @@ fn methods() -> (Vec<&'static str>, Vec<&'static str>) {
     (Method::ALL.iter().map(|m| m.name()).collect(), Method::differentiable_names())
 }
 
+/// The keyword options of a render (`lensblur render`'s image-changing flags in snake_case),
+/// and the further ones of a render read from a file.
+#[pyfunction]
+fn render_options() -> (Vec<&'static str>, Vec<&'static str>) {
+    (RENDER_OPTIONS.to_vec(), FILE_OPTIONS.to_vec())
+}
+
 #[pymodule]
 fn _lensblur(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Camera>()?;
@@ -489,5 +667,6 @@ fn _lensblur(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(raytrace, m)?)?;
     m.add_function(wrap_pyfunction!(methods, m)?)?;
+    m.add_function(wrap_pyfunction!(render_options, m)?)?;
     Ok(())
 }

@@ -3,7 +3,7 @@
 //! alike and their gradients map back the same way.
 use std::path::Path;
 
-use super::exr_read::{check_finite, depth_to_disparity};
+use super::depth_clean::{check_finite, depth_to_disparity};
 use super::{DepthKind, Layer, LayerStack};
 use crate::image::Image;
 use crate::stack::gradients::{stored_depth_gradient, StackGradients};

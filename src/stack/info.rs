@@ -54,7 +54,7 @@ pub struct LayerInfo {
     pub disparity_range: (f32, f32),
     /// Per display-window pixel, the fill weight of the stored depth sample: 0 where it was
     /// not read and the depth came from the neighbours (see
-    /// [`known_depth_weight`](super::exr_read::known_depth_weight)); empty for layers made by
+    /// [`known_depth_weight`](super::depth_clean::known_depth_weight)); empty for layers made by
     /// auto-layering.
     #[serde(skip)]
     pub depth_weights: Vec<f32>,

@@ -4,6 +4,7 @@ use std::path::Path;
 
 use super::{DepthKind, OutputFormat};
 use crate::atomic_file::write_atomically;
+use super::depth_clean::image_depth_to_disparity;
 use crate::image::Image;
 use crate::{Error, Result};
 
@@ -106,10 +107,7 @@ pub fn read_ldr(path: &Path, depth_path: &Path, depth_kind: DepthKind, max_pixel
         .collect();
     let disparity = depth_values(&depth)
         .into_iter()
-        .map(|v| match depth_kind {
-            DepthKind::Z if v <= 0.0 => 0.0,
-            kind => kind.to_disparity(v),
-        })
+        .map(|v| image_depth_to_disparity(depth_kind, v))
         .collect();
     Ok(LdrInput {
         image: Image {

@@ -7,6 +7,7 @@
 pub mod arrays;
 pub mod autolayer;
 pub mod deep;
+pub mod depth_clean;
 pub mod exr_header_order;
 pub mod exr_read;
 pub mod exr_write;
@@ -22,7 +23,8 @@ pub mod output_format;
 
 pub use arrays::{grad_output_from_array, stack_from_arrays, stack_to_arrays, ArrayStack};
 pub use autolayer::{split_into_layers, AutoLayerOptions};
-pub use exr_read::{known_depth_weight, read_parts, read_rgba, read_stack, ReadOptions, DEFAULT_MAX_PIXELS};
+pub use depth_clean::known_depth_weight;
+pub use exr_read::{read_parts, read_rgba, read_stack, ReadOptions, DEFAULT_MAX_PIXELS};
 pub use exr_replace::{replace_channels, ChannelReplacement, HeaderEdits};
 pub use file_channels::FileChannels;
 pub use exr_write::{write_image, write_named_channels, write_stack, StackNaming, StackWriteOptions, WriteOptions};

@@ -14,7 +14,6 @@ use std::path::{Path, PathBuf};
 use crate::{Error, Result};
 
 #[cfg(feature = "deep")]
-#[allow(unsafe_code)]
 mod ffi;
 pub mod layers;
 #[cfg(feature = "deep")]
