@@ -71,8 +71,14 @@ def run_addon(scene):
     checks["plain_focus_distance"] = report["camera"]["focus_distance"]
     dof.focus_object = target
 
-    rna = bpy.ops.lensblur.defocus.get_rna_type()
-    checks["methods"] = [item.identifier for item in rna.properties["method"].enum_items]
+    # The panel's method menu (LENSBLUR_MT_methods draws these), and each item picked through
+    # the menu's operator lands in the scene's setting.
+    addon = sys.modules["lensblur"]
+    checks["methods"] = [item[0] for item in addon.settings.method_items(bpy.context)]
+    for name in checks["methods"]:
+        bpy.ops.lensblur.set_method(name=name)
+        assert scene.lensblur.method == name, (name, scene.lensblur.method)
+    bpy.ops.lensblur.set_method(name=checks["methods"][0])
     # `lensblur render` itself fails (after the stack was written): a device name that
     # matches nothing. Its message comes back as the report.
     os.environ["LENSBLUR_DEVICE"] = "no-such-gpu"

@@ -42,6 +42,8 @@ _classes = (
     operator.LENSBLUR_OT_defocus,
     animation.LENSBLUR_OT_defocus_animation,
     animation.LENSBLUR_OT_farm_bundle,
+    panel.LENSBLUR_OT_set_method,
+    panel.LENSBLUR_MT_methods,
     panel.LENSBLUR_PT_render,
 )
 

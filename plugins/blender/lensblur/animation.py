@@ -16,7 +16,7 @@ import subprocess
 
 import bpy
 
-from . import camera, checks, compat, preferences, result, settings, stack
+from . import camera, checks, compat, methods, preferences, result, settings, stack
 from .errors import LensblurError
 from .job import RenderJob, tool_message
 from .operator import POLL_SECONDS, report_failure
@@ -200,7 +200,8 @@ class ShotOperator:
     directory: bpy.props.StringProperty(name="Folder", description=DIRECTORY_HELP, subtype="DIR_PATH", default="//lensblur/")
     layers: bpy.props.StringProperty(name="Layers", description=settings.LAYERS_HELP)
     exclude: bpy.props.StringProperty(name="Exclude", description=settings.EXCLUDE_HELP)
-    method: bpy.props.EnumProperty(name="Method", items=settings.method_items)
+    # A name, as the panel's setting holds it (see settings.LensblurSettings.method).
+    method: bpy.props.StringProperty(name="Method", default=methods.DEFAULT)
 
     def start_shot(self, context):
         frames = frame_list(context.scene, self.frame_start, self.frame_end)

@@ -24,6 +24,7 @@ _answers = {}
 _fallbacks = {}
 
 
+
 def parse(text):
     """[(name, label, summary)] of every method in the output of `lensblur methods --json`, in
     the tool's order (its default first)."""

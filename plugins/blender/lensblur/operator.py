@@ -11,7 +11,7 @@ import traceback
 
 import bpy
 
-from . import camera, checks, preferences, result, runner, settings, stack
+from . import camera, checks, methods, preferences, result, runner, settings, stack
 from .errors import LensblurError
 from .job import RenderJob
 
@@ -53,7 +53,8 @@ class LENSBLUR_OT_defocus(bpy.types.Operator):
     )
     layers: bpy.props.StringProperty(name="Layers", description=settings.LAYERS_HELP)
     exclude: bpy.props.StringProperty(name="Exclude", description=settings.EXCLUDE_HELP)
-    method: bpy.props.EnumProperty(name="Method", items=settings.method_items)
+    # A name, as the panel's setting holds it (see settings.LensblurSettings.method).
+    method: bpy.props.StringProperty(name="Method", default=methods.DEFAULT)
     save_path: bpy.props.StringProperty(
         name="Save to", description=settings.SAVE_HELP, subtype="FILE_PATH"
     )

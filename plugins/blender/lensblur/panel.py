@@ -5,6 +5,36 @@ from . import camera, compat, settings
 from .errors import LensblurError
 
 
+class LENSBLUR_OT_set_method(bpy.types.Operator):
+    """Render with this method"""
+
+    bl_idname = "lensblur.set_method"
+    bl_label = "Set method"
+    bl_options = {"INTERNAL", "UNDO"}
+    name: bpy.props.StringProperty()
+
+    @classmethod
+    def description(cls, context, properties):
+        summaries = {name: summary for name, _, summary in settings.method_items(context)}
+        return summaries.get(properties.name, properties.name)
+
+    def execute(self, context):
+        context.scene.lensblur.method = self.name
+        return {"FINISHED"}
+
+
+class LENSBLUR_MT_methods(bpy.types.Menu):
+    """The rendering methods of the lensblur binary in use, as `lensblur methods --json` lists
+    them: drawn anew each time the menu opens, so it is never a copy of the tool's list."""
+
+    bl_idname = "LENSBLUR_MT_methods"
+    bl_label = "Method"
+
+    def draw(self, context):
+        for name, label, _ in settings.method_items(context):
+            self.layout.operator(LENSBLUR_OT_set_method.bl_idname, text=label).name = name
+
+
 class LENSBLUR_PT_render(bpy.types.Panel):
     bl_label = "Lensblur"
     bl_space_type = "PROPERTIES"
@@ -16,7 +46,12 @@ class LENSBLUR_PT_render(bpy.types.Panel):
         layout = self.layout
         s = context.scene.lensblur
         layout.use_property_split = True
-        for name in ("filepath", "layers", "exclude", "method", "save_path", "use_node"):
+        for name in ("filepath", "layers", "exclude"):
+            layout.prop(s, name)
+        # The method, picked from the tool's own list (`lensblur methods --json`).
+        labels = {name: label for name, label, _ in settings.method_items(context)}
+        layout.menu(LENSBLUR_MT_methods.bl_idname, text=f"Method: {labels.get(s.method, s.method)}")
+        for name in ("save_path", "use_node"):
             layout.prop(s, name)
         error = settings.method_error(context)
         if error:

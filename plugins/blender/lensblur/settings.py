@@ -9,10 +9,9 @@ def _method_menu(context):
     return methods.menu(lambda: preferences.find_binary(context or bpy.context))
 
 
-def method_items(self, context):
-    """The method menu (an EnumProperty's items; `context` may be None): the methods of
-    `lensblur methods --json`, asked of the binary in use and cached. Its first item, the
-    tool's default, is the property's default."""
+def method_items(context):
+    """The method menu: [(name, label, summary)] of `lensblur methods --json`, asked of the
+    binary in use and cached; its first item is the tool's default."""
     return _method_menu(context)[0]
 
 
@@ -35,6 +34,9 @@ class LensblurSettings(bpy.types.PropertyGroup):
     filepath: bpy.props.StringProperty(name="EXR", description=FILEPATH_HELP, subtype="FILE_PATH")
     layers: bpy.props.StringProperty(name="Layers", description=LAYERS_HELP)
     exclude: bpy.props.StringProperty(name="Exclude", description=EXCLUDE_HELP)
-    method: bpy.props.EnumProperty(name="Method", items=method_items)
+    # A name, picked from the tool's own list in the panel (LENSBLUR_MT_methods): not an enum
+    # whose items come from a callback, since any such property makes the bpy 4.2 module crash
+    # (SIGSEGV) at exit. `lensblur render --method` refuses a name it does not know.
+    method: bpy.props.StringProperty(name="Method", default=methods.DEFAULT)
     save_path: bpy.props.StringProperty(name="Save to", description=SAVE_HELP, subtype="FILE_PATH")
     use_node: bpy.props.BoolProperty(name="Image node", description=NODE_HELP, default=True)
