@@ -11,7 +11,8 @@ use std::time::{Duration, Instant};
 use crate::camera::{Aperture, CameraHints, CocModel, PhysicalCamera, SceneUnit, SCENE_UNIT_ATTRIBUTE};
 use crate::stack::gradients::{stored_depth_gradient, StackGradients};
 use crate::render::{InputKind, Lens};
-use crate::stack::deep::{deep_to_layers, is_deep_exr, read_deep_files, DeepLayerOptions, DeepReadOptions};
+use crate::stack::arrays::ArrayStack;
+use crate::stack::deep::{deep_to_layers, is_deep_exr, read_deep_files, DeepImage, DeepLayerOptions, DeepReadOptions};
 use crate::stack::{
     is_ldr_path, read_ldr, read_stack, split_into_layers, AutoLayerOptions, DepthKind, FileChannels, Layer,
     LayerStack, ReadOptions, StackInfo, DEFAULT_MAX_PIXELS,
@@ -222,22 +223,127 @@ pub fn load(
     camera_file: &CameraHints,
     wants: InputKind,
 ) -> Result<LoadedInput> {
-    if SourceKind::of(path, options) == SourceKind::Deep {
-        return load_deep(path, options, camera, camera_file, wants);
+    ReadInput::read(path, options)?.into_loaded(options, camera, camera_file, wants)
+}
+
+/// An input read once, before its camera is resolved and it is layered: what [`load`] reads,
+/// and what a resident session keeps between renders (a render with another camera re-layers
+/// it only where the layering depends on the camera).
+pub struct ReadInput {
+    path: PathBuf,
+    source: ReadSource,
+    read_time: Duration,
+}
+
+enum ReadSource {
+    /// An EXR (layers or one image) or a PNG/JPEG with its depth image.
+    Flat { stack: LayerStack, info: Option<StackInfo>, depth_kind: DepthKind, warnings: Vec<String> },
+    /// Deep samples: their layers are spaced by the camera's CoC.
+    Deep(DeepImage),
+    /// Arrays handed over in memory (no header).
+    Arrays(ArrayStack),
+}
+
+impl ReadInput {
+    /// Reads `path` as `options` say (its [`SourceKind`] decides the reader).
+    pub fn read(path: &Path, options: &InputOptions) -> Result<Self> {
+        let start = Instant::now();
+        let source = if SourceKind::of(path, options) == SourceKind::Deep {
+            ReadSource::Deep(read_deep(path, options)?)
+        } else {
+            let (stack, info, depth_kind, warnings) = read(path, options)?;
+            ReadSource::Flat { stack, info, depth_kind, warnings }
+        };
+        Ok(Self { path: path.to_path_buf(), source, read_time: start.elapsed() })
     }
-    let start = Instant::now();
-    let (stack, info, depth_kind, mut warnings) = read(path, options)?;
-    let read_time = start.elapsed();
-    let hints = info.as_ref().map(|i| CameraHints::from_attributes(&i.camera)).unwrap_or_default();
-    let header_unit = info.as_ref().and_then(|i| header_scene_unit(&i.camera, path)).transpose()?;
-    let camera = camera.resolve_in(stack.width, &hints, camera_file, header_unit)?;
-    if camera.physical.is_some() {
-        warnings.extend(depth_kind.physical_camera_warning());
+
+    /// A stack handed over as arrays ([`crate::stack::arrays`]).
+    pub fn from_arrays(arrays: ArrayStack) -> Self {
+        Self { path: PathBuf::new(), source: ReadSource::Arrays(arrays), read_time: Duration::ZERO }
     }
-    let start = Instant::now();
-    let single = info.as_ref().map_or(true, |i| i.single_image) && stack.layers.len() == 1;
-    let (stack, auto_layered) = layers_for(stack, single, &camera.lens.coc, wants, &options.auto_layer);
-    Ok(LoadedInput { stack, info, depth_kind, camera, auto_layered, warnings, read_time, layering_time: start.elapsed(), deep_samples: None })
+
+    /// The camera `request` resolves to for this input: the caller's values, then the header's,
+    /// then `camera_file`'s.
+    pub fn camera(&self, request: &CameraRequest, camera_file: &CameraHints) -> Result<ResolvedCamera> {
+        let none = CameraHints::default();
+        match &self.source {
+            ReadSource::Flat { stack, info, .. } => {
+                let hints = info.as_ref().map(|i| CameraHints::from_attributes(&i.camera)).unwrap_or_default();
+                let unit = info.as_ref().and_then(|i| header_scene_unit(&i.camera, &self.path)).transpose()?;
+                request.resolve_in(stack.width, &hints, camera_file, unit)
+            }
+            ReadSource::Deep(image) => {
+                let unit = header_scene_unit(&image.attributes, &self.path).transpose()?;
+                request.resolve_in(image.width, &CameraHints::from_attributes(&image.attributes), camera_file, unit)
+            }
+            ReadSource::Arrays(arrays) => request.resolve_in(arrays.stack.width, &none, &none, None),
+        }
+    }
+
+    /// Whether the stack a method taking `wants` renders depends on the camera's CoC: a flat
+    /// image split into layers by CoC, or deep samples clustered by it. True layers do not.
+    pub fn layering_depends_on_camera(&self, wants: InputKind) -> bool {
+        match &self.source {
+            ReadSource::Flat { stack, info, .. } => {
+                info.as_ref().map_or(true, |i| i.single_image) && stack.layers.len() == 1 && wants == InputKind::Layers
+            }
+            ReadSource::Deep(_) => true,
+            ReadSource::Arrays(arrays) => {
+                arrays.single_image && arrays.stack.layers.len() == 1 && wants == InputKind::Layers
+            }
+        }
+    }
+
+    /// The input of one render through `camera` (from [`Self::camera`]), this read kept for the
+    /// next: the stack is copied, then layered for `wants`.
+    pub fn loaded(&self, options: &InputOptions, camera: ResolvedCamera, wants: InputKind) -> Result<LoadedInput> {
+        let copy = Self {
+            path: self.path.clone(),
+            source: match &self.source {
+                ReadSource::Flat { stack, info, depth_kind, warnings } => ReadSource::Flat {
+                    stack: stack.clone(),
+                    info: info.clone(),
+                    depth_kind: *depth_kind,
+                    warnings: warnings.clone(),
+                },
+                ReadSource::Deep(image) => ReadSource::Deep(image.clone()),
+                ReadSource::Arrays(arrays) => ReadSource::Arrays(arrays.clone()),
+            },
+            read_time: self.read_time,
+        };
+        copy.finish(options, camera, wants)
+    }
+
+    /// [`load`]'s second half: the camera resolved, the stack layered for `wants`.
+    pub fn into_loaded(self, options: &InputOptions, request: &CameraRequest, camera_file: &CameraHints, wants: InputKind) -> Result<LoadedInput> {
+        let camera = self.camera(request, camera_file)?;
+        self.finish(options, camera, wants)
+    }
+
+    fn finish(self, options: &InputOptions, camera: ResolvedCamera, wants: InputKind) -> Result<LoadedInput> {
+        let start = Instant::now();
+        let read_time = self.read_time;
+        let (stack, info, depth_kind, mut warnings, auto_layered, deep_samples) = match self.source {
+            ReadSource::Flat { stack, info, depth_kind, warnings } => {
+                let single = info.as_ref().map_or(true, |i| i.single_image) && stack.layers.len() == 1;
+                let (stack, auto_layered) = layers_for(stack, single, &camera.lens.coc, wants, &options.auto_layer);
+                (stack, info, depth_kind, warnings, auto_layered, None)
+            }
+            ReadSource::Deep(image) => {
+                let (stack, auto_layered) = deep_layers(&image, &camera.lens.coc, options, wants)?;
+                (stack, None, DepthKind::Z, Vec::new(), auto_layered, Some(image.samples.len() as u64))
+            }
+            ReadSource::Arrays(arrays) => {
+                let (stack, auto_layered) =
+                    layers_for(arrays.stack, arrays.single_image, &camera.lens.coc, wants, &options.auto_layer);
+                (stack, None, arrays.depth_kind, Vec::new(), auto_layered, None)
+            }
+        };
+        if camera.physical.is_some() && deep_samples.is_none() {
+            warnings.extend(depth_kind.physical_camera_warning());
+        }
+        Ok(LoadedInput { stack, info, depth_kind, camera, auto_layered, warnings, read_time, layering_time: start.elapsed(), deep_samples })
+    }
 }
 
 /// The scene unit a header's [`SCENE_UNIT_ATTRIBUTE`] names, if it has one; a value that is
@@ -247,10 +353,8 @@ fn header_scene_unit(attributes: &std::collections::BTreeMap<String, String>, pa
     Some(text.parse::<SceneUnit>().map_err(|e| Error::input(path, format!("header attribute {SCENE_UNIT_ATTRIBUTE}: {e}"))))
 }
 
-/// A deep input (and the deep files merged with it): samples read and checked, the camera
-/// resolved (its CoC spaces the layers), the samples clustered into layers. A method that
-/// takes one image gets the deep pixels flattened, with the depth of the nearest layer.
-fn load_deep(path: &Path, options: &InputOptions, camera: &CameraRequest, camera_file: &CameraHints, wants: InputKind) -> Result<LoadedInput> {
+/// A deep input and the deep files merged with it, samples read and checked.
+fn read_deep(path: &Path, options: &InputOptions) -> Result<DeepImage> {
     let paths: Vec<PathBuf> = std::iter::once(path.to_path_buf()).chain(options.merge.iter().cloned()).collect();
     if let Some(flat) = paths.iter().find(|p| SourceKind::of_path(p, false) != SourceKind::Deep) {
         if !flat.exists() {
@@ -258,31 +362,19 @@ fn load_deep(path: &Path, options: &InputOptions, camera: &CameraRequest, camera
         }
         return Err(Error::input(flat, "is not a deep OpenEXR file: only deep files merge (DeepMerge)"));
     }
-    let start = Instant::now();
-    let image = read_deep_files(&paths, &DeepReadOptions { max_pixels: options.max_pixels, ..options.deep.clone() })?;
-    let read_time = start.elapsed();
-    let hints = CameraHints::from_attributes(&image.attributes);
-    let header_unit = header_scene_unit(&image.attributes, path).transpose()?;
-    let camera = camera.resolve_in(image.width, &hints, camera_file, header_unit)?;
-    let start = Instant::now();
-    let mut stack = deep_to_layers(&image, &camera.lens.coc, &options.deep_layers)?;
-    let mut auto_layered = None;
-    if wants != InputKind::Layers || options.deep_flatten {
-        let (rgba, disparity) = stack.flatten();
-        let flat = LayerStack::new(image.width, image.height, vec![Layer { name: "flattened".into(), rgba, disparity }])?;
-        (stack, auto_layered) = layers_for(flat, true, &camera.lens.coc, wants, &options.auto_layer);
+    read_deep_files(&paths, &DeepReadOptions { max_pixels: options.max_pixels, ..options.deep.clone() })
+}
+
+/// Deep samples clustered into layers spaced by `coc`. A method that takes one image gets the
+/// deep pixels flattened, with the depth of the nearest layer.
+fn deep_layers(image: &DeepImage, coc: &CocModel, options: &InputOptions, wants: InputKind) -> Result<(LayerStack, Option<usize>)> {
+    let stack = deep_to_layers(image, coc, &options.deep_layers)?;
+    if wants == InputKind::Layers && !options.deep_flatten {
+        return Ok((stack, None));
     }
-    Ok(LoadedInput {
-        stack,
-        info: None,
-        depth_kind: DepthKind::Z,
-        camera,
-        auto_layered,
-        warnings: Vec::new(),
-        read_time,
-        layering_time: start.elapsed(),
-        deep_samples: Some(image.samples.len() as u64),
-    })
+    let (rgba, disparity) = stack.flatten();
+    let flat = LayerStack::new(image.width, image.height, vec![Layer { name: "flattened".into(), rgba, disparity }])?;
+    Ok(layers_for(flat, true, coc, wants, &options.auto_layer))
 }
 
 /// The stack a method taking `wants` renders: `stack` itself, or, when it is one flat image

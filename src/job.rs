@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use crate::camera::{disparity_from_z, CameraHints, FocusField};
 use crate::character::Character;
 use crate::image::Image;
-use crate::input::{layers_for, load, CameraRequest, InputOptions};
+use crate::input::{load, CameraRequest, InputOptions, ReadInput};
 pub use crate::input::LoadedInput;
 use crate::render::placement::{place, DevicePreference, Placement};
 use crate::render::tiler::RenderOptions;
@@ -282,31 +282,7 @@ impl RenderJob {
     /// Takes a stack handed over as arrays ([`crate::stack::arrays`]) for this job: the camera
     /// is the job's alone (arrays have no header).
     pub fn load_arrays(&self, arrays: ArrayStack) -> Result<LoadedInput> {
-        let start = Instant::now();
-        let none = CameraHints::default();
-        let camera = self.spec.camera.resolve(arrays.stack.width, &none, &none)?;
-        let mut warnings = Vec::new();
-        if camera.physical.is_some() {
-            warnings.extend(arrays.depth_kind.physical_camera_warning());
-        }
-        let (stack, auto_layered) = layers_for(
-            arrays.stack,
-            arrays.single_image,
-            &camera.lens.coc,
-            self.spec.method.input(),
-            &self.spec.input.auto_layer,
-        );
-        Ok(LoadedInput {
-            stack,
-            info: None,
-            depth_kind: arrays.depth_kind,
-            camera,
-            auto_layered,
-            warnings,
-            read_time: Duration::ZERO,
-            layering_time: start.elapsed(),
-            deep_samples: None,
-        })
+        ReadInput::from_arrays(arrays).into_loaded(&self.spec.input, &self.spec.camera, &CameraHints::default(), self.spec.method.input())
     }
 
     /// The method's settings for a loaded input (a tilt and focal planes depend on its lens

@@ -51,6 +51,7 @@
 //!   file's channels.
 //! - [`job`]: one render described once (input, camera, method and settings, lens character,
 //!   options), checked once and run: what the CLI, shots, Python and sessions all build.
+//! - [`session`]: a resident renderer (device, pipelines and input kept) for interactive refocus.
 //! - [`cache_dir`]: the user cache folder every rebuildable file goes to.
 //! - [`atomic_file`]: outputs appear whole (temporary file, rename) and interrupts remove parts.
 //! - [`sequence`]: shots: frame ranges, frame file patterns, per-frame camera files.
@@ -81,6 +82,7 @@ pub mod optim;
 pub mod raytrace;
 pub mod render;
 pub mod sequence;
+pub mod session;
 pub mod shaders;
 pub mod stack;
 pub mod tile_grid;

@@ -30,6 +30,8 @@ const LAYERS: &[&[&str]] = &[
     &["input", "optim"],
     // One render job: what every front end builds.
     &["job"],
+    // A resident session: renders jobs over one input kept on a device.
+    &["session"],
 ];
 
 fn layer_of(module: &str) -> usize {

@@ -240,8 +240,8 @@ impl<'py> JobArgs<'py> {
         })
     }
 
-    fn method(&self) -> PyResult<Method> {
-        parse_method(&self.get::<String>("method")?.unwrap_or_else(|| "drbokeh".into()))
+    fn method(&self, default: &str) -> PyResult<Method> {
+        parse_method(&self.get::<String>("method")?.unwrap_or_else(|| default.into()))
     }
 
     /// How a file is read (the file options).
@@ -270,6 +270,11 @@ impl<'py> JobArgs<'py> {
 
     /// The render job: `camera` (None: the file's header) and the options.
     fn job(&self, camera: Option<&Camera>) -> PyResult<RenderJob> {
+        self.job_with_method(camera, "drbokeh")
+    }
+
+    /// [`Self::job`] with `method` unless the options name one.
+    fn job_with_method(&self, camera: Option<&Camera>, method: &str) -> PyResult<RenderJob> {
         let scene_unit = self.get::<String>("scene_unit")?.as_deref().map(str::parse::<SceneUnit>).transpose().or_py()?;
         let aperture = Aperture::parse(&self.get::<String>("aperture")?.unwrap_or_else(|| "disk".into())).or_py()?;
         let mut input = self.input()?;
@@ -280,7 +285,7 @@ impl<'py> JobArgs<'py> {
             BloomArg::Threshold(threshold) => Bloom { threshold, gain: DEFAULT_BLOOM_GAIN },
         });
         let spec = JobSpec {
-            method: self.method()?,
+            method: self.method(method)?,
             camera: Camera::request(camera, aperture, scene_unit)?,
             input,
             method_options: MethodOptions {
@@ -560,6 +565,89 @@ impl Renderer {
     }
 }
 
+/// A resident renderer over one stack, for focus pulled interactively: the device opened once,
+/// the method's pipelines prepared once, the arrays read once; each `render(camera, **options)`
+/// re-layers a flat image only when the camera changes its cut. Renders equal `lensblur.render`
+/// of the same arrays and options. A context manager (`with lensblur.Session(...) as s:`).
+#[pyclass(module = "lensblur")]
+struct Session {
+    session: Mutex<Option<lensblur::session::Session>>,
+    method: String,
+    last: Mutex<lensblur::session::SessionRender>,
+}
+
+#[pymethods]
+impl Session {
+    /// `layers` (L, H, W, 4) or one image (H, W, 4) with `depth` as in `render`; `method` the
+    /// default of every render (an option `method=` overrides it); `device` as in `Renderer`.
+    #[new]
+    #[pyo3(signature = (layers, depth, *, method = "drbokeh", device = None, depth_kind = "z"))]
+    fn new(layers: &Bound<'_, PyAny>, depth: &Bound<'_, PyAny>, method: &str, device: Option<String>, depth_kind: &str) -> PyResult<Self> {
+        parse_method(method)?;
+        let input = lensblur::input::ReadInput::from_arrays(read_arrays(layers, depth, depth_kind)?);
+        let mut options = ContextOptions::from_env();
+        if device.is_some() {
+            options.device = device;
+        }
+        let context = Context::new(&options).or_py()?;
+        Ok(Self {
+            session: Mutex::new(Some(lensblur::session::Session::new(Some(context), input))),
+            method: method.to_string(),
+            last: Mutex::default(),
+        })
+    }
+
+    /// Renders the stack through `camera` with the keyword `options` (`RENDER_OPTIONS`, as
+    /// `lensblur.render` takes them); returns the defocused premultiplied RGBA, (H, W, 4).
+    #[pyo3(signature = (camera, **options))]
+    fn render<'py>(&self, py: Python<'py>, camera: &Camera, options: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        let args = JobArgs::new(options, false)?;
+        let job = args.job_with_method(Some(camera), &self.method)?;
+        let (image, stats) = py
+            .detach(|| {
+                let mut guard = lock(&self.session);
+                match guard.as_mut() {
+                    Some(session) => session.render(&job).map_err(to_py),
+                    None => Err(LensblurError::new_err("this Session was closed")),
+                }
+            })?;
+        *lock(&self.last) = stats;
+        image_to_numpy(py, image)
+    }
+
+    /// What the last render did: `relayered` (the camera changed the layering), `prepared` (the
+    /// method's first render), and `layering_ms`, `render_ms`, `total_ms`.
+    #[getter]
+    fn last_render<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let stats = *lock(&self.last);
+        let out = PyDict::new(py);
+        out.set_item("relayered", stats.relayered)?;
+        out.set_item("prepared", stats.prepared)?;
+        out.set_item("layering_ms", stats.layering_ms)?;
+        out.set_item("render_ms", stats.render_ms)?;
+        out.set_item("total_ms", stats.total_ms)?;
+        Ok(out)
+    }
+
+    /// Releases the device now, reporting any validation error (`LENSBLUR_VALIDATION=1`).
+    fn close(&self) -> PyResult<()> {
+        match lock(&self.session).take() {
+            Some(session) => session.close().or_py(),
+            None => Ok(()),
+        }
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (*_exc))]
+    fn __exit__(&self, _exc: &Bound<'_, pyo3::types::PyTuple>) -> PyResult<bool> {
+        self.close()?;
+        Ok(false)
+    }
+}
+
 /// Reads a layered EXR (any naming convention lensblur reads) or a PNG/JPEG with `depth_image`.
 /// Returns a dict: `layers` (L, H, W, 4) premultiplied RGBA, `depth` (L, H, W) as `depth_kind`
 /// (filled under transparent pixels, as the renderer reads it), `names`, `depth_kind`, and
@@ -661,6 +749,7 @@ fn render_options() -> (Vec<&'static str>, Vec<&'static str>) {
 fn _lensblur(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Camera>()?;
     m.add_class::<Renderer>()?;
+    m.add_class::<Session>()?;
     m.add("LensblurError", m.py().get_type::<LensblurError>())?;
     m.add_function(wrap_pyfunction!(read_stack, m)?)?;
     m.add_function(wrap_pyfunction!(read_image, m)?)?;
