@@ -229,12 +229,14 @@ pub fn load(
 /// An input read once, before its camera is resolved and it is layered: what [`load`] reads,
 /// and what a resident session keeps between renders (a render with another camera re-layers
 /// it only where the layering depends on the camera).
+#[derive(Clone)]
 pub struct ReadInput {
     path: PathBuf,
     source: ReadSource,
     read_time: Duration,
 }
 
+#[derive(Clone)]
 enum ReadSource {
     /// An EXR (layers or one image) or a PNG/JPEG with its depth image.
     Flat { stack: LayerStack, info: Option<StackInfo>, depth_kind: DepthKind, warnings: Vec<String> },
@@ -297,21 +299,7 @@ impl ReadInput {
     /// The input of one render through `camera` (from [`Self::camera`]), this read kept for the
     /// next: the stack is copied, then layered for `wants`.
     pub fn loaded(&self, options: &InputOptions, camera: ResolvedCamera, wants: InputKind) -> Result<LoadedInput> {
-        let copy = Self {
-            path: self.path.clone(),
-            source: match &self.source {
-                ReadSource::Flat { stack, info, depth_kind, warnings } => ReadSource::Flat {
-                    stack: stack.clone(),
-                    info: info.clone(),
-                    depth_kind: *depth_kind,
-                    warnings: warnings.clone(),
-                },
-                ReadSource::Deep(image) => ReadSource::Deep(image.clone()),
-                ReadSource::Arrays(arrays) => ReadSource::Arrays(arrays.clone()),
-            },
-            read_time: self.read_time,
-        };
-        copy.finish(options, camera, wants)
+        self.clone().finish(options, camera, wants)
     }
 
     /// [`load`]'s second half: the camera resolved, the stack layered for `wants`.

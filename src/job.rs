@@ -21,7 +21,7 @@ use crate::render::tiler::RenderOptions;
 use crate::render::vdslr::Highlight;
 use crate::render::{Lens, Method, MethodSettings, Renderer, Setting};
 use crate::stack::arrays::ArrayStack;
-use crate::stack::{DepthKind, LayerStack};
+use crate::stack::LayerStack;
 use crate::vk::{Context, ContextOptions};
 use crate::{Error, Result};
 
@@ -346,11 +346,6 @@ impl RenderJob {
                 )
             }),
         }
-    }
-
-    /// The depth convention of a file this job reads, before reading it (for messages).
-    pub fn depth_kind(&self) -> Option<DepthKind> {
-        self.spec.input.depth_kind
     }
 }
 

@@ -65,29 +65,14 @@ pub struct InputArgs {
 
 impl InputArgs {
     /// Reads `path`, resolves the camera and, when `input` wants layers and the file holds
-    /// one image, splits it into layers.
+    /// one image, splits it into layers (`grad`, `fit-depth`; `render` loads through its job).
+    /// The policy is the library's ([`lensblur::input::load`]); this rewords its refusals with
+    /// the flags (`--depth`, `--layers`, camera flags) and prints the warnings.
     pub fn load(&self, path: &Path, camera: &CameraArgs, input: InputKind) -> anyhow::Result<LoadedInput> {
-        self.load_frame(path, camera, &CameraHints::default(), input)
-    }
-
-    /// [`load`](Self::load) for a frame of a shot: `camera_file` holds the frame's camera
-    /// from the shot's camera file, for what neither the flags nor the header give. The
-    /// policy is the library's ([`lensblur::input::load`]); this rewords its refusals with the
-    /// flags (`--depth`, `--layers`, camera flags) and prints the warnings.
-    pub fn load_frame(
-        &self,
-        path: &Path,
-        camera: &CameraArgs,
-        camera_file: &CameraHints,
-        input: InputKind,
-    ) -> anyhow::Result<LoadedInput> {
         let request = camera.request()?;
         // The library's errors name the file already: no "reading FILE" context on top.
-        let loaded = load(path, &self.options(), &request, camera_file, input).map_err(input_flag_error)?;
-        for warning in &loaded.warnings {
-            eprintln!("lensblur: warning: {warning}");
-        }
-        Ok(loaded)
+        let loaded = load(path, &self.options(), &request, &CameraHints::default(), input).map_err(input_flag_error)?;
+        Ok(warn(loaded))
     }
 
     /// Refuses an input that `writer` cannot write back into channel by channel (deep,
@@ -121,6 +106,15 @@ impl InputArgs {
             deep_flatten: self.deep_flatten,
         }
     }
+}
+
+/// Prints a loaded input's warnings (replaced samples, ignored channels, a depth encoding that
+/// cannot drive a physical camera) and hands it on.
+pub fn warn(loaded: LoadedInput) -> LoadedInput {
+    for warning in &loaded.warnings {
+        eprintln!("lensblur: warning: {warning}");
+    }
+    loaded
 }
 
 /// [`flag_error`], plus the input options that do not fit the file's kind, reworded with the

@@ -18,7 +18,7 @@ use lensblur::vk::{Context, ContextOptions};
 
 use super::camera_args::CameraArgs;
 use super::character_args::CharacterArgs;
-use super::input_args::{check_output_collisions, check_output_paths, input_files, InputArgs, LoadedInput};
+use super::input_args::{check_output_collisions, check_output_paths, input_files, warn, InputArgs, LoadedInput};
 use super::method_args::MethodArgs;
 use super::progress;
 use super::words::job_error;
@@ -182,6 +182,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let debug_views = args.character.debug_view_paths(&loaded.stack);
     let debug_outputs: Vec<(&str, &Path)> = debug_views.iter().map(|p| ("--debug-out", p.as_path())).collect();
     check_output_collisions(&[outputs.as_slice(), debug_outputs.as_slice()].concat(), &inputs)?;
+    // A tilt or focal planes this frame cannot take fail here, before the device opens, in the flags' words
+    // (the render resolves the same settings again: microseconds).
     job.settings(&loaded).map_err(job_error)?;
     let ctx = open_device(&job)?;
     let rendered = render_loaded(&job, ctx.as_ref(), &args.input, &loaded, &spinner, "")?;
@@ -284,11 +286,7 @@ impl Args {
 /// library's refusals with the flags and printing the file's warnings.
 pub(super) fn load(job: &RenderJob, path: &Path, camera_file: &CameraHints) -> anyhow::Result<LoadedInput> {
     // The library's errors name the file already: no "reading FILE" context on top.
-    let loaded = job.load(path, camera_file).map_err(job_error)?;
-    for warning in &loaded.warnings {
-        eprintln!("lensblur: warning: {warning}");
-    }
-    Ok(loaded)
+    Ok(warn(job.load(path, camera_file).map_err(job_error)?))
 }
 
 /// `--max-memory SIZE`: bytes, or a number with K, M, G or T (binary units, an optional B or

@@ -220,6 +220,8 @@ fn try_render_frame(
     report.camera_from_header = loaded.camera.from_header.clone();
     report.camera_from_file = loaded.camera.from_camera_file.clone();
     report.timings_ms.read = ms(loaded.read_time + loaded.layering_time);
+    // A tilt or focal planes this frame cannot take fail here, before the render, in the flags' words
+    // (the render resolves the same settings again: microseconds).
     setup.job.settings(&loaded).map_err(job_error)?;
     let rendered = render_loaded(&setup.job, ctx, &file.input, &loaded, spinner, position)?;
     report.timings_ms.render = ms(rendered.render_time);
