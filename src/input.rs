@@ -282,6 +282,15 @@ impl ReadInput {
         }
     }
 
+    /// Width and height in pixels (the data window as read).
+    pub fn size(&self) -> (usize, usize) {
+        match &self.source {
+            ReadSource::Flat { stack, .. } => (stack.width, stack.height),
+            ReadSource::Deep(image) => (image.width, image.height),
+            ReadSource::Arrays(arrays) => (arrays.stack.width, arrays.stack.height),
+        }
+    }
+
     /// Whether the stack a method taking `wants` renders depends on the camera's CoC: a flat
     /// image split into layers by CoC, or deep samples clustered by it. True layers do not.
     pub fn layering_depends_on_camera(&self, wants: InputKind) -> bool {

@@ -6,6 +6,7 @@
 //! differs from the last one's; true layers are never re-layered. A session's render equals
 //! the one-shot render of the same job: the same code runs on the same data.
 use std::collections::HashMap;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::camera::{CameraHints, CocModel};
@@ -42,17 +43,18 @@ pub struct Session {
     renderers: HashMap<&'static str, Box<dyn Renderer>>,
     input: ReadInput,
     layered: Option<Layered>,
-    context: Option<Context>,
+    // Shared: a server keeps one device for every stack it holds.
+    context: Option<Arc<Context>>,
 }
 
 impl Session {
     /// A session over `input` on `context` (None: the CPU references).
-    pub fn new(context: Option<Context>, input: ReadInput) -> Self {
+    pub fn new(context: Option<Arc<Context>>, input: ReadInput) -> Self {
         Self { renderers: HashMap::new(), input, layered: None, context }
     }
 
     pub fn context(&self) -> Option<&Context> {
-        self.context.as_ref()
+        self.context.as_deref()
     }
 
     /// Renders the session's input as `job` says (its input options and camera; the file read
@@ -81,7 +83,7 @@ impl Session {
         }
         let loaded = &self.layered.as_ref().expect("set above").loaded;
         if !self.renderers.contains_key(method.name()) {
-            let renderer = method.prepare(self.context.as_ref())?;
+            let renderer = method.prepare(self.context.as_deref())?;
             self.renderers.insert(method.name(), renderer);
             stats.prepared = true;
         }
@@ -94,13 +96,15 @@ impl Session {
         Ok((image, stats))
     }
 
-    /// Releases the device, reporting any validation error it raised.
+    /// Releases the session's pipelines and stack, and the device unless another session shares
+    /// it (then its last holder releases it), reporting any validation error it raised.
     pub fn close(mut self) -> Result<()> {
         self.renderers.clear();
         self.layered = None;
-        match self.context.take() {
-            Some(context) => context.finish(),
-            None => Ok(()),
+        match self.context.take().map(Arc::try_unwrap) {
+            Some(Ok(context)) => context.finish(),
+            // Another session still holds the device: its last holder releases it.
+            Some(Err(_)) | None => Ok(()),
         }
     }
 }

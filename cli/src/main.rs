@@ -20,6 +20,7 @@ mod progress;
 mod raytrace;
 mod render;
 mod render_sequence;
+mod serve;
 mod shell;
 mod version;
 mod words;
@@ -30,6 +31,7 @@ Examples:
   lensblur render shot.exr -o out.exr --focal-length 50 --fstop 2 --focus-distance 3
   lensblur devices                      list Vulkan devices, mark the one in use
   lensblur methods                      the rendering methods and the flags each accepts
+  lensblur serve                        a resident renderer: JSON lines on stdin/stdout
   lensblur info shot.exr                every layer and channel of a file, depth ranges
   lensblur completions bash             shell completions (also zsh, fish); `lensblur man` the man page
   lensblur raytrace --list              the built-in ground-truth scenes
@@ -79,6 +81,9 @@ enum Command {
     BenchPerf(bench::perf::Args),
     #[command(hide = true)]
     BenchSequence(bench::sequence::Args),
+    /// A resident renderer speaking JSON lines on stdin/stdout: load a stack once, refocus it
+    /// many times (hosts such as the Blender add-on's Live mode).
+    Serve(serve::Args),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
     Completions(shell::CompletionsArgs),
     /// Print the man page, or write one page per command into a folder.
@@ -129,6 +134,7 @@ fn main() -> std::process::ExitCode {
         Command::BenchDepth(args) => bench::depth::run(args),
         Command::BenchPerf(args) => bench::perf::run(args),
         Command::BenchSequence(args) => bench::sequence::run(args),
+        Command::Serve(args) => serve::run(args),
         Command::Completions(args) => shell::completions(args),
         Command::Man(args) => shell::man(args),
         Command::SelfCheck(args) => gpu_kit::self_check(args),

@@ -5,17 +5,13 @@ use std::collections::HashMap;
 use std::sync::{Mutex, MutexGuard};
 use std::path::PathBuf;
 
-use lensblur::camera::{Aperture, CameraHints, CocModel, PhysicalCamera, SceneUnit};
-use lensblur::character::bloom::DEFAULT_BLOOM_GAIN;
-use lensblur::character::{BlurRemap, Bloom, CatsEye, Character};
+use lensblur::camera::{Aperture, CameraHints, CocModel, PhysicalCamera};
 use lensblur::image::Image;
-use lensblur::input::{read, CameraRequest, InputOptions, ResolvedCamera};
-use lensblur::job::{JobSpec, LoadedInput, MethodOptions, RenderJob};
+use lensblur::input::{read, InputOptions, ResolvedCamera};
+use lensblur::job::{CameraValues, JobOptions, LoadedInput, OptionSet, RenderJob};
 use lensblur::render::grad::{CameraGradients, Differentiable, Slope};
 use lensblur::render::tiler::RenderOptions;
 use lensblur::render::{Lens, Method, MethodInput, MethodSettings};
-use lensblur::stack::deep::{DeepReadOptions, PartChoice, DEFAULT_MAX_SAMPLES};
-use lensblur::stack::DEFAULT_MAX_PIXELS;
 use lensblur::stack::arrays::{ArrayStack, AUTO_LAYERED_GRADIENTS};
 use lensblur::stack::{
     grad_output_from_array, read_rgba, stack_from_arrays, stack_to_arrays, DepthKind, WriteOptions,
@@ -160,159 +156,82 @@ impl Camera {
 }
 
 impl Camera {
-    /// The library's camera request for this camera (None: everything from the file's header).
-    fn request(camera: Option<&Self>, aperture: Aperture, scene_unit: Option<SceneUnit>) -> PyResult<CameraRequest> {
-        let Some(camera) = camera else {
-            return Ok(CameraRequest { aperture, scene_unit, ..CameraRequest::default() });
-        };
-        let normalised = match (camera.k_px, camera.focus_disparity) {
-            (Some(k), Some(focus)) => Some(CocModel::new(k, focus).or_py()?),
-            _ => None,
-        };
-        let physical = CameraHints {
-            focal_length_mm: camera.focal_length_mm,
-            sensor_width_mm: camera.sensor_width_mm,
-            fstop: camera.fstop,
-            focus_distance: camera.focus_distance,
-        };
-        Ok(CameraRequest { physical, normalised, aperture, scene_unit })
+    /// The camera's values, as the library's options name them.
+    fn values(&self) -> CameraValues {
+        CameraValues {
+            focal_length_mm: self.focal_length_mm,
+            fstop: self.fstop,
+            focus_distance: self.focus_distance,
+            sensor_width_mm: self.sensor_width_mm,
+            k_px: self.k_px,
+            focus_disparity: self.focus_disparity,
+        }
     }
 
     /// The lens for an image `width` pixels wide, by the library's camera policy.
     fn resolve(&self, width: usize, aperture: Aperture) -> PyResult<ResolvedCamera> {
-        let request = Self::request(Some(self), aperture, None)?;
+        let request = CameraValues::request(Some(&self.values()), aperture, None).or_py()?;
         request.resolve(width, &CameraHints::default(), &CameraHints::default()).or_py()
     }
 }
 
-/// `bloom=`: a threshold (gain 4, as `--bloom THRESHOLD`), or `(threshold, gain)`.
-#[derive(FromPyObject)]
-enum BloomArg {
-    Pair(f32, f32),
-    Threshold(f32),
+/// A render's keyword options, parsed by the library ([`JobOptions`]: the parser `lensblur
+/// serve` uses too). A name that is no option, or a value of the wrong type, is a `TypeError`;
+/// every other check is the library's, with its message.
+fn job_options(options: Option<&Bound<'_, PyDict>>, accepted: OptionSet) -> PyResult<JobOptions> {
+    let mut object = serde_json::Map::new();
+    for (key, value) in options.iter().flat_map(|o| o.iter()) {
+        let key: String = key.extract()?;
+        let value = to_json(&value).map_err(|e| {
+            let message = format!("option {key}: {}", e.value(value.py()));
+            if e.is_instance_of::<LensblurError>(value.py()) { LensblurError::new_err(message) } else { PyTypeError::new_err(message) }
+        })?;
+        object.insert(key, value);
+    }
+    JobOptions::from_json(object, accepted).map_err(|error| match error {
+        lensblur::Error::InvalidParameter { parameter: "options", message } => PyTypeError::new_err(message),
+        other => to_py(other),
+    })
 }
 
-/// The keyword options of every render, in the order `help` lists them: `lensblur render`'s
-/// image-changing flags in snake_case (the camera's own flags are the `Camera`'s fields).
-const RENDER_OPTIONS: [&str; 20] = [
-    "method", "aperture", "scene_unit", "layer_spacing", "max_layers", "near_blur", "far_blur", "max_blur",
-    "focus_at", "bloom", "chromatic", "cats_eye", "samples", "iterations", "highlight_sigma", "tilt_shift",
-    "focal_planes", "overscan", "tile", "max_memory",
-];
-
-/// The further options of a render read from a file: how the file is read (`--layers`,
-/// `--depth`, `--depth-kind`, the deep flags).
-const FILE_OPTIONS: [&str; 9] =
-    ["layers", "depth", "depth_kind", "max_pixels", "replace_nonfinite", "merge", "max_samples", "deep_part", "deep_flatten"];
-
-/// A render's keyword options, read into the library's render job: each one is checked by the
-/// library, with its message.
-struct JobArgs<'py> {
-    options: Option<&'py Bound<'py, PyDict>>,
+/// An option's value as JSON: None, bools, numbers (numpy scalars too), strings, paths and
+/// sequences of them (tuples, lists, 1-D arrays).
+fn to_json(value: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
+    use serde_json::Value;
+    if value.is_none() {
+        return Ok(Value::Null);
+    }
+    if let Ok(flag) = value.cast::<pyo3::types::PyBool>() {
+        return Ok(Value::Bool(flag.is_true()));
+    }
+    if let Ok(text) = value.extract::<String>() {
+        return Ok(Value::String(text));
+    }
+    if let Ok(path) = value.extract::<PathBuf>() {
+        return Ok(Value::String(path.to_string_lossy().into_owned()));
+    }
+    // Integers first (numpy integers have __index__), so that counts stay integers.
+    if let Ok(integer) = value.extract::<i64>() {
+        return Ok(Value::from(integer));
+    }
+    if let Ok(number) = value.extract::<f64>() {
+        // JSON has no NaN or infinity; no option takes one.
+        return serde_json::Number::from_f64(number)
+            .map(Value::Number)
+            .ok_or_else(|| LensblurError::new_err(format!("must be a finite number, got {number}")));
+    }
+    if let Ok(items) = value.try_iter() {
+        return items.map(|item| to_json(&item?)).collect::<PyResult<Vec<_>>>().map(Value::Array);
+    }
+    Err(PyTypeError::new_err(format!("unsupported type {}", value.get_type().name()?)))
 }
 
-impl<'py> JobArgs<'py> {
-    /// `options`, refusing a name that is no option (`file`: the file options are accepted).
-    fn new(options: Option<&'py Bound<'py, PyDict>>, file: bool) -> PyResult<Self> {
-        for key in options.iter().flat_map(|o| o.keys()) {
-            let key: String = key.extract()?;
-            if !RENDER_OPTIONS.contains(&key.as_str()) && !(file && FILE_OPTIONS.contains(&key.as_str())) {
-                let mut known: Vec<&str> = RENDER_OPTIONS.to_vec();
-                if file {
-                    known.extend(FILE_OPTIONS);
-                }
-                let hint = if FILE_OPTIONS.contains(&key.as_str()) { " (a file option: render_file takes it)" } else { "" };
-                return Err(PyTypeError::new_err(format!("unknown option '{key}'{hint}; the options are: {}", known.join(", "))));
-            }
-        }
-        Ok(Self { options })
-    }
-
-    /// Option `name`, None when not given (or given as None).
-    fn get<T: for<'a> FromPyObject<'a, 'py>>(&self, name: &str) -> PyResult<Option<T>> {
-        let Some(value) = self.options.map(|o| o.get_item(name)).transpose()?.flatten() else { return Ok(None) };
-        if value.is_none() {
-            return Ok(None);
-        }
-        value.extract::<T>().map(Some).map_err(|e| {
-            let error: PyErr = e.into();
-            PyTypeError::new_err(format!("option {name}: {error}"))
-        })
-    }
-
-    fn method(&self, default: &str) -> PyResult<Method> {
-        parse_method(&self.get::<String>("method")?.unwrap_or_else(|| default.into()))
-    }
-
-    /// How a file is read (the file options).
-    fn input(&self) -> PyResult<InputOptions> {
-        let defaults = InputOptions::default();
-        let deep = DeepReadOptions {
-            max_samples: self.get("max_samples")?.unwrap_or(DEFAULT_MAX_SAMPLES),
-            max_pixels: self.get("max_pixels")?.unwrap_or(DEFAULT_MAX_PIXELS),
-            part: match self.get::<String>("deep_part")? {
-                Some(part) => part.parse::<PartChoice>().or_py()?,
-                None => PartChoice::default(),
-            },
-        };
-        Ok(InputOptions {
-            layers: self.get("layers")?,
-            depth_kind: self.get::<String>("depth_kind")?.as_deref().map(parse_depth_kind).transpose()?,
-            depth_image: self.get("depth")?,
-            max_pixels: deep.max_pixels,
-            replace_nonfinite: self.get("replace_nonfinite")?.unwrap_or(false),
-            merge: self.get("merge")?.unwrap_or_default(),
-            deep,
-            deep_flatten: self.get("deep_flatten")?.unwrap_or(false),
-            ..defaults
-        })
-    }
-
-    /// The render job: `camera` (None: the file's header) and the options.
-    fn job(&self, camera: Option<&Camera>) -> PyResult<RenderJob> {
-        self.job_with_method(camera, "drbokeh")
-    }
-
-    /// [`Self::job`] with `method` unless the options name one.
-    fn job_with_method(&self, camera: Option<&Camera>, method: &str) -> PyResult<RenderJob> {
-        let scene_unit = self.get::<String>("scene_unit")?.as_deref().map(str::parse::<SceneUnit>).transpose().or_py()?;
-        let aperture = Aperture::parse(&self.get::<String>("aperture")?.unwrap_or_else(|| "disk".into())).or_py()?;
-        let mut input = self.input()?;
-        input.auto_layer.coc_spacing_px = self.get("layer_spacing")?.unwrap_or(input.auto_layer.coc_spacing_px);
-        input.auto_layer.max_layers = self.get("max_layers")?.unwrap_or(input.auto_layer.max_layers);
-        let bloom = self.get::<BloomArg>("bloom")?.map(|b| match b {
-            BloomArg::Pair(threshold, gain) => Bloom { threshold, gain },
-            BloomArg::Threshold(threshold) => Bloom { threshold, gain: DEFAULT_BLOOM_GAIN },
-        });
-        let spec = JobSpec {
-            method: self.method(method)?,
-            camera: Camera::request(camera, aperture, scene_unit)?,
-            input,
-            method_options: MethodOptions {
-                samples: self.get("samples")?,
-                iterations: self.get("iterations")?,
-                highlight_sigma: self.get("highlight_sigma")?,
-                tilt_shift: self.get("tilt_shift")?,
-                focal_planes: self.get("focal_planes")?,
-            },
-            character: Character {
-                remap: BlurRemap {
-                    near: self.get("near_blur")?.unwrap_or(1.0),
-                    far: self.get("far_blur")?.unwrap_or(1.0),
-                    max_px: self.get("max_blur")?,
-                },
-                focus_at: self.get("focus_at")?,
-                bloom,
-                chromatic: self.get("chromatic")?,
-                cats_eye: self.get::<f32>("cats_eye")?.map(CatsEye::new).transpose().or_py()?,
-            },
-            overscan: self.get("overscan")?.unwrap_or(0),
-            tile: self.get("tile")?,
-            max_memory: self.get("max_memory")?,
-            ..JobSpec::default()
-        };
-        RenderJob::new(spec).or_py()
-    }
+/// The render job of `options` through `camera` (None: the file's header), with `method`
+/// unless the options name one.
+fn render_job(options: &JobOptions, camera: Option<&Camera>, method: &str) -> PyResult<RenderJob> {
+    let values = camera.map(Camera::values);
+    let spec = options.spec(values.as_ref(), parse_method(method)?).or_py()?;
+    RenderJob::new(spec).or_py()
 }
 
 fn parse_method(name: &str) -> PyResult<Method> {
@@ -480,7 +399,7 @@ impl Renderer {
         leaky: bool,
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let job = JobArgs::new(options, false)?.job(Some(camera))?;
+        let job = render_job(&job_options(options, OptionSet::Render)?, Some(camera), "drbokeh")?;
         let arrays = read_arrays(layers, depth, depth_kind)?;
         let loaded = job.load_arrays(arrays).or_py()?;
         let image = self.render_job(py, &job, &loaded, leaky)?;
@@ -501,7 +420,7 @@ impl Renderer {
         camera: Option<&Camera>,
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let job = JobArgs::new(options, true)?.job(camera)?;
+        let job = render_job(&job_options(options, OptionSet::File)?, camera, "drbokeh")?;
         let loaded = py.detach(|| job.load(&path, &CameraHints::default())).or_py()?;
         let image = self.render_job(py, &job, &loaded, false)?;
         image_to_numpy(py, image)
@@ -591,7 +510,7 @@ impl Session {
         }
         let context = Context::new(&options).or_py()?;
         Ok(Self {
-            session: Mutex::new(Some(lensblur::session::Session::new(Some(context), input))),
+            session: Mutex::new(Some(lensblur::session::Session::new(Some(std::sync::Arc::new(context)), input))),
             method: method.to_string(),
             last: Mutex::default(),
         })
@@ -601,8 +520,7 @@ impl Session {
     /// `lensblur.render` takes them); returns the defocused premultiplied RGBA, (H, W, 4).
     #[pyo3(signature = (camera, **options))]
     fn render<'py>(&self, py: Python<'py>, camera: &Camera, options: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let args = JobArgs::new(options, false)?;
-        let job = args.job_with_method(Some(camera), &self.method)?;
+        let job = render_job(&job_options(options, OptionSet::Render)?, Some(camera), &self.method)?;
         let (image, stats) = py
             .detach(|| {
                 let mut guard = lock(&self.session);
@@ -742,7 +660,7 @@ fn methods() -> (Vec<&'static str>, Vec<&'static str>) {
 /// and the further ones of a render read from a file.
 #[pyfunction]
 fn render_options() -> (Vec<&'static str>, Vec<&'static str>) {
-    (RENDER_OPTIONS.to_vec(), FILE_OPTIONS.to_vec())
+    (lensblur::job::RENDER_OPTIONS.to_vec(), lensblur::job::FILE_OPTIONS.to_vec())
 }
 
 #[pymodule]

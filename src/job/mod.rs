@@ -25,6 +25,9 @@ use crate::stack::LayerStack;
 use crate::vk::{Context, ContextOptions};
 use crate::{Error, Result};
 
+pub mod options;
+pub use options::{CameraValues, JobOptions, OptionSet, FILE_OPTIONS, RENDER_OPTIONS};
+
 /// The settings of the lens-sampling methods as a caller gives them; `None` keeps the method's
 /// tuned default. A setting the chosen method does not read is refused, never ignored.
 #[derive(Clone, Debug, Default, PartialEq)]
