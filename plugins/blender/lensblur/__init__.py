@@ -29,12 +29,12 @@ if "bpy" in locals():
     # Script reload (F8 / Reload Scripts): pick up edited submodules.
     import importlib
 
-    for _module in (errors, compat, job, camera, checks, stack, runner, result, preferences, methods, settings, operator, animation, panel):
+    for _module in (errors, compat, job, camera, checks, stack, runner, result, preferences, methods, settings, operator, animation, live, panel):
         importlib.reload(_module)
 
 import bpy
 
-from . import errors, compat, job, camera, checks, stack, runner, result, preferences, methods, settings, operator, animation, panel
+from . import errors, compat, job, camera, checks, stack, runner, result, preferences, methods, settings, operator, animation, live, panel
 
 _classes = (
     preferences.LensblurPreferences,
@@ -42,6 +42,7 @@ _classes = (
     operator.LENSBLUR_OT_defocus,
     animation.LENSBLUR_OT_defocus_animation,
     animation.LENSBLUR_OT_farm_bundle,
+    live.LENSBLUR_OT_live,
     panel.LENSBLUR_OT_set_method,
     panel.LENSBLUR_MT_methods,
     panel.LENSBLUR_PT_render,

@@ -61,6 +61,8 @@ class LENSBLUR_OT_defocus(bpy.types.Operator):
     use_node: bpy.props.BoolProperty(
         name="Image node", description=settings.NODE_HELP, default=False
     )
+    near_blur: bpy.props.FloatProperty(name="Near blur", description=settings.NEAR_BLUR_HELP, default=1.0, min=0.0)
+    far_blur: bpy.props.FloatProperty(name="Far blur", description=settings.FAR_BLUR_HELP, default=1.0, min=0.0)
 
     def execute(self, context):
         try:
@@ -133,7 +135,8 @@ class LENSBLUR_OT_defocus(bpy.types.Operator):
                 warnings += [stale] if stale else []
                 stack.export_render_result(scene, stack_path)
             out_path = os.path.join(tmp, "lensblur_result.exr")
-            command = runner.render_command(binary, stack_path, out_path, chosen, flags, self.method)
+            character = ["--near-blur", camera.fmt(self.near_blur), "--far-blur", camera.fmt(self.far_blur)]
+            command = runner.render_command(binary, stack_path, out_path, chosen, flags, self.method, character)
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise

@@ -51,15 +51,18 @@ class LENSBLUR_PT_render(bpy.types.Panel):
         # The method, picked from the tool's own list (`lensblur methods --json`).
         labels = {name: label for name, label, _ in settings.method_items(context)}
         layout.menu(LENSBLUR_MT_methods.bl_idname, text=f"Method: {labels.get(s.method, s.method)}")
-        for name in ("save_path", "use_node"):
+        for name in ("save_path", "use_node", "near_blur", "far_blur"):
             layout.prop(s, name)
         error = settings.method_error(context)
         if error:
             layout.label(text=f"Methods: {error}", icon="ERROR")
         self.draw_camera(layout, context.scene)
-        op = layout.operator("lensblur.defocus", icon="RENDER_RESULT")
-        for name in ("filepath", "layers", "exclude", "method", "save_path", "use_node"):
+        row = layout.row()
+        op = row.operator("lensblur.defocus", icon="RENDER_RESULT")
+        for name in ("filepath", "layers", "exclude", "method", "save_path", "use_node", "near_blur", "far_blur"):
             setattr(op, name, getattr(s, name))
+        # Re-renders as the focus, f-stop, aperture or blur sliders move (lensblur serve).
+        row.operator("lensblur.live", icon="PLAY")
         # The frame range into //lensblur/ (animated camera), locally or as a farm job bundle.
         row = layout.row()
         for idname, icon in (("lensblur.defocus_animation", "RENDER_ANIMATION"), ("lensblur.farm_bundle", "NETWORK_DRIVE")):

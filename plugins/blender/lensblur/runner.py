@@ -2,12 +2,13 @@
 from .job import RenderJob
 
 
-def render_command(binary, stack_path, out_path, layers, camera_flags, method):
+def render_command(binary, stack_path, out_path, layers, camera_flags, method, character_flags=()):
     return [
         binary, "render", stack_path, "-o", out_path,
         "--layers", ",".join(layers),
         "--method", method,
         *camera_flags,
+        *character_flags,
         "--json",
     ]
 

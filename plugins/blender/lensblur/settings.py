@@ -27,6 +27,8 @@ LAYERS_HELP = (
 EXCLUDE_HELP = "View layers to leave out: names or globs, comma-separated"
 FILEPATH_HELP = "Multilayer EXR to defocus instead of the Render Result (empty: Render Result)"
 SAVE_HELP = "Also save the result as an EXR here (empty: keep it packed in the .blend)"
+NEAR_BLUR_HELP = "Multiplies the blur in front of the focus (lensblur --near-blur)"
+FAR_BLUR_HELP = "Multiplies the blur behind the focus (lensblur --far-blur)"
 NODE_HELP = "Show the result in a compositor Image node named 'lensblur_result'"
 
 
@@ -40,3 +42,7 @@ class LensblurSettings(bpy.types.PropertyGroup):
     method: bpy.props.StringProperty(name="Method", default=methods.DEFAULT)
     save_path: bpy.props.StringProperty(name="Save to", description=SAVE_HELP, subtype="FILE_PATH")
     use_node: bpy.props.BoolProperty(name="Image node", description=NODE_HELP, default=True)
+    near_blur: bpy.props.FloatProperty(name="Near blur", description=NEAR_BLUR_HELP, default=1.0, min=0.0, soft_max=4.0)
+    far_blur: bpy.props.FloatProperty(name="Far blur", description=FAR_BLUR_HELP, default=1.0, min=0.0, soft_max=4.0)
+    # Live mode's focus pick: the result's pixel clicked last ([-1, -1]: the camera's focus).
+    live_focus_at: bpy.props.IntVectorProperty(name="Focus at", size=2, default=(-1, -1))
