@@ -224,7 +224,7 @@ fn try_render_frame(
     // (the render resolves the same settings again: microseconds).
     setup.job.settings(&loaded).map_err(job_error)?;
     let rendered = render_loaded(&setup.job, ctx, &file.input, &loaded, spinner, position)?;
-    report.timings_ms.render = ms(rendered.render_time);
+    report.timings_ms.render = ms(rendered.prepare_time + rendered.render_time);
     // This frame's device work is validated before its file appears.
     if let Some(ctx) = ctx {
         ctx.check_validation()?;

@@ -214,6 +214,9 @@ pub struct Rendered<'a> {
     pub lens: Lens,
     /// The focus field the method rendered.
     pub focus: FocusField,
+    /// Building the method's pipelines ([`RenderJob::render`]; zero on a prepared renderer).
+    pub prepare_time: Duration,
+    /// The render itself, after the pipelines were built.
     pub render_time: Duration,
 }
 
@@ -310,8 +313,10 @@ impl RenderJob {
         loaded: &'a LoadedInput,
         progress: Option<&(dyn Fn(usize, usize) + Sync)>,
     ) -> Result<Rendered<'a>> {
+        let start = Instant::now();
         let renderer = self.spec.method.prepare(ctx)?;
-        self.render_with(renderer.as_ref(), loaded, progress)
+        let prepare_time = start.elapsed();
+        Ok(Rendered { prepare_time, ..self.render_with(renderer.as_ref(), loaded, progress)? })
     }
 
     /// [`Self::render`] on a renderer the job's method prepared once ([`Method::prepare`]), for
@@ -332,7 +337,8 @@ impl RenderJob {
         let options = RenderOptions { tile: self.spec.tile, max_memory: self.spec.max_memory, progress, ..RenderOptions::default() };
         let render = |s: &LayerStack, l: &Lens| method.render_prepared(renderer, s, l, &options, &settings);
         let image = look.render_prepared(&render, &prepared, &lens)?;
-        Ok(Rendered { image, prepared, lens, focus: settings.focus(method).clone(), render_time: start.elapsed() })
+        let focus = settings.focus(method).clone();
+        Ok(Rendered { image, prepared, lens, focus, prepare_time: Duration::ZERO, render_time: start.elapsed() })
     }
 
     /// The frame a caller keeps: `image` without the overscan margin.

@@ -277,12 +277,13 @@ impl CommandBatch {
                 }
             })
             .collect();
+        let raw_pipeline = pipeline.raw()?;
         let cmd = self.command_buffer;
         // SAFETY: the set is fresh (not in use), buffers and pipeline are live and kept alive
         // by `in_use_*` until the fence signals; sizes were checked above.
         unsafe {
             self.device.raw.update_descriptor_sets(&writes, &[]);
-            self.device.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline.0.raw);
+            self.device.raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, raw_pipeline);
             self.device.raw.cmd_bind_descriptor_sets(
                 cmd,
                 vk::PipelineBindPoint::COMPUTE,

@@ -13,7 +13,10 @@ use crate::{Error, Result};
 
 pub(crate) struct PipelineInner {
     device: Arc<Device>,
-    pub(crate) raw: vk::Pipeline,
+    /// Created at the first dispatch (null until then): see [`ComputePipeline::raw`].
+    raw: std::sync::Mutex<vk::Pipeline>,
+    /// The specialization constants it is compiled with.
+    constants: Vec<u32>,
     pub(crate) layout: vk::PipelineLayout,
     pub(crate) set_layout: vk::DescriptorSetLayout,
     pub(crate) slots: Vec<Slot>,
@@ -25,7 +28,10 @@ impl Drop for PipelineInner {
     fn drop(&mut self) {
         // SAFETY: the last handle is gone (batches hold one until their fence signals).
         unsafe {
-            self.device.raw.destroy_pipeline(self.raw, None);
+            let raw = *self.raw.get_mut().unwrap_or_else(|poisoned| poisoned.into_inner());
+            if raw != vk::Pipeline::null() {
+                self.device.raw.destroy_pipeline(raw, None);
+            }
             self.device.raw.destroy_pipeline_layout(self.layout, None);
             self.device.raw.destroy_descriptor_set_layout(self.set_layout, None);
         }
@@ -141,7 +147,8 @@ impl ComputePipeline {
         // From here on, dropping `inner` destroys whatever was created.
         let mut inner = PipelineInner {
             device: device.clone(),
-            raw: vk::Pipeline::null(),
+            raw: std::sync::Mutex::new(vk::Pipeline::null()),
+            constants: constants.to_vec(),
             layout: vk::PipelineLayout::null(),
             set_layout,
             slots: slots.to_vec(),
@@ -150,9 +157,24 @@ impl ComputePipeline {
         };
         // SAFETY: `set_layout` is live; infos point to locals.
         inner.layout = unsafe { device.raw.create_pipeline_layout(&layout_info, None) }.call("vkCreatePipelineLayout")?;
-        let module_info = vk::ShaderModuleCreateInfo::default().code(shader.spirv);
+        Ok(Self(Arc::new(inner)))
+    }
+
+    /// The Vulkan pipeline, compiled the first time a dispatch needs it. Why not when it is
+    /// made: a method prepares every pipeline any of its paths may dispatch (a disk, a ring, a
+    /// kernel image), while a render dispatches a few; a driver that compiles at creation
+    /// (lavapipe: 40-110 ms each) would make a one-shot process pay for all of them.
+    pub(crate) fn raw(&self) -> Result<vk::Pipeline> {
+        let inner = &self.0;
+        let mut raw = inner.raw.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if *raw != vk::Pipeline::null() {
+            return Ok(*raw);
+        }
+        let device = &inner.device;
+        let module_info = vk::ShaderModuleCreateInfo::default().code(inner.shader.spirv);
         // SAFETY: SPIR-V produced by shaderc at build time.
         let module = unsafe { device.raw.create_shader_module(&module_info, None) }.call("vkCreateShaderModule")?;
+        let constants = &inner.constants;
         let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
             .map(|i| vk::SpecializationMapEntry::default().constant_id(i).offset(4 * i).size(4))
             .collect();
@@ -171,10 +193,10 @@ impl ComputePipeline {
         device.pipeline_cache.mark_dirty();
         // SAFETY: no longer needed by anything after pipeline creation.
         unsafe { device.raw.destroy_shader_module(module, None) };
-        inner.raw = created.map_err(|(_, r)| r).call("vkCreateComputePipelines")?[0];
-        device.set_name(inner.raw, shader.name);
+        *raw = created.map_err(|(_, r)| r).call("vkCreateComputePipelines")?[0];
+        device.set_name(*raw, inner.shader.name);
         device.check_validation()?;
-        Ok(Self(Arc::new(inner)))
+        Ok(*raw)
     }
 
     pub fn shader(&self) -> &ShaderSource {
