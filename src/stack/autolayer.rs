@@ -24,6 +24,7 @@
 //!    under it a few pixels, mirrored at full strength. Its coverage is extended the same
 //!    way from where it is seen (1 own, 0 farther), so a layer continues under a wire only
 //!    where it is seen on both sides, not across the sky behind it.
+use rayon::prelude::*;
 use super::fill::{mirror_sources, push_pull};
 use super::{Layer, LayerStack};
 use crate::camera::CocModel;
@@ -534,7 +535,9 @@ fn bands(
     options: &AutoLayerOptions,
 ) -> Vec<Option<Band>> {
     let radius = options.band_px + 2;
+    // Each pixel's band reads the image and labels only: pixels in parallel, same result.
     (0..pairs.len())
+        .into_par_iter()
         .map(|p| {
             // Mixed with whichever neighbouring layer explains the colour best.
             let (near, far) = pairs[p]?;
@@ -711,7 +714,8 @@ pub fn split_into_layers(image: &Image, disparity: &[f32], coc: &CocModel, optio
     let (label, count) = labels(&signed, options);
     let pairs = band_pairs(image.width, image.height, &label, &signed, options);
     let bands = bands(image, &label, &signed, &pairs, options);
-    let layers = (0..count).map(|k| build_layer(k, image, disparity, &label, &bands)).collect();
+    // Each layer reads the shared labels and bands only: layers in parallel, same result.
+    let layers = (0..count).into_par_iter().map(|k| build_layer(k, image, disparity, &label, &bands)).collect();
     LayerStack { width: image.width, height: image.height, layers }
 }
 
