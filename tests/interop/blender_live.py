@@ -5,6 +5,7 @@ an f-stop and a near-blur change; after each, the live image must equal the one-
 LiveSession.update from a timer; background Blender runs no modal operators, so the session is
 driven here as the timer would (`settle`: update until the image shows the settings).
 Usage: blender -b --factory-startup --python blender_live.py -- OUT LENSBLUR_BINARY
+(with the add-on installed, as for blender_plugin.py)
 Prints LENSBLUR_LIVE_CHECKS <json>, then LENSBLUR_LIVE_DONE."""
 import json
 import os
@@ -21,6 +22,9 @@ checks = {"blender": bpy.app.version_string, "steps": []}
 
 scene = setup_scene()
 build_view_layers(scene, build_planes(scene))
+# LENSBLUR_LIVE_SIDE=256 renders a square frame of that side (for measuring; the test keeps the scene's).
+if os.environ.get("LENSBLUR_LIVE_SIDE"):
+    scene.render.resolution_x = scene.render.resolution_y = int(os.environ["LENSBLUR_LIVE_SIDE"])
 enable_addon(binary)
 live = sys.modules["lensblur"].live
 scene.render.use_single_layer = False

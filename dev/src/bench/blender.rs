@@ -190,9 +190,13 @@ pub struct BlenderComparison {
     pub camera: PhysicalCamera,
     /// Each Defocus node on the frame, in [`DefocusNode::ALL`] order, in the same run.
     pub blenders: Vec<BlenderRun>,
-    /// Whole `lensblur render` processes.
+    /// Whole `lensblur render` processes of the layers.
     pub lensblur_seconds: Vec<f64>,
     pub lensblur_median_seconds: f64,
+    /// Whole `lensblur render` processes of the RGB+Z file the Physical node reads (one image
+    /// and its Z pass, split into layers by lensblur): what most compositors hand over.
+    pub flat_seconds: Vec<f64>,
+    pub flat_median_seconds: f64,
     pub lensblur_png: PathBuf,
 }
 
@@ -208,6 +212,8 @@ pub struct BlenderRun {
     pub process_seconds: f64,
     /// lensblur's median over this node's median compositing time (the goal: at most 0.5).
     pub ratio: f64,
+    /// The same for lensblur's render of the flat RGB+Z (issue 43's goal: at most 1.0 at 256^2).
+    pub flat_ratio: f64,
     pub png: PathBuf,
 }
 
@@ -287,10 +293,26 @@ pub fn compare_with_blender(exe: &Path, dir: &Path, focus: Focus, side: usize, r
     let name = &inputs.name;
     let (ours_exr, ours_png) = (dir.join(format!("{name}-lensblur.exr")), dir.join(format!("{name}-lensblur.png")));
     let args = vec!["-o".to_string(), ours_exr.display().to_string()];
-    let mut lensblur_seconds =
-        (0..repeats.max(1)).map(|_| time_render_process(exe, &inputs.layered, &args, &ours_exr, &[])).collect::<Result<Vec<f64>>>()?;
+    // The flat file has no camera in its header: the flags give the layered file's.
+    let flat_exr = dir.join(format!("{name}-lensblur-flat.exr"));
+    let c = &inputs.camera;
+    let flat_args: Vec<String> = [
+        "-o", &flat_exr.display().to_string(), "--focal-length", &c.focal_length_mm.to_string(),
+        "--sensor-width", &c.sensor_width_mm.to_string(), "--fstop", &c.fstop.to_string(),
+        "--focus-distance", &c.focus_distance.to_string(),
+    ]
+    .map(String::from)
+    .to_vec();
+    let (_, flat_input) = inputs.for_node(DefocusNode::Physical);
+    // Alternated, so that a drift of the machine's speed reaches both alike.
+    let (mut lensblur_seconds, mut flat_seconds) = (Vec::new(), Vec::new());
+    for _ in 0..repeats.max(1) {
+        lensblur_seconds.push(time_render_process(exe, &inputs.layered, &args, &ours_exr, &[])?);
+        flat_seconds.push(time_render_process(exe, flat_input, &flat_args, &flat_exr, &[])?);
+    }
     write_png_preview(&ours_png, &read_rgba(&ours_exr, None, u64::MAX)?)?;
     let lensblur_median_seconds = median(&mut lensblur_seconds);
+    let flat_median_seconds = median(&mut flat_seconds);
     let mut blenders = Vec::new();
     for (settings, rgbz) in &inputs.blenders {
         let png = dir.join(format!("{name}-blender-{:?}.png", settings.node).to_lowercase());
@@ -303,6 +325,7 @@ pub fn compare_with_blender(exe: &Path, dir: &Path, focus: Focus, side: usize, r
             median_seconds,
             process_seconds,
             ratio: lensblur_median_seconds / median_seconds,
+            flat_ratio: flat_median_seconds / median_seconds,
             png,
         });
     }
@@ -315,6 +338,8 @@ pub fn compare_with_blender(exe: &Path, dir: &Path, focus: Focus, side: usize, r
         blenders,
         lensblur_seconds,
         lensblur_median_seconds,
+        flat_seconds,
+        flat_median_seconds,
         lensblur_png: ours_png,
     })
 }
