@@ -70,6 +70,7 @@ pub enum Error {
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+
 /// Which input option does not fit the file (`crate::input::InputOptions`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum InputMismatch {
@@ -96,6 +97,18 @@ fn vulkan_hint(result: ash::vk::Result) -> &'static str {
 }
 
 impl Error {
+    /// The message with every cause after it, on one line (`x.exr: No such file or directory`):
+    /// for front ends that print no chain of their own (a JSON answer, a Python exception).
+    pub fn with_causes(&self) -> String {
+        let mut message = self.to_string();
+        let mut source = std::error::Error::source(self);
+        while let Some(cause) = source {
+            message = format!("{message}: {cause}");
+            source = cause.source();
+        }
+        message
+    }
+
     pub fn invalid(parameter: &'static str, message: impl Into<String>) -> Self {
         Error::InvalidParameter { parameter, message: message.into() }
     }

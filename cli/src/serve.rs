@@ -24,7 +24,7 @@ use lensblur::stack::{write_image, write_ldr, OutputFormat, SampleType, WriteOpt
 use lensblur::vk::{Context, ContextOptions};
 use serde_json::{json, Map, Value};
 
-use super::render::DeviceChoice;
+use super::render::{ms, DeviceChoice};
 
 /// The protocol's version, in the greeting and the `version` answer.
 pub const PROTOCOL_VERSION: u32 = 1;
@@ -282,7 +282,7 @@ impl Server {
         let spec = parsed.spec(None, Method::default()).map_err(|e| e.to_string())?;
         let input: InputOptions = spec.input.clone();
         RenderJob::new(spec).map_err(|e| e.to_string())?;
-        let read = ReadInput::read(&path, &input).map_err(|e| error_chain(&e))?;
+        let read = ReadInput::read(&path, &input).map_err(|e| e.with_causes())?;
         let (width, height) = read.size();
         let context = self.context()?;
         self.loads += 1;
@@ -291,7 +291,7 @@ impl Server {
         self.stacks.insert(name.clone(), Stack { session, path, options });
         Ok(json!({
             "id": id, "ok": true, "stack": name, "width": width, "height": height,
-            "timings_ms": {"load": ms(start)},
+            "timings_ms": {"load": ms(start.elapsed())},
         }))
     }
 
@@ -315,14 +315,14 @@ impl Server {
         let mut spec = parsed.spec(camera.as_ref(), Method::default()).map_err(|e| e.to_string())?;
         spec.device = self.preference;
         let job = RenderJob::new(spec).map_err(|e| e.to_string())?;
-        let (image, stats) = stack.session.render(&job).map_err(|e| format!("{}: {}", stack.path.display(), error_chain(&e)))?;
+        let (image, stats) = stack.session.render(&job).map_err(|e| format!("{}: {}", stack.path.display(), e.with_causes()))?;
         let writing = Instant::now();
-        write(output, format, &image).map_err(|e| error_chain(&e))?;
+        write(output, format, &image).map_err(|e| e.with_causes())?;
         Ok(json!({
             "id": id, "ok": true, "output": output, "width": image.width, "height": image.height,
             "relayered": stats.relayered, "prepared": stats.prepared,
             "timings_ms": {
-                "layering": stats.layering_ms, "render": stats.render_ms, "write": ms(writing), "total": ms(start),
+                "layering": stats.layering_ms, "render": stats.render_ms, "write": ms(writing.elapsed()), "total": ms(start.elapsed()),
             },
         }))
     }
@@ -368,21 +368,6 @@ fn write(path: &Path, format: Written, image: &Image) -> lensblur::Result<()> {
         }
         Written::Format(_) => write_ldr(path, image),
     }
-}
-
-/// An error with its causes, as one line (an I/O error's cause says what went wrong).
-fn error_chain(error: &lensblur::Error) -> String {
-    let mut message = error.to_string();
-    let mut source = std::error::Error::source(error);
-    while let Some(cause) = source {
-        message = format!("{message}: {cause}");
-        source = cause.source();
-    }
-    message
-}
-
-fn ms(since: Instant) -> f64 {
-    since.elapsed().as_micros() as f64 / 1e3
 }
 
 #[cfg(test)]

@@ -33,13 +33,7 @@ create_exception!(
 /// The library's error as a Python exception, with its causes (an I/O error names the file,
 /// its source says what went wrong).
 fn to_py(error: lensblur::Error) -> PyErr {
-    let mut message = error.to_string();
-    let mut source = std::error::Error::source(&error);
-    while let Some(cause) = source {
-        message = format!("{message}: {cause}");
-        source = cause.source();
-    }
-    LensblurError::new_err(message)
+    LensblurError::new_err(error.with_causes())
 }
 
 trait OrPy<T> {
