@@ -16,7 +16,7 @@ use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tile_grid::Rect;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, Slot, TexelFormat};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, ReadBack, Slot, TexelFormat};
 use crate::{Error, Result};
 
 /// Bytes per read pixel of one layer: uploaded rgba + disparity, prepass P / A + (s, alpha),
@@ -189,13 +189,15 @@ impl DrBokehGpu {
     ) -> Result<(Image, RenderStats)> {
         let (ctx, params) = (&self.ctx, frame.params);
         let mut image = Image::new(params.width, params.height);
+        let max_halo = frame.windows.iter().copied().max().unwrap_or(0).max(0) as usize;
+        let room = TileRoom { core: tiling.room(plan.tile, 0), read: tiling.room(plan.tile, max_halo) };
         let record = |batch: &mut CommandBatch, core: Rect| {
             let read = core.grown(halo(params, frame.windows, core), params.width, params.height);
-            let buffers = ForwardBuffers::new(ctx, batch, frame, core, read)?;
+            let buffers = ForwardBuffers::new(ctx, batch, frame, core, read, room)?;
             self.record(batch, params, &buffers)?;
-            buffers.result.readable_in(ctx, batch)
+            buffers.result.readable_in(batch)
         };
-        let collect = |core: Rect, result: Buffer| store_core(ctx, &mut image, core, &result);
+        let collect = |core: Rect, result: ReadBack| store_core(ctx, &mut image, core, &result);
         let (mut stats, cores) = run_batches(ctx, tiling, plan, options, record, collect)?;
         stats.taps = cores.iter().map(|&core| taps(params, frame.windows, core)).sum();
         Ok((image, stats))
@@ -268,6 +270,14 @@ impl DrBokehGpu {
     }
 }
 
+/// Pixels of the largest core and read rect of a render's tiles, which every tile's buffers
+/// have room for ([`FrameTiling::room`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TileRoom {
+    pub core: usize,
+    pub read: usize,
+}
+
 /// The device buffers of one frame tile: the uploaded `read` rect of every layer, the search
 /// windows and lens tables, and every pass's output over the `core`.
 pub(crate) struct ForwardBuffers {
@@ -301,35 +311,48 @@ impl ForwardBuffers {
     /// Allocates a tile's buffers (intermediates left unfilled: every pass writes its output
     /// whole) and records the upload of its `read` rect into `batch`; the frame's tables are
     /// shared, not copied.
-    pub fn new(ctx: &Context, batch: &mut CommandBatch, frame: &ForwardFrame, core: Rect, read: Rect) -> Result<Self> {
+    pub fn new(
+        ctx: &Context,
+        batch: &mut CommandBatch,
+        frame: &ForwardFrame,
+        core: Rect,
+        read: Rect,
+        room: TileRoom,
+    ) -> Result<Self> {
         let (stack, params) = (frame.stack, frame.params);
         let tile_radii = match frame.interior {
             true => span_radii(params, stack, frame.windows, core),
             false => vec![NO_SPAN_RADII; frame.windows.len()],
         };
         let layers = params.layer_count as u64;
-        let core_pixels = core.area() as u64;
-        let read_pixels = read.area() as u64;
-        let read_n = params.layer_count * read.area();
+        let (core_pixels, read_pixels) = (core.area() as u64, read.area() as u64);
+        let (read_n, read_room) = (params.layer_count * read.area(), params.layer_count * room.read);
         let rgba = stack.layers.iter().flat_map(|l| crop_rows(&l.rgba.pixels, params.width, read));
         let disparity = stack.layers.iter().flat_map(|l| crop_rows(&l.disparity, params.width, read));
         // Every pass writes its whole output before a later one reads it (the layer pass every
         // core pixel of every layer, sources and blocks every read pixel, composite every core
         // pixel; kernels that skip sources or blocks never read them): no fills.
-        let intermediate = |name: &str, bytes: u64| Buffer::uninitialised(ctx, name, bytes);
+        // Per pixel of the core or of the read rect: each buffer's size and its room.
+        let over_core = |name: &str, per_pixel: u64| {
+            Buffer::uninitialised_with_room(ctx, name, core_pixels * per_pixel, room.core as u64 * per_pixel)
+        };
+        let over_read = |name: &str, per_pixel: u64| {
+            let (size, room) = (layers * read_pixels * per_pixel, layers * room.read as u64 * per_pixel);
+            Buffer::uninitialised_with_room(ctx, name, size, room)
+        };
         Ok(Self {
             core,
             read,
-            layer_cw: intermediate("drbokeh layer_cw", layers * core_pixels * VEC4)?,
-            layer_vis: intermediate("drbokeh layer_vis", layers * core_pixels * 4)?,
-            result: intermediate("drbokeh result", core_pixels * VEC4)?,
-            source_pa: intermediate("drbokeh source_pa", layers * read_pixels * VEC4)?,
-            source_sa: intermediate("drbokeh source_sa", layers * read_pixels * 8)?,
-            block_prefix: intermediate("drbokeh block_prefix", layers * read_pixels * VEC4)?,
-            block_suffix: intermediate("drbokeh block_suffix", layers * read_pixels * VEC4)?,
-            block_alpha: intermediate("drbokeh block_alpha", layers * read_pixels * 8)?,
-            rgba: Buffer::from_slices_in(ctx, batch, "drbokeh rgba", read_n, rgba)?,
-            disparity: Buffer::from_slices_in(ctx, batch, "drbokeh disparity", read_n, disparity)?,
+            layer_cw: over_core("drbokeh layer_cw", layers * VEC4)?,
+            layer_vis: over_core("drbokeh layer_vis", layers * 4)?,
+            result: over_core("drbokeh result", VEC4)?,
+            source_pa: over_read("drbokeh source_pa", VEC4)?,
+            source_sa: over_read("drbokeh source_sa", 8)?,
+            block_prefix: over_read("drbokeh block_prefix", VEC4)?,
+            block_suffix: over_read("drbokeh block_suffix", VEC4)?,
+            block_alpha: over_read("drbokeh block_alpha", 8)?,
+            rgba: Buffer::from_slices_with_room_in(ctx, batch, "drbokeh rgba", read_n, read_room, rgba)?,
+            disparity: Buffer::from_slices_with_room_in(ctx, batch, "drbokeh disparity", read_n, read_room, disparity)?,
             tile_radii: Buffer::from_iter_in(ctx, batch, "drbokeh tile_radii", tile_radii.len(), tile_radii)?,
             tile_window: frame.tile_window.clone(),
             area_lut: frame.area_lut.clone(),

@@ -154,7 +154,7 @@ impl ImagePass<'_> {
                 &push(core, read),
                 groups,
             )?;
-            result.readable_in(ctx, batch)
+            result.readable_in(batch)
         })
     }
 }

@@ -143,7 +143,7 @@ impl Multiview {
                 ];
                 let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
                 batch.dispatch(&self.pipeline, &bindings, &push(core, &window), groups)?;
-                result.readable_in(ctx, batch)
+                result.readable_in(batch)
             },
         )
     }

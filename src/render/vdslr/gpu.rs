@@ -130,7 +130,7 @@ impl Vdslr {
                     [source.all(), relative.all(), true_disparity.all(), samples.all(), edges.all(), result.all()];
                 let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
                 batch.dispatch(&self.pipeline, &bindings, &push, groups)?;
-                result.readable_in(ctx, batch)
+                result.readable_in(batch)
             },
         )
     }
