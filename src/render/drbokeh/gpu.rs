@@ -7,7 +7,7 @@
 //! lens, area table, push constants) and the search windows are shared with it.
 use std::sync::{Arc, Mutex};
 
-use super::bounds::{search_tiles, search_windows, span_radii, NO_SPAN_RADII};
+use super::bounds::{search_tiles, span_radii, windows_and_ranges, SourceRanges, NO_SPAN_RADII};
 use super::{AperturePath, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
@@ -159,7 +159,7 @@ impl DrBokehGpu {
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
         let params = Params::new(stack, lens, model)?;
-        let windows = search_windows(&params, stack);
+        let (windows, ranges) = windows_and_ranges(&params, stack);
         let max_window = windows.iter().copied().max().unwrap_or(0);
         let footprint = |tile: usize| {
             let read = (tile.min(params.width.max(params.height)) as u64 + 2 * max_window as u64).pow(2);
@@ -171,7 +171,7 @@ impl DrBokehGpu {
             }
         };
         let interior = self.kernel != LayerKernel::OptimisedNoInterior;
-        let frame = ForwardFrame::new(&self.ctx, stack, &params, &lens.aperture, &windows, interior)?;
+        let frame = ForwardFrame::new(&self.ctx, stack, &params, &lens.aperture, &windows, interior.then_some(ranges))?;
         // Work bound: every layer's square of the largest search window (span paths do less).
         let work = params.layer_count as u64 * (2 * max_window.max(0) as u64 + 1).pow(2);
         let tiling = params.tiling().with_work(work);
@@ -320,9 +320,9 @@ impl ForwardBuffers {
         room: TileRoom,
     ) -> Result<Self> {
         let (stack, params) = (frame.stack, frame.params);
-        let tile_radii = match frame.interior {
-            true => span_radii(params, stack, frame.windows, core),
-            false => vec![NO_SPAN_RADII; frame.windows.len()],
+        let tile_radii = match &frame.source_ranges {
+            Some(ranges) => span_radii(params, ranges, frame.windows, core),
+            None => vec![NO_SPAN_RADII; frame.windows.len()],
         };
         let layers = params.layer_count as u64;
         let (core_pixels, read_pixels) = (core.area() as u64, read.area() as u64);
@@ -373,8 +373,9 @@ pub(crate) struct ForwardFrame<'a> {
     kernel: Buffer,
     /// The gauge path's closed-form gauge constants and row table ([`aperture_rows`]).
     aperture_rows: Buffer,
-    /// False: tiles upload radii [0, f32::MAX] ([`LayerKernel::OptimisedNoInterior`]).
-    interior: bool,
+    /// What the tiles' [`span_radii`] combine; `None`: tiles upload radii [0, f32::MAX]
+    /// ([`LayerKernel::OptimisedNoInterior`]).
+    source_ranges: Option<SourceRanges>,
 }
 
 impl<'a> ForwardFrame<'a> {
@@ -384,7 +385,7 @@ impl<'a> ForwardFrame<'a> {
         params: &'a Params,
         aperture: &Aperture,
         windows: &'a [i32],
-        interior: bool,
+        source_ranges: Option<SourceRanges>,
     ) -> Result<Self> {
         let rows = match (params.lens.path(params.model), aperture) {
             // A vignetted polygon or ellipse: its base's table, then each tile's centroid.
@@ -404,7 +405,7 @@ impl<'a> ForwardFrame<'a> {
             area_lut: Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?,
             kernel: Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?,
             aperture_rows: Buffer::from_slice(ctx, "drbokeh aperture_rows", &rows)?,
-            interior,
+            source_ranges,
         })
     }
 }

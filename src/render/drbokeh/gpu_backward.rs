@@ -14,7 +14,7 @@
 //! independent of the tile size.
 use super::backward::{check_inputs, BackwardOptions};
 use super::backward_cpu::tile_reach_cpu;
-use super::bounds::{grow_windows, search_windows};
+use super::bounds::{grow_windows, windows_and_ranges};
 use super::gpu::{
     halo, taps, ForwardBuffers, ForwardFrame, TileRoom, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4,
 };
@@ -158,12 +158,13 @@ impl DrBokehGpuGrad {
     ) -> Result<(StackGradients, RenderStats)> {
         check_inputs(stack, lens, grad_output)?;
         let params = Params::new(stack, lens, self.model)?;
-        let windows = grow_windows(search_windows(&params, stack), self.options.window_margin());
+        let (windows, ranges) = windows_and_ranges(&params, stack);
+        let windows = grow_windows(windows, self.options.window_margin());
         let per_layer = params.tiles_x * params.tiles_y;
         let reach: Vec<i32> = windows.chunks(per_layer.max(1)).flat_map(|w| tile_reach_cpu(&params, w)).collect();
         let ctx = self.context();
         let frame = Frame {
-            forward: ForwardFrame::new(ctx, stack, &params, &lens.aperture, &windows, true)?,
+            forward: ForwardFrame::new(ctx, stack, &params, &lens.aperture, &windows, Some(ranges))?,
             reach: &reach,
             tile_reach: Buffer::from_slice(ctx, "drbokeh tile_reach", &reach)?,
             grad_output,
@@ -200,7 +201,10 @@ impl DrBokehGpuGrad {
         let read_margin = receivers_margin + largest(frame.forward.windows);
         let room = Room {
             sources: tiling.room(plan.tile, 0),
-            forward: TileRoom { core: tiling.room(plan.tile, receivers_margin), read: tiling.room(plan.tile, read_margin) },
+            forward: TileRoom {
+                core: tiling.room(plan.tile, receivers_margin),
+                read: tiling.room(plan.tile, read_margin),
+            },
         };
         let record = |batch: &mut CommandBatch, core: Rect| {
             let receivers = frame.receivers(core);
