@@ -198,6 +198,14 @@ impl Footprint {
     }
 }
 
+/// Pixels of the largest core and read rect of a plan's tiles, which every tile's buffers have
+/// room for ([`FrameTiling::room`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TileRoom {
+    pub core: usize,
+    pub read: usize,
+}
+
 /// Tile side (a multiple of the frame's alignment) and tiles per submission.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct TilePlan {
@@ -532,21 +540,23 @@ fn remaining_regions(frame: &FrameTiling, done: &[Rect], tile: usize) -> Option<
 /// The whole service for a method whose tiles each write one RGBA float32 pixel per core pixel
 /// (core-local, row-major): plans, runs and retries as [`run_tiled`], reads each tile's core
 /// into the frame. `record` gets the core and the read rect (the core grown by `halo(core)`,
-/// clipped to the frame) and returns the tile's host-readable result
-/// ([`crate::vk::Buffer::readable_in`]).
+/// clipped to the frame) and the room of the plan's largest tile ([`TileRoom`]), and returns the
+/// tile's host-readable result ([`crate::vk::Buffer::readable_in`]).
 pub(crate) fn render_image_tiles(
     ctx: &Context,
     frame: &FrameTiling,
     options: &RenderOptions,
     footprint: impl Fn(usize) -> Footprint,
     halo: impl Fn(Rect) -> usize,
-    mut record: impl FnMut(&mut CommandBatch, Rect, Rect) -> Result<ReadBack>,
+    mut record: impl FnMut(&mut CommandBatch, Rect, Rect, TileRoom) -> Result<ReadBack>,
 ) -> Result<(Image, RenderStats)> {
     run_tiled(ctx, frame, options, footprint, |plan| {
         let mut image = Image::new(frame.width, frame.height);
+        let max_halo = frame.cores(plan.tile).into_iter().map(&halo).max().unwrap_or(0);
+        let room = TileRoom { core: frame.room(plan.tile, 0), read: frame.room(plan.tile, max_halo) };
         let record = |batch: &mut CommandBatch, core: Rect| {
             let read = core.grown(halo(core), frame.width, frame.height);
-            record(batch, core, read)
+            record(batch, core, read, room)
         };
         let collect = |core: Rect, result: ReadBack| store_core(ctx, &mut image, core, &result);
         let (stats, _) = run_batches(ctx, frame, plan, options, record, collect)?;

@@ -11,7 +11,9 @@ use super::bounds::{search_tiles, span_radii, windows_and_ranges, SourceRanges, 
 use super::{AperturePath, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
-use crate::render::tiler::{crop_rows, run_batches, run_tiled, store_core, Footprint, FrameTiling, TilePlan};
+use crate::render::tiler::{
+    crop_rows, run_batches, run_tiled, store_core, Footprint, FrameTiling, TilePlan, TileRoom,
+};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
@@ -268,14 +270,6 @@ impl DrBokehGpu {
         }
         batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
     }
-}
-
-/// Pixels of the largest core and read rect of a render's tiles, which every tile's buffers
-/// have room for ([`FrameTiling::room`]).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct TileRoom {
-    pub core: usize,
-    pub read: usize,
 }
 
 /// The device buffers of one frame tile: the uploaded `read` rect of every layer, the search

@@ -15,13 +15,11 @@
 use super::backward::{check_inputs, BackwardOptions};
 use super::backward_cpu::tile_reach_cpu;
 use super::bounds::{grow_windows, windows_and_ranges};
-use super::gpu::{
-    halo, taps, ForwardBuffers, ForwardFrame, TileRoom, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4,
-};
+use super::gpu::{halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
 use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
-use crate::render::tiler::{crop_rows, run_batches, run_tiled, Footprint, FrameTiling, TilePlan};
+use crate::render::tiler::{crop_rows, run_batches, run_tiled, Footprint, FrameTiling, TilePlan, TileRoom};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
