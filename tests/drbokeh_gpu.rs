@@ -110,6 +110,43 @@ fn output_is_bit_identical_whatever_the_tile_size_and_batch_size() {
     finish(ctx);
 }
 
+/// The device's buffer pool: a frame's tiles take the memory earlier tiles gave back, and a
+/// later render of the frame takes all of its buffers from the pool. 160x160 in 32 px tiles, one
+/// per batch: 25 tiles, whose buffers (sized for the largest tile, so that tiles the border
+/// clips ask for the same sizes) come from those of the first. Tolerance: a first render makes
+/// at most 2 tiles' buffers (the first tile's, and a second set only while a tile's read-back is
+/// still held), at least 11 per tile; a second render makes none, nor does a render of one tile
+/// per submission after one of several.
+#[test]
+fn tiles_and_renders_take_their_buffers_from_the_pool() {
+    use lensblur::render::drbokeh::RenderOptions;
+    let ctx = gpu();
+    let renderer = DrBokehGpu::new(&ctx).unwrap();
+    let stack = scene(160, 160);
+    let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: Aperture::Disk };
+    let options = |tiles_per_batch| RenderOptions { tile: Some(32), tiles_per_batch, ..RenderOptions::default() };
+    let render = |tiles_per_batch| {
+        let before = ctx.buffer_pool_counts();
+        let (image, stats) = renderer.render_with(&stack, &lens, Model::DrBokeh, &options(tiles_per_batch)).unwrap();
+        let after = ctx.buffer_pool_counts();
+        (image, stats, after.created - before.created, after.reused - before.reused)
+    };
+    let (first, stats, created, reused) = render(Some(1));
+    assert_eq!(stats.tiles, 25);
+    let requests = created + reused;
+    assert!(requests >= 25 * 11, "{requests} buffer requests for 25 tiles");
+    assert!(created <= 2 * requests / 25 + 4, "the first render made {created} of its {requests} buffers");
+    let (second, _, created, reused) = render(Some(1));
+    assert_eq!((created, reused), (0, requests), "the second render's buffers all come from the pool");
+    assert!(first == second);
+    let (batched, stats, created_batched, _) = render(None);
+    assert!(stats.tiles_per_batch > 1 && batched == first, "{stats:?}");
+    let (_, _, created, _) = render(Some(1));
+    assert_eq!(created, 0, "after {created_batched} made for batches of several tiles, one per batch makes none");
+    drop(renderer);
+    finish(ctx);
+}
+
 #[test]
 fn out_of_device_memory_retries_with_smaller_tiles_and_the_same_output() {
     use lensblur::render::drbokeh::RenderOptions;

@@ -52,7 +52,7 @@ fn buffers_recorded_into_a_batch_are_uploaded_zeroed_and_read_back_by_its_one_su
     let zeroed = Buffer::zeroed_in(&ctx, &mut batch, "zeroed", target.size()).unwrap();
     batch.copy(&zeroed, &target, 2000).unwrap();
     batch.copy(&source, &target, 1600).unwrap();
-    let readable = target.readable_in(&ctx, &mut batch).unwrap();
+    let readable = target.readable_in(&mut batch).unwrap();
     batch.submit_and_wait().unwrap();
     let got: Vec<f32> = readable.read(&ctx).unwrap();
     let want: Vec<f32> = data

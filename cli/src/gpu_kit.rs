@@ -31,6 +31,10 @@ pub struct TimingsArgs {
     /// Timed renders per case after the warm-up (the report gives their median).
     #[arg(long, default_value_t = 5)]
     repeats: usize,
+    /// Only the cases whose name contains this (repeatable): one case of the full set runs in
+    /// seconds on a CPU device, the whole set in many minutes.
+    #[arg(long, value_name = "NAME")]
+    case: Vec<String>,
 }
 
 pub fn self_check(args: SelfCheckArgs) -> anyhow::Result<()> {
@@ -144,7 +148,13 @@ fn tempdir() -> anyhow::Result<PathBuf> {
 
 pub fn timings(args: TimingsArgs) -> anyhow::Result<()> {
     let ctx = Context::new(&ContextOptions::from_env()).context("opening the Vulkan device for the timings")?;
-    let cases = timing_cases(args.small);
+    let mut cases = timing_cases(args.small);
+    if !args.case.is_empty() {
+        cases.retain(|c| args.case.iter().any(|wanted| c.name.contains(wanted.as_str())));
+        if cases.is_empty() {
+            bail!("no timing case's name contains any of {:?}", args.case);
+        }
+    }
     eprintln!("timings on {}: {} cases, median of {} after one warm-up", ctx.info().name, cases.len(), args.repeats);
     let print = |t: &CaseTiming| {
         let device = t.device_ms.map_or_else(|| "-".to_string(), |ms| format!("{ms:.2}"));

@@ -10,7 +10,7 @@
 //! calls are `crate::vk`'s. Methods import this module, never the reverse.
 use crate::image::Image;
 use crate::tile_grid::Rect;
-use crate::vk::{Buffer, CommandBatch, Context, MemoryBudget};
+use crate::vk::{CommandBatch, Context, MemoryBudget, ReadBack};
 use crate::{Error, Result};
 
 /// Most tiles recorded into one submission: batches amortise the submission and its wait,
@@ -157,6 +157,15 @@ impl FrameTiling {
         cores
     }
 
+    /// Pixels of a `tile`-sided core grown by `margin` on every side, clipped to the frame: what
+    /// the largest tile of a plan holds. Tiles size their buffers for it, so every tile of the
+    /// frame asks the device's pool for the same sizes and takes the memory an earlier tile gave
+    /// back ([`crate::vk::Buffer::uninitialised_with_room`]).
+    pub fn room(&self, tile: usize, margin: usize) -> usize {
+        let side = tile + 2 * margin;
+        side.min(self.width) * side.min(self.height)
+    }
+
     /// The smallest tile the retry goes down to.
     fn min_tile(&self) -> usize {
         self.round(MIN_TILE)
@@ -187,6 +196,14 @@ impl Footprint {
         let read = ((tile + 2 * halo).min(frame.width) * (tile + 2 * halo).min(frame.height)) as u64;
         Footprint { largest_binding: binding_bytes * read.max(core), total: read * read_bytes + core * core_bytes }
     }
+}
+
+/// Pixels of the largest core and read rect of a plan's tiles, which every tile's buffers have
+/// room for ([`FrameTiling::room`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TileRoom {
+    pub core: usize,
+    pub read: usize,
 }
 
 /// Tile side (a multiple of the frame's alignment) and tiles per submission.
@@ -297,6 +314,9 @@ pub(crate) fn run_tiled<T>(
             None => ctx.learned_tile_work().max(MAX_WORK_PER_TILE),
         },
     };
+    // The pool keeps buffers between tiles and renders within what this render may hold, and
+    // the eighth its size classes may round the tiles' buffers up by.
+    ctx.keep_buffers_within(limits.bytes.saturating_add(limits.bytes / 8));
     // Never more per batch than the frame has tiles: a retry then starts from what really ran.
     let tiles_per_batch = |tile: usize| {
         let wanted = match options.tiles_per_batch {
@@ -407,8 +427,8 @@ impl Limits {
 /// allocates a tile's buffers and records its passes into the batch, returning what to read
 /// back; after the batch's one submission has completed, `collect` takes each tile's read-back
 /// in order, and progress is reported per tile. The batch is reused: its command and descriptor
-/// pools and staging arena are reset after each submission, and a tile's buffers are freed once
-/// its batch is collected. Where the plan allows growth, the first batch's device time measures
+/// pools and staging arenas are reset after each submission, and a tile's buffers go back to the
+/// device's pool once its batch is collected, for the next batch's tiles. Where the plan allows growth, the first batch's device time measures
 /// the device, and the rest of the frame is cut into tiles as large as that speed allows
 /// ([`measured_work_bound`], remembered by the context for later renders): on a fast GPU the
 /// conservative first bound would cut an 8K frame into hundreds of tiles, each paying
@@ -422,7 +442,8 @@ pub(crate) fn run_batches<T>(
     mut record: impl FnMut(&mut CommandBatch, Rect) -> Result<T>,
     mut collect: impl FnMut(Rect, T) -> Result<()>,
 ) -> Result<(RenderStats, Vec<Rect>)> {
-    let baseline = ctx.allocated_bytes();
+    // Buffers in use, not allocated: the pool's idle buffers are no tile's.
+    let baseline = ctx.buffer_bytes_in_use();
     let mut cores = frame.cores(plan.tile);
     let mut stats = RenderStats {
         device_ns: Some(0.0),
@@ -439,7 +460,7 @@ pub(crate) fn run_batches<T>(
         let recording = std::time::Instant::now();
         for &core in &batch_cores {
             tiles.push((core, record(&mut batch, core)?));
-            let held = ctx.allocated_bytes().saturating_sub(baseline);
+            let held = ctx.buffer_bytes_in_use().saturating_sub(baseline);
             if options.device_memory_limit.is_some_and(|limit| held > limit) {
                 // The testing aid: as if the driver had refused the allocation just made.
                 return Err(Error::Allocation(gpu_allocator::AllocationError::OutOfMemory));
@@ -519,29 +540,32 @@ fn remaining_regions(frame: &FrameTiling, done: &[Rect], tile: usize) -> Option<
 /// The whole service for a method whose tiles each write one RGBA float32 pixel per core pixel
 /// (core-local, row-major): plans, runs and retries as [`run_tiled`], reads each tile's core
 /// into the frame. `record` gets the core and the read rect (the core grown by `halo(core)`,
-/// clipped to the frame) and returns the tile's host-readable result ([`Buffer::readable_in`]).
+/// clipped to the frame) and the room of the plan's largest tile ([`TileRoom`]), and returns the
+/// tile's host-readable result ([`crate::vk::Buffer::readable_in`]).
 pub(crate) fn render_image_tiles(
     ctx: &Context,
     frame: &FrameTiling,
     options: &RenderOptions,
     footprint: impl Fn(usize) -> Footprint,
     halo: impl Fn(Rect) -> usize,
-    mut record: impl FnMut(&mut CommandBatch, Rect, Rect) -> Result<Buffer>,
+    mut record: impl FnMut(&mut CommandBatch, Rect, Rect, TileRoom) -> Result<ReadBack>,
 ) -> Result<(Image, RenderStats)> {
     run_tiled(ctx, frame, options, footprint, |plan| {
         let mut image = Image::new(frame.width, frame.height);
+        let max_halo = frame.cores(plan.tile).into_iter().map(&halo).max().unwrap_or(0);
+        let room = TileRoom { core: frame.room(plan.tile, 0), read: frame.room(plan.tile, max_halo) };
         let record = |batch: &mut CommandBatch, core: Rect| {
             let read = core.grown(halo(core), frame.width, frame.height);
-            record(batch, core, read)
+            record(batch, core, read, room)
         };
-        let collect = |core: Rect, result: Buffer| store_core(ctx, &mut image, core, &result);
+        let collect = |core: Rect, result: ReadBack| store_core(ctx, &mut image, core, &result);
         let (stats, _) = run_batches(ctx, frame, plan, options, record, collect)?;
         Ok((image, stats))
     })
 }
 
 /// Copies a tile's core-local RGBA result into the frame.
-pub(crate) fn store_core(ctx: &Context, image: &mut Image, core: Rect, result: &Buffer) -> Result<()> {
+pub(crate) fn store_core(ctx: &Context, image: &mut Image, core: Rect, result: &ReadBack) -> Result<()> {
     result.read_with(ctx, |result: &[[f32; 4]]| {
         for (y, row) in result.chunks_exact(core.width()).take(core.height()).enumerate() {
             let start = (core.y0 + y) * image.width + core.x0;

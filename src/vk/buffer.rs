@@ -1,39 +1,38 @@
 //! Storage buffers and their memory (gpu-allocator). A [`Buffer`] is a cheap handle; the
-//! memory and the `VkBuffer` are freed when the last handle drops — including the handles a
-//! [`super::CommandBatch`] keeps until its fence signals.
+//! memory and the `VkBuffer` go back to the device's pool ([`super::pool`]) when the last handle
+//! drops — including the handles a [`super::CommandBatch`] keeps until its fence signals.
 use std::sync::{Arc, Mutex};
 
 use ash::vk;
-use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
 use super::device::Device;
 use super::error::VkCall;
+use super::pool::BufferMemory;
 use super::{CommandBatch, Context};
 use crate::{Error, Result};
 
 struct BufferInner {
     device: Arc<Device>,
+    /// `Some` until the last handle drops and it goes back to the device's pool.
+    memory: Option<BufferMemory>,
     raw: vk::Buffer,
-    allocation: Option<Allocation>,
+    /// The bytes asked for (bindings and read-backs see these; the memory may hold more).
     size: u64,
     name: String,
-    /// Texel views made by [`Buffer::texel_view`]: (format, offset, range, view).
+    /// Texel views made by [`Buffer::texel_view`]: (format, offset, range, view). They stay
+    /// with the memory in the pool, for the next tile that binds the same ranges.
     views: Mutex<Vec<(vk::Format, u64, u64, vk::BufferView)>>,
 }
 
 impl Drop for BufferInner {
     fn drop(&mut self) {
-        for (_, _, _, view) in self.views.get_mut().unwrap_or_else(|e| e.into_inner()).drain(..) {
-            // SAFETY: the last handle is gone, so no pending submission uses the view.
-            unsafe { self.device.raw.destroy_buffer_view(view, None) };
+        if let Some(mut memory) = self.memory.take() {
+            memory.views = std::mem::take(self.views.get_mut().unwrap_or_else(|e| e.into_inner()));
+            // The last handle is gone, so no pending submission uses the buffer (batches hold
+            // handles until their fence signals): the pool may hand it out again.
+            self.device.release_buffer_memory(memory);
         }
-        if let Some(allocation) = self.allocation.take() {
-            let _ = self.device.allocator().free(allocation);
-        }
-        // SAFETY: the last handle is gone, so no pending submission references the buffer
-        // (batches hold handles until their fence signals); its memory was freed just above.
-        unsafe { self.device.raw.destroy_buffer(self.raw, None) };
     }
 }
 
@@ -41,6 +40,34 @@ impl Drop for BufferInner {
 /// source/destination.
 #[derive(Clone)]
 pub struct Buffer(Arc<BufferInner>);
+
+/// A buffer's contents readable on the host once the batch that recorded their read-back has
+/// waited ([`Buffer::readable_in`]): the buffer itself where the host can map it, else space of
+/// the batch's read-back arena. The arena's space is handed out again only after every
+/// `ReadBack` of it has dropped.
+#[derive(Clone)]
+pub struct ReadBack {
+    pub(super) buffer: Buffer,
+    pub(super) offset: u64,
+    size: u64,
+}
+
+impl ReadBack {
+    /// Size in bytes.
+    pub fn size(&self) -> u64 {
+        self.size
+    }
+
+    /// Calls `f` with the contents as `T`s: the mapped memory itself, without a host copy.
+    pub fn read_with<T: bytemuck::Pod, R>(&self, ctx: &Context, f: impl FnOnce(&[T]) -> R) -> Result<R> {
+        self.buffer.read_range_with(ctx, self.offset, self.size, f)
+    }
+
+    /// The contents as `T`s.
+    pub fn read<T: bytemuck::Pod>(&self, ctx: &Context) -> Result<Vec<T>> {
+        self.read_with(ctx, |items: &[T]| items.to_vec())
+    }
+}
 
 /// A range of a buffer bound to one descriptor (tiles bind sub-ranges of big buffers).
 #[derive(Clone, Copy)]
@@ -50,61 +77,39 @@ pub struct Binding<'a> {
     pub range: u64,
 }
 
-const USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
-    vk::BufferUsageFlags::STORAGE_BUFFER.as_raw()
-        | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER.as_raw()
-        | vk::BufferUsageFlags::TRANSFER_SRC.as_raw()
-        | vk::BufferUsageFlags::TRANSFER_DST.as_raw(),
-);
-
 impl Buffer {
     fn create(ctx: &Context, name: &str, size: u64, location: MemoryLocation) -> Result<Self> {
-        Self::create_on(&ctx.device, name, size, location)
+        Self::create_on(&ctx.device, name, size, size, location)
     }
 
-    pub(crate) fn create_on(device: &Arc<Device>, name: &str, size: u64, location: MemoryLocation) -> Result<Self> {
+    /// A buffer of `size` bytes from the device's pool ([`super::pool`]) in memory of at least
+    /// `room` bytes (and `size`): memory another buffer of its size class held before, else new.
+    /// Its contents are undefined.
+    pub(crate) fn create_on(
+        device: &Arc<Device>,
+        name: &str,
+        size: u64,
+        room: u64,
+        location: MemoryLocation,
+    ) -> Result<Self> {
         // Zero-sized buffers are invalid in Vulkan; a 4-byte one keeps callers branch-free.
         let size = size.max(4);
-        let info = vk::BufferCreateInfo::default().size(size).usage(USAGE).sharing_mode(vk::SharingMode::EXCLUSIVE);
-        // SAFETY: valid create info on a live device.
-        let raw = unsafe { device.raw.create_buffer(&info, None) }.call("vkCreateBuffer")?;
-        // SAFETY: `raw` was just created on this device.
-        let requirements = unsafe { device.raw.get_buffer_memory_requirements(raw) };
-        let desc = AllocationCreateDesc {
-            name,
-            requirements,
-            location,
-            linear: true,
-            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-        };
-        let allocation = match device.allocator().allocate(&desc) {
-            Ok(a) => a,
-            Err(e) => {
-                // SAFETY: the buffer has no memory and was never used.
-                unsafe { device.raw.destroy_buffer(raw, None) };
-                return Err(Error::Allocation(e));
-            }
-        };
-        // SAFETY: a live allocation of this device; read before it moves into the handle.
-        let (memory, offset) = unsafe { (allocation.memory(), allocation.offset()) };
-        // From here on, dropping `inner` frees the memory and destroys the buffer.
-        let inner = BufferInner {
+        let mut memory = device.buffer_memory(name, size.max(room), location)?;
+        device.set_name(memory.raw, name);
+        let views = Mutex::new(std::mem::take(&mut memory.views));
+        Ok(Self(Arc::new(BufferInner {
             device: device.clone(),
-            raw,
-            allocation: Some(allocation),
+            raw: memory.raw,
+            memory: Some(memory),
             size,
             name: name.to_string(),
-            views: Mutex::new(Vec::new()),
-        };
-        // SAFETY: the allocation satisfies the buffer's requirements and is bound exactly once.
-        unsafe { device.raw.bind_buffer_memory(raw, memory, offset) }.call("vkBindBufferMemory")?;
-        device.set_name(raw, name);
-        Ok(Self(Arc::new(inner)))
+            views,
+        })))
     }
 
     /// A view of `range` bytes at `offset` as texels of `format`, for a uniform texel buffer
-    /// binding: made once per (format, offset, range), destroyed with the buffer (so it lives
-    /// as long as any batch that holds the buffer). The caller checks the device's limits.
+    /// binding: made once per (format, offset, range), destroyed with the buffer's memory (so it
+    /// lives as long as any batch that holds the buffer). The caller checks the device's limits.
     pub(crate) fn texel_view(&self, format: vk::Format, offset: u64, range: u64) -> Result<vk::BufferView> {
         let mut views = self.0.views.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(&(_, _, _, view)) = views.iter().find(|v| (v.0, v.1, v.2) == (format, offset, range)) {
@@ -138,13 +143,32 @@ impl Buffer {
     /// writes whole before anything reads it: a fill would only cost a pass over the memory
     /// (on a CPU device, a single-threaded memset of freshly mapped pages).
     pub fn uninitialised(ctx: &Context, name: &str, size: u64) -> Result<Self> {
-        Self::create(ctx, name, size, MemoryLocation::GpuOnly)
+        Self::uninitialised_with_room(ctx, name, size, size)
+    }
+
+    /// [`Self::uninitialised`] in memory with room for `room` bytes: a tile's buffer sized for
+    /// the largest tile of its frame, so that every tile's buffer of the same role is one size
+    /// class of the pool and takes the memory an earlier tile gave back (tiles the frame's
+    /// border clips would otherwise each ask for sizes of their own).
+    pub fn uninitialised_with_room(ctx: &Context, name: &str, size: u64, room: u64) -> Result<Self> {
+        Self::create_on(&ctx.device, name, size, room, MemoryLocation::GpuOnly)
     }
 
     /// A device-local buffer of `size` bytes, zero-filled by a command recorded into `batch`:
     /// zero for every later command of the batch, without a submission of its own.
     pub fn zeroed_in(ctx: &Context, batch: &mut CommandBatch, name: &str, size: u64) -> Result<Self> {
-        let buffer = Self::create(ctx, name, size, MemoryLocation::GpuOnly)?;
+        Self::zeroed_with_room_in(ctx, batch, name, size, size)
+    }
+
+    /// [`Self::zeroed_in`] with room for `room` bytes ([`Self::uninitialised_with_room`]).
+    pub fn zeroed_with_room_in(
+        ctx: &Context,
+        batch: &mut CommandBatch,
+        name: &str,
+        size: u64,
+        room: u64,
+    ) -> Result<Self> {
+        let buffer = Self::uninitialised_with_room(ctx, name, size, room)?;
         batch.fill_zero(&buffer)?;
         Ok(buffer)
     }
@@ -160,7 +184,7 @@ impl Buffer {
         len: usize,
         data: impl IntoIterator<Item = T>,
     ) -> Result<Self> {
-        Self::filled_in(ctx, batch, name, len, |target: *mut T| {
+        Self::filled_in(ctx, batch, name, len, len, |target: *mut T| {
             let mut written = 0;
             for item in data.into_iter().take(len) {
                 // SAFETY: `target` holds `len` items of T (checked by `take`) and
@@ -182,7 +206,19 @@ impl Buffer {
         len: usize,
         slices: impl IntoIterator<Item = &'a [T]>,
     ) -> Result<Self> {
-        Self::filled_in(ctx, batch, name, len, |target: *mut T| {
+        Self::from_slices_with_room_in(ctx, batch, name, len, len, slices)
+    }
+
+    /// [`Self::from_slices_in`] with room for `room` items ([`Self::uninitialised_with_room`]).
+    pub fn from_slices_with_room_in<'a, T: bytemuck::Pod>(
+        ctx: &Context,
+        batch: &mut CommandBatch,
+        name: &str,
+        len: usize,
+        room: usize,
+        slices: impl IntoIterator<Item = &'a [T]>,
+    ) -> Result<Self> {
+        Self::filled_in(ctx, batch, name, len, room, |target: *mut T| {
             let mut written = 0;
             for slice in slices {
                 let count = slice.len().min(len - written);
@@ -205,18 +241,20 @@ impl Buffer {
         })
     }
 
-    /// A device-local buffer of `len` items of T, filled by `fill` (given where to write them;
-    /// it returns how many it wrote), in place where the host may map it, else in the batch's
-    /// staging arena with a copy recorded into `batch`.
+    /// A device-local buffer of `len` items of T (in memory with room for `room`), filled by
+    /// `fill` (given where to write them; it returns how many it wrote), in place where the host
+    /// may map it, else in the batch's staging arena with a copy recorded into `batch`.
     fn filled_in<T: bytemuck::Pod>(
         ctx: &Context,
         batch: &mut CommandBatch,
         name: &str,
         len: usize,
+        room: usize,
         fill: impl FnOnce(*mut T) -> usize,
     ) -> Result<Self> {
-        let bytes = (len * std::mem::size_of::<T>()) as u64;
-        let buffer = Self::create(ctx, name, bytes, MemoryLocation::GpuOnly)?;
+        let item = std::mem::size_of::<T>() as u64;
+        let bytes = len as u64 * item;
+        let buffer = Self::uninitialised_with_room(ctx, name, bytes, room as u64 * item)?;
         // Device memory the host cannot map (discrete GPUs) is filled from the batch's staging
         // arena, reused by every submission of the batch.
         let (target, offset) = match buffer.host_access() {
@@ -236,16 +274,21 @@ impl Buffer {
         Ok(buffer)
     }
 
-    /// A host-readable buffer that holds this buffer's contents once `batch` has been submitted
-    /// and waited for: this buffer itself where its memory is host-visible, else a staging copy
-    /// recorded into the batch. Read it with [`Buffer::read`] (a plain memory copy then).
-    pub fn readable_in(&self, ctx: &Context, batch: &mut CommandBatch) -> Result<Self> {
+    /// This buffer's contents, readable on the host once `batch` has been submitted and waited
+    /// for: this buffer itself where its memory is host-visible, else a copy into the batch's
+    /// read-back arena recorded into the batch (a plain memory read then).
+    pub fn readable_in(&self, batch: &mut CommandBatch) -> Result<ReadBack> {
         if self.host_access().is_some() {
-            return Ok(self.clone());
+            return Ok(ReadBack { buffer: self.clone(), offset: 0, size: self.size() });
         }
-        let staging = Self::create(ctx, "staging read-back", self.size(), MemoryLocation::GpuToCpu)?;
-        batch.copy(self, &staging, self.size())?;
-        Ok(staging)
+        let (arena, offset) = batch.read_back_space(self.size())?;
+        batch.copy_region(self, 0, &arena, offset, self.size())?;
+        Ok(ReadBack { buffer: arena, offset, size: self.size() })
+    }
+
+    /// Whether a handle besides this one exists (an arena whose space a read-back still holds).
+    pub(crate) fn is_shared(&self) -> bool {
+        Arc::strong_count(&self.0) > 1
     }
 
     /// Size in bytes.
@@ -281,7 +324,7 @@ impl Buffer {
     }
 
     fn mapped(&self) -> Option<*mut u8> {
-        let allocation = self.0.allocation.as_ref()?;
+        let allocation = &self.0.memory.as_ref()?.allocation;
         let coherent = allocation.memory_properties().contains(vk::MemoryPropertyFlags::HOST_COHERENT);
         allocation.mapped_ptr().filter(|_| coherent).map(|p| p.as_ptr().cast::<u8>())
     }
@@ -329,16 +372,31 @@ impl Buffer {
     /// the mapped memory itself where it is host-visible, else a read-back copy ([`Self::read`]).
     /// A tile's result then goes into the frame without a second copy of it on the host.
     pub fn read_with<T: bytemuck::Pod, R>(&self, ctx: &Context, f: impl FnOnce(&[T]) -> R) -> Result<R> {
-        let aligned = |ptr: &*mut u8| (*ptr as usize) % std::mem::align_of::<T>() == 0;
-        if let Some(ptr) = self.mapped().filter(aligned) {
-            let count = self.size() as usize / std::mem::size_of::<T>();
+        self.read_range_with(ctx, 0, self.size(), f)
+    }
+
+    /// [`Self::read_with`] for the `bytes` from `offset`.
+    fn read_range_with<T: bytemuck::Pod, R>(
+        &self,
+        ctx: &Context,
+        offset: u64,
+        bytes: u64,
+        f: impl FnOnce(&[T]) -> R,
+    ) -> Result<R> {
+        self.check_len((offset + bytes) as usize)?;
+        let count = bytes as usize / std::mem::size_of::<T>();
+        // SAFETY (the pointer arithmetic): `offset` lies within the mapping (checked above).
+        let start = self.mapped().map(|ptr| unsafe { ptr.add(offset as usize) });
+        if let Some(ptr) = start.filter(|ptr| (*ptr as usize) % std::mem::align_of::<T>() == 0) {
             // SAFETY: mapped, coherent and aligned for T; `count` Ts lie within the buffer, which
             // `&self` keeps alive while `f` runs; the writing batch has waited on its fence after
             // a shader-write -> host-read barrier, and nothing writes it meanwhile.
             let data = unsafe { std::slice::from_raw_parts(ptr.cast::<T>(), count) };
             return Ok(f(data));
         }
-        Ok(f(&self.read::<T>(ctx)?))
+        let all: Vec<u8> = self.read(ctx)?;
+        let start = offset as usize;
+        Ok(f(&bytemuck::pod_collect_to_vec::<u8, T>(&all[start..start + count * std::mem::size_of::<T>()])))
     }
 
     fn check_len(&self, len: usize) -> Result<()> {

@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::arena::StagingArena;
 use super::buffer::{Binding, Buffer};
 use super::device::Device;
 use super::error::VkCall;
@@ -43,22 +44,15 @@ pub struct CommandBatch {
     last_device_time_ns: Option<f64>,
     in_use_buffers: Vec<Buffer>,
     in_use_pipelines: Vec<ComputePipeline>,
-    /// Host-visible staging arenas of uploads ([`Self::staging`]); space in the last one is
-    /// handed out from `staging_used` on.
-    staging: Vec<Buffer>,
-    staging_used: u64,
-    /// Size of the one arena that replaces several after a submission that needed them.
-    staging_capacity: u64,
+    /// Host-visible staging memory of uploads ([`Self::staging`]) and of read-backs
+    /// ([`Self::read_back_space`]).
+    staging: StagingArena,
+    read_backs: StagingArena,
     recording: bool,
     /// True between a submission and the wait on its fence.
     pending: bool,
     commands: usize,
 }
-
-/// Alignment of staging offsets (any element type, and copies that drivers move in wide words).
-const STAGING_ALIGN: u64 = 256;
-/// Smallest staging arena.
-const MIN_STAGING: u64 = 16 << 20;
 
 /// Timestamp queries per batch: start and end, plus one per dispatch when profiling.
 fn query_count() -> u32 {
@@ -88,9 +82,8 @@ impl CommandBatch {
             last_device_time_ns: None,
             in_use_buffers: Vec::new(),
             in_use_pipelines: Vec::new(),
-            staging: Vec::new(),
-            staging_used: 0,
-            staging_capacity: 0,
+            staging: StagingArena::uploads(),
+            read_backs: StagingArena::read_backs(),
             recording: false,
             pending: false,
             commands: 0,
@@ -341,33 +334,25 @@ impl CommandBatch {
     }
 
     /// `bytes` of host-visible staging memory for an upload recorded into this batch: the arena
-    /// and the offset of the space. Arenas outlive submissions (their space is handed out anew
-    /// after each wait), so the pages of a render's staging memory are allocated and faulted in
-    /// once, not once per tile: fresh host allocations for every tile's inputs wrote at ~1 GB/s
-    /// on an H200 machine (7.1 of the 9.4 s wall time of an 8K five-layer frame).
+    /// and the offset of the space ([`super::arena`]: reused by every submission of the batch).
     pub(crate) fn staging(&mut self, bytes: u64) -> Result<(Buffer, u64)> {
-        // Offsets stay aligned for any element type.
-        let bytes = bytes.max(4).next_multiple_of(STAGING_ALIGN);
-        if let Some(arena) = self.staging.last() {
-            if self.staging_used + bytes <= arena.size() {
-                let offset = self.staging_used;
-                self.staging_used += bytes;
-                return Ok((arena.clone(), offset));
-            }
-        }
-        // A new arena: at least what this submission has used so far (doubling), the capacity
-        // an earlier submission needed, and MIN_STAGING.
-        let used: u64 = self.staging.iter().map(Buffer::size).sum();
-        let size = bytes.max(used).max(self.staging_capacity).max(MIN_STAGING);
-        let arena = Buffer::create_on(&self.device, "staging arena", size, gpu_allocator::MemoryLocation::CpuToGpu)?;
-        self.staging.push(arena.clone());
-        self.staging_used = bytes;
-        Ok((arena, 0))
+        self.staging.space(&self.device, bytes)
     }
 
-    /// Host-visible staging bytes this batch holds (its arenas).
+    /// `bytes` of host-readable memory for a read-back recorded into this batch: the arena and
+    /// the offset of the space, readable once the batch has waited.
+    pub(crate) fn read_back_space(&mut self, bytes: u64) -> Result<(Buffer, u64)> {
+        self.read_backs.space(&self.device, bytes)
+    }
+
+    /// Host-visible staging bytes this batch holds (its upload arenas).
     pub fn staging_bytes(&self) -> u64 {
-        self.staging.iter().map(Buffer::size).sum()
+        self.staging.bytes()
+    }
+
+    /// Host-readable bytes this batch holds for read-backs (its read-back arenas).
+    pub fn read_back_bytes(&self) -> u64 {
+        self.read_backs.bytes()
     }
 
     /// Records zero-filling the whole buffer.
@@ -481,18 +466,9 @@ impl CommandBatch {
         self.last_device_time_ns
     }
 
-    /// After a wait: the arenas' space is free again; several arenas (a submission that
-    /// outgrew the first) give way to one of their total size, made at the next upload.
-    fn reset_staging(&mut self) {
-        if self.staging.len() > 1 {
-            self.staging_capacity = self.staging_bytes();
-            self.staging.clear();
-        }
-        self.staging_used = 0;
-    }
-
     fn reset(&mut self) -> Result<()> {
-        self.reset_staging();
+        self.staging.reset();
+        self.read_backs.reset();
         // SAFETY: the fence has signalled, so nothing recorded is pending any more.
         unsafe {
             self.device.raw.reset_fences(&[self.fence]).call("vkResetFences")?;
@@ -542,6 +518,7 @@ impl Drop for CommandBatch {
 mod tests {
     use super::*;
     use crate::shaders;
+    use crate::vk::arena::{MIN_STAGING, STAGING_ALIGN};
     use crate::vk::ContextOptions;
 
     /// Staging space comes from one arena, handed out anew after each wait; a submission that
@@ -574,6 +551,38 @@ mod tests {
         let (again, offset) = batch.staging(16).unwrap();
         assert_eq!((again.raw(), offset), (merged.raw(), 0), "the one arena is kept and its space handed out anew");
         drop((merged, again, batch, target));
+        ctx.finish().unwrap();
+    }
+
+    /// Read-back space is handed out again after a wait only once the read-backs of the last
+    /// submission have dropped: one still held keeps its bytes, and the next submission reads
+    /// back into another arena.
+    #[test]
+    fn read_back_arenas_are_reused_only_once_their_read_backs_are_dropped() {
+        let options = ContextOptions { validation: true, staged_transfers: true, ..ContextOptions::from_env() };
+        let ctx = Context::new(&options)
+            .unwrap_or_else(|e| panic!("this test needs a Vulkan device with validation layers: {e}"));
+        let data = [1u32, 2, 3, 4];
+        let source = Buffer::from_slice(&ctx, "source", &data).unwrap();
+        let mut batch = CommandBatch::new(&ctx).unwrap();
+        let (first, second) = (source.readable_in(&mut batch).unwrap(), source.readable_in(&mut batch).unwrap());
+        assert!(first.buffer.raw() != source.raw(), "staged: a copy into the read-back arena");
+        assert_eq!((first.offset, second.buffer.raw(), second.offset), (0, first.buffer.raw(), STAGING_ALIGN));
+        batch.submit_and_wait().unwrap();
+        let third = source.readable_in(&mut batch).unwrap();
+        assert!(third.buffer.raw() != first.buffer.raw(), "the first arena's read-backs are still held");
+        batch.submit_and_wait().unwrap();
+        for read_back in [&first, &second, &third] {
+            assert_eq!(read_back.read::<u32>(&ctx).unwrap(), data);
+        }
+        let third_arena = third.buffer.raw();
+        drop((first, second, third));
+        let fourth = source.readable_in(&mut batch).unwrap();
+        assert_eq!((fourth.buffer.raw(), fourth.offset), (third_arena, 0), "nothing holds the arena: reused");
+        assert_eq!(batch.read_back_bytes(), MIN_STAGING);
+        batch.submit_and_wait().unwrap();
+        assert_eq!(fourth.read::<u32>(&ctx).unwrap(), data);
+        drop((fourth, batch, source));
         ctx.finish().unwrap();
     }
 

@@ -14,6 +14,7 @@ use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use super::error::VkCall;
 use super::instance::Instance;
 use super::pipeline_cache::{self, CacheIdentity, PipelineCache};
+use super::pool::{BufferPool, PoolCounts};
 use crate::{Error, Result};
 
 /// How to open the GPU: validation on/off, which device, where compiled pipelines are kept.
@@ -249,6 +250,8 @@ pub(crate) struct Device {
     /// The largest work per tile a render on this device has measured it can take in time
     /// (the tiler's, `crate::render::tiler`); 0 until one has.
     learned_tile_work: std::sync::atomic::AtomicU64,
+    /// Every buffer's memory, kept for reuse between its buffers ([`super::pool`]).
+    pub(crate) buffer_pool: BufferPool,
 }
 
 impl Device {
@@ -278,10 +281,11 @@ impl Device {
 impl Drop for Device {
     fn drop(&mut self) {
         // SAFETY: every object of this device holds an Arc to it, so they are all gone; waiting
-        // idle covers submissions whose fence nobody waited for. The allocator frees its memory
-        // blocks before the device is destroyed.
+        // idle covers submissions whose fence nobody waited for. The pool's idle buffers, then
+        // the allocator's memory blocks, are freed before the device is destroyed.
         unsafe {
             let _ = self.raw.device_wait_idle();
+            self.destroy_buffer_memory(self.buffer_pool.drain_idle());
             self.pipeline_cache.save_and_destroy(&self.raw);
             ManuallyDrop::drop(&mut self.allocator);
             self.raw.destroy_device(None);
@@ -360,6 +364,7 @@ impl Context {
             instance,
             staged_transfers: options.staged_transfers,
             learned_tile_work: Default::default(),
+            buffer_pool: BufferPool::default(),
         };
         device.check_validation()?;
         log::info!("Vulkan device: {} ({})", device.info.name, device.info.driver);
@@ -421,16 +426,19 @@ impl Context {
         let Some(heap) = device_local_heap(&memory) else {
             return MemoryBudget { available_bytes: 0, measured: false };
         };
+        // The pool's idle buffers count as available: it drops them when memory is short.
+        let idle = device.buffer_pool.counts().idle_bytes;
         if device.info.memory_budget_extension && budget.heap_budget[heap] > 0 {
-            let available_bytes = budget.heap_budget[heap].saturating_sub(budget.heap_usage[heap]);
-            return MemoryBudget { available_bytes, measured: true };
+            let available_bytes = budget.heap_budget[heap].saturating_sub(budget.heap_usage[heap]) + idle;
+            return MemoryBudget { available_bytes: available_bytes.min(budget.heap_budget[heap]), measured: true };
         }
         let heap_bytes = memory.memory_heaps[heap].size;
         // A CPU device (lavapipe, CI's device) allocates from system memory, which the kernel
         // accounts for: the heap less what this context holds, and at most what is available.
         if device.info.kind == kind_name(vk::PhysicalDeviceType::CPU) {
             if let Some(system) = system_available_bytes() {
-                let available_bytes = heap_bytes.saturating_sub(self.allocated_bytes()).min(system);
+                let held = self.allocated_bytes().saturating_sub(idle);
+                let available_bytes = heap_bytes.saturating_sub(held).min(system + idle);
                 return MemoryBudget { available_bytes, measured: true };
             }
         }
@@ -448,8 +456,31 @@ impl Context {
         self.device.pipeline_cache.loaded_bytes
     }
 
-    /// Bytes currently allocated on the device by this context.
+    /// Bytes currently allocated on the device by this context (idle pooled buffers included).
     pub fn allocated_bytes(&self) -> u64 {
         self.device.allocator().generate_report().total_allocated_bytes
+    }
+
+    /// Bytes of the buffers alive now (the pool's idle buffers not included): what a render
+    /// holds, without asking the allocator for a report.
+    pub fn buffer_bytes_in_use(&self) -> u64 {
+        let counts = self.device.buffer_pool.counts();
+        counts.total_bytes - counts.idle_bytes
+    }
+
+    /// What the buffer pool has done: buffers created and reused, bytes held and idle.
+    pub fn buffer_pool_counts(&self) -> PoolCounts {
+        self.device.buffer_pool.counts()
+    }
+
+    /// Bounds the device memory of all buffers, in use and idle, past which the pool keeps no
+    /// idle buffer (a render sets its budget; 0 keeps none), dropping idle ones over it now.
+    pub fn keep_buffers_within(&self, bytes: u64) {
+        self.device.destroy_buffer_memory(self.device.buffer_pool.set_limit(bytes));
+    }
+
+    /// Frees every idle buffer of the pool (another program needs the memory, or a long pause).
+    pub fn release_idle_buffers(&self) {
+        self.device.destroy_buffer_memory(self.device.buffer_pool.drain_idle());
     }
 }

@@ -20,6 +20,7 @@
 //! let result: Vec<f32> = c.read(&ctx)?;
 //! # Ok(()) }
 //! ```
+mod arena;
 mod buffer;
 mod command;
 mod device;
@@ -27,10 +28,12 @@ mod error;
 mod instance;
 mod pipeline;
 mod pipeline_cache;
+mod pool;
 pub mod profile;
 pub mod validation;
 
-pub use buffer::{Binding, Buffer};
+pub use buffer::{Binding, Buffer, ReadBack};
 pub use command::CommandBatch;
 pub use device::{list_devices, Context, ContextOptions, DeviceInfo, MemoryBudget};
 pub use pipeline::{ComputePipeline, PipelineVariants, Slot, TexelFormat};
+pub use pool::PoolCounts;

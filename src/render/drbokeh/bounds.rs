@@ -16,28 +16,62 @@ use crate::tile_grid::Rect;
 /// support = max over pixels with alpha > 0 (transparent sources scatter nothing),
 /// gather = max over all pixels of `r + 1/2` (V is evaluated everywhere).
 pub fn tile_bounds_cpu(params: &Params, layer: &Layer) -> Vec<[f64; 2]> {
-    let mut bounds = vec![[0.0f64; 2]; params.tiles_x * params.tiles_y];
-    bounds.par_iter_mut().enumerate().for_each(|(t, bound)| {
-        let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
-        let mut support = 0.0f64;
-        let mut gather = 0.0f64;
-        for py in ty * TILE..((ty + 1) * TILE).min(params.height) {
-            for px in tx * TILE..((tx + 1) * TILE).min(params.width) {
-                let i = py * params.width + px;
-                let r = params.lens.signed_radius(layer.disparity[i]).abs();
-                gather = gather.max(r + 0.5);
-                if layer.rgba.pixels[i][3] > 0.0 {
-                    let s = match params.model {
-                        Model::DrBokeh => math::support(r),
-                        Model::Compat => math::support_compat(r),
-                    };
-                    support = support.max(s);
-                }
+    (0..params.tiles_x * params.tiles_y)
+        .into_par_iter()
+        .map(|t| scan_tile(params, layer, t % params.tiles_x, t / params.tiles_x).0)
+        .collect()
+}
+
+/// One pass over a layer's pixels of the search tile (tx, ty): its `[scatter support, gather
+/// radius]` ([`tile_bounds_cpu`]) and its [`AbsSRange`], which read the same pixels.
+fn scan_tile(params: &Params, layer: &Layer, tx: usize, ty: usize) -> ([f64; 2], AbsSRange) {
+    let push = params.push(0);
+    let (mut support, mut gather) = (0.0f64, 0.0f64);
+    let mut range = AbsSRange {
+        source_min: f32::INFINITY,
+        source_max: f32::NEG_INFINITY,
+        all_max: f32::NEG_INFINITY,
+        source_near: false,
+        source_far: false,
+        all_near: false,
+        all_far: false,
+        source_disparity: Disparities::None,
+        all_disparity: Disparities::None,
+    };
+    let columns = tx * TILE..((tx + 1) * TILE).min(params.width);
+    for py in ty * TILE..((ty + 1) * TILE).min(params.height) {
+        let row = py * params.width + columns.start..py * params.width + columns.end;
+        for (&disparity, rgba) in layer.disparity[row.clone()].iter().zip(&layer.rgba.pixels[row]) {
+            let opaque = rgba[3] > 0.0;
+            // The bounds, in f64 as the CPU reference computes radii.
+            let r = params.lens.signed_radius(disparity).abs();
+            gather = gather.max(r + 0.5);
+            if opaque {
+                let s = match params.model {
+                    Model::DrBokeh => math::support(r),
+                    Model::Compat => math::support_compat(r),
+                };
+                support = support.max(s);
+            }
+            // The |s| ranges, in f32 as the shaders compute them.
+            let signed = push.k_px * (disparity - push.focus_disparity);
+            let s = signed.abs();
+            let finite = s.is_finite();
+            let near = signed > 0.0;
+            range.all_max = range.all_max.max(if finite { s } else { f32::INFINITY });
+            range.all_near |= near;
+            range.all_far |= !near;
+            range.all_disparity = range.all_disparity.with(disparity);
+            if opaque {
+                range.source_disparity = range.source_disparity.with(disparity);
+                range.source_min = range.source_min.min(if finite { s } else { 0.0 });
+                range.source_max = range.source_max.max(if finite { s } else { f32::INFINITY });
+                range.source_near |= near;
+                range.source_far |= !near;
             }
         }
-        *bound = [support, gather];
-    });
-    bounds
+    }
+    ([support, gather], range)
 }
 
 /// Window of a tile that no source reaches: the gather loops `-h..=h` run zero times.
@@ -81,9 +115,22 @@ pub fn tile_window_cpu(params: &Params, bounds: &[[f64; 2]]) -> Vec<i32> {
 }
 
 /// Window half-widths of every layer, layer-major (`[layer * tiles + tile]`): the
-/// `tile_window` buffer of `drbokeh_layer.comp`, and the frame tiles' halos.
-pub fn search_windows(params: &Params, stack: &LayerStack) -> Vec<i32> {
-    stack.layers.iter().flat_map(|layer| tile_window_cpu(params, &tile_bounds_cpu(params, layer))).collect()
+/// `tile_window` buffer of `drbokeh_layer.comp`, and the frame tiles' halos; with the
+/// [`SourceRanges`] of the span paths, from the same pass over the pixels, on every core.
+pub fn windows_and_ranges(params: &Params, stack: &LayerStack) -> (Vec<i32>, SourceRanges) {
+    let per_layer = params.tiles_x * params.tiles_y;
+    let scans: Vec<([f64; 2], AbsSRange)> = (0..stack.layers.len() * per_layer)
+        .into_par_iter()
+        .map(|i| {
+            let (layer, t) = (&stack.layers[i / per_layer], i % per_layer);
+            scan_tile(params, layer, t % params.tiles_x, t / params.tiles_x)
+        })
+        .collect();
+    let windows = scans
+        .chunks(per_layer.max(1))
+        .flat_map(|layer| tile_window_cpu(params, &layer.iter().map(|scan| scan.0).collect::<Vec<_>>()))
+        .collect();
+    (windows, SourceRanges(scans.into_iter().map(|scan| scan.1).collect()))
 }
 
 /// Windows grown by `margin` pixels, empty tiles left empty (their layer contributes exactly
@@ -112,11 +159,11 @@ pub fn grow_windows(mut windows: Vec<i32>, margin: i32) -> Vec<i32> {
 ///   source that adds something sees the aperture through the centre's own CoC, and the kernel
 ///   path samples the kernel image once a tap for both.
 /// Tiles outside the core hold `[0, f32::MAX, 0, 0]`: no shortcut.
-pub fn span_radii(params: &Params, stack: &LayerStack, windows: &[i32], core: Rect) -> Vec<[f32; 4]> {
+pub fn span_radii(params: &Params, ranges: &SourceRanges, windows: &[i32], core: Rect) -> Vec<[f32; 4]> {
     let per_layer = params.tiles_x * params.tiles_y;
     let mut radii = vec![NO_SPAN_RADII; windows.len()];
-    for (l, layer) in stack.layers.iter().enumerate() {
-        let mut tile_ranges = vec![None; per_layer];
+    for l in 0..windows.len() / per_layer.max(1) {
+        let tile_ranges = &ranges.0[l * per_layer..(l + 1) * per_layer];
         for t in search_tiles(params, core) {
             let h = windows[l * per_layer + t];
             if h < 0 {
@@ -128,14 +175,14 @@ pub fn span_radii(params: &Params, stack: &LayerStack, windows: &[i32], core: Re
                 let last = (((tile + 1) * TILE).min(side) - 1 + h as usize).min(side - 1) / TILE;
                 first..=last
             };
-            let mut range = *tile_ranges[t].get_or_insert_with(|| abs_s_range(params, layer, tx, ty));
+            let mut range = tile_ranges[t];
             let own_reach = range.all_max;
             let (mut near, mut far) = (range.all_near, range.all_far);
             let mut one_disparity = range.all_disparity;
             for uy in cover(ty, params.height) {
                 for ux in cover(tx, params.width) {
                     let u = uy * params.tiles_x + ux;
-                    let other = *tile_ranges[u].get_or_insert_with(|| abs_s_range(params, layer, ux, uy));
+                    let other = tile_ranges[u];
                     range.source_min = range.source_min.min(other.source_min);
                     range.source_max = range.source_max.max(other.source_max);
                     near |= other.source_near;
@@ -165,6 +212,12 @@ pub fn span_radii(params: &Params, stack: &LayerStack, windows: &[i32], core: Re
 
 /// [`span_radii`] of a tile without shortcuts: no interior, no trim, both orientations.
 pub const NO_SPAN_RADII: [f32; 4] = [0.0, f32::MAX, 0.0, 0.0];
+
+/// The [`AbsSRange`] of every search tile of every layer (layer-major, as the windows), for
+/// [`span_radii`]: found once per frame with the windows ([`windows_and_ranges`]), where each
+/// frame tile evaluating the search tiles its windows reach evaluated those of its halo again,
+/// one tile after another (the largest host cost of recording a frame's tiles).
+pub struct SourceRanges(Vec<AbsSRange>);
 
 /// f32 `|s|` ranges of one tile, evaluated as `glsl/drbokeh_layer_sources.comp` does.
 #[derive(Clone, Copy, Debug)]
@@ -202,42 +255,6 @@ impl Disparities {
             _ => Disparities::Several,
         }
     }
-}
-
-fn abs_s_range(params: &Params, layer: &Layer, tx: usize, ty: usize) -> AbsSRange {
-    let push = params.push(0);
-    let mut range = AbsSRange {
-        source_min: f32::INFINITY,
-        source_max: f32::NEG_INFINITY,
-        all_max: f32::NEG_INFINITY,
-        source_near: false,
-        source_far: false,
-        all_near: false,
-        all_far: false,
-        source_disparity: Disparities::None,
-        all_disparity: Disparities::None,
-    };
-    for py in ty * TILE..((ty + 1) * TILE).min(params.height) {
-        for px in tx * TILE..((tx + 1) * TILE).min(params.width) {
-            let i = py * params.width + px;
-            let signed = push.k_px * (layer.disparity[i] - push.focus_disparity);
-            let s = signed.abs();
-            let finite = s.is_finite();
-            let near = signed > 0.0;
-            range.all_max = range.all_max.max(if finite { s } else { f32::INFINITY });
-            range.all_near |= near;
-            range.all_far |= !near;
-            range.all_disparity = range.all_disparity.with(layer.disparity[i]);
-            if layer.rgba.pixels[i][3] > 0.0 {
-                range.source_disparity = range.source_disparity.with(layer.disparity[i]);
-                range.source_min = range.source_min.min(if finite { s } else { 0.0 });
-                range.source_max = range.source_max.max(if finite { s } else { f32::INFINITY });
-                range.source_near |= near;
-                range.source_far |= !near;
-            }
-        }
-    }
-    range
 }
 
 /// The 16x16 search tiles a frame core overlaps (cores start on multiples of 16).

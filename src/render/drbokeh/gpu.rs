@@ -7,16 +7,18 @@
 //! lens, area table, push constants) and the search windows are shared with it.
 use std::sync::{Arc, Mutex};
 
-use super::bounds::{search_tiles, search_windows, span_radii, NO_SPAN_RADII};
+use super::bounds::{search_tiles, span_radii, windows_and_ranges, SourceRanges, NO_SPAN_RADII};
 use super::{AperturePath, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
-use crate::render::tiler::{crop_rows, run_batches, run_tiled, store_core, Footprint, FrameTiling, TilePlan};
+use crate::render::tiler::{
+    crop_rows, run_batches, run_tiled, store_core, Footprint, FrameTiling, TilePlan, TileRoom,
+};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tile_grid::Rect;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, Slot, TexelFormat};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, ReadBack, Slot, TexelFormat};
 use crate::{Error, Result};
 
 /// Bytes per read pixel of one layer: uploaded rgba + disparity, prepass P / A + (s, alpha),
@@ -159,7 +161,7 @@ impl DrBokehGpu {
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
         let params = Params::new(stack, lens, model)?;
-        let windows = search_windows(&params, stack);
+        let (windows, ranges) = windows_and_ranges(&params, stack);
         let max_window = windows.iter().copied().max().unwrap_or(0);
         let footprint = |tile: usize| {
             let read = (tile.min(params.width.max(params.height)) as u64 + 2 * max_window as u64).pow(2);
@@ -171,7 +173,7 @@ impl DrBokehGpu {
             }
         };
         let interior = self.kernel != LayerKernel::OptimisedNoInterior;
-        let frame = ForwardFrame::new(&self.ctx, stack, &params, &lens.aperture, &windows, interior)?;
+        let frame = ForwardFrame::new(&self.ctx, stack, &params, &lens.aperture, &windows, interior.then_some(ranges))?;
         // Work bound: every layer's square of the largest search window (span paths do less).
         let work = params.layer_count as u64 * (2 * max_window.max(0) as u64 + 1).pow(2);
         let tiling = params.tiling().with_work(work);
@@ -189,13 +191,15 @@ impl DrBokehGpu {
     ) -> Result<(Image, RenderStats)> {
         let (ctx, params) = (&self.ctx, frame.params);
         let mut image = Image::new(params.width, params.height);
+        let max_halo = frame.windows.iter().copied().max().unwrap_or(0).max(0) as usize;
+        let room = TileRoom { core: tiling.room(plan.tile, 0), read: tiling.room(plan.tile, max_halo) };
         let record = |batch: &mut CommandBatch, core: Rect| {
             let read = core.grown(halo(params, frame.windows, core), params.width, params.height);
-            let buffers = ForwardBuffers::new(ctx, batch, frame, core, read)?;
+            let buffers = ForwardBuffers::new(ctx, batch, frame, core, read, room)?;
             self.record(batch, params, &buffers)?;
-            buffers.result.readable_in(ctx, batch)
+            buffers.result.readable_in(batch)
         };
-        let collect = |core: Rect, result: Buffer| store_core(ctx, &mut image, core, &result);
+        let collect = |core: Rect, result: ReadBack| store_core(ctx, &mut image, core, &result);
         let (mut stats, cores) = run_batches(ctx, tiling, plan, options, record, collect)?;
         stats.taps = cores.iter().map(|&core| taps(params, frame.windows, core)).sum();
         Ok((image, stats))
@@ -301,35 +305,48 @@ impl ForwardBuffers {
     /// Allocates a tile's buffers (intermediates left unfilled: every pass writes its output
     /// whole) and records the upload of its `read` rect into `batch`; the frame's tables are
     /// shared, not copied.
-    pub fn new(ctx: &Context, batch: &mut CommandBatch, frame: &ForwardFrame, core: Rect, read: Rect) -> Result<Self> {
+    pub fn new(
+        ctx: &Context,
+        batch: &mut CommandBatch,
+        frame: &ForwardFrame,
+        core: Rect,
+        read: Rect,
+        room: TileRoom,
+    ) -> Result<Self> {
         let (stack, params) = (frame.stack, frame.params);
-        let tile_radii = match frame.interior {
-            true => span_radii(params, stack, frame.windows, core),
-            false => vec![NO_SPAN_RADII; frame.windows.len()],
+        let tile_radii = match &frame.source_ranges {
+            Some(ranges) => span_radii(params, ranges, frame.windows, core),
+            None => vec![NO_SPAN_RADII; frame.windows.len()],
         };
         let layers = params.layer_count as u64;
-        let core_pixels = core.area() as u64;
-        let read_pixels = read.area() as u64;
-        let read_n = params.layer_count * read.area();
+        let (core_pixels, read_pixels) = (core.area() as u64, read.area() as u64);
+        let (read_n, read_room) = (params.layer_count * read.area(), params.layer_count * room.read);
         let rgba = stack.layers.iter().flat_map(|l| crop_rows(&l.rgba.pixels, params.width, read));
         let disparity = stack.layers.iter().flat_map(|l| crop_rows(&l.disparity, params.width, read));
         // Every pass writes its whole output before a later one reads it (the layer pass every
         // core pixel of every layer, sources and blocks every read pixel, composite every core
         // pixel; kernels that skip sources or blocks never read them): no fills.
-        let intermediate = |name: &str, bytes: u64| Buffer::uninitialised(ctx, name, bytes);
+        // Per pixel of the core or of the read rect: each buffer's size and its room.
+        let over_core = |name: &str, per_pixel: u64| {
+            Buffer::uninitialised_with_room(ctx, name, core_pixels * per_pixel, room.core as u64 * per_pixel)
+        };
+        let over_read = |name: &str, per_pixel: u64| {
+            let (size, room) = (layers * read_pixels * per_pixel, layers * room.read as u64 * per_pixel);
+            Buffer::uninitialised_with_room(ctx, name, size, room)
+        };
         Ok(Self {
             core,
             read,
-            layer_cw: intermediate("drbokeh layer_cw", layers * core_pixels * VEC4)?,
-            layer_vis: intermediate("drbokeh layer_vis", layers * core_pixels * 4)?,
-            result: intermediate("drbokeh result", core_pixels * VEC4)?,
-            source_pa: intermediate("drbokeh source_pa", layers * read_pixels * VEC4)?,
-            source_sa: intermediate("drbokeh source_sa", layers * read_pixels * 8)?,
-            block_prefix: intermediate("drbokeh block_prefix", layers * read_pixels * VEC4)?,
-            block_suffix: intermediate("drbokeh block_suffix", layers * read_pixels * VEC4)?,
-            block_alpha: intermediate("drbokeh block_alpha", layers * read_pixels * 8)?,
-            rgba: Buffer::from_slices_in(ctx, batch, "drbokeh rgba", read_n, rgba)?,
-            disparity: Buffer::from_slices_in(ctx, batch, "drbokeh disparity", read_n, disparity)?,
+            layer_cw: over_core("drbokeh layer_cw", layers * VEC4)?,
+            layer_vis: over_core("drbokeh layer_vis", layers * 4)?,
+            result: over_core("drbokeh result", VEC4)?,
+            source_pa: over_read("drbokeh source_pa", VEC4)?,
+            source_sa: over_read("drbokeh source_sa", 8)?,
+            block_prefix: over_read("drbokeh block_prefix", VEC4)?,
+            block_suffix: over_read("drbokeh block_suffix", VEC4)?,
+            block_alpha: over_read("drbokeh block_alpha", 8)?,
+            rgba: Buffer::from_slices_with_room_in(ctx, batch, "drbokeh rgba", read_n, read_room, rgba)?,
+            disparity: Buffer::from_slices_with_room_in(ctx, batch, "drbokeh disparity", read_n, read_room, disparity)?,
             tile_radii: Buffer::from_iter_in(ctx, batch, "drbokeh tile_radii", tile_radii.len(), tile_radii)?,
             tile_window: frame.tile_window.clone(),
             area_lut: frame.area_lut.clone(),
@@ -350,8 +367,9 @@ pub(crate) struct ForwardFrame<'a> {
     kernel: Buffer,
     /// The gauge path's closed-form gauge constants and row table ([`aperture_rows`]).
     aperture_rows: Buffer,
-    /// False: tiles upload radii [0, f32::MAX] ([`LayerKernel::OptimisedNoInterior`]).
-    interior: bool,
+    /// What the tiles' [`span_radii`] combine; `None`: tiles upload radii [0, f32::MAX]
+    /// ([`LayerKernel::OptimisedNoInterior`]).
+    source_ranges: Option<SourceRanges>,
 }
 
 impl<'a> ForwardFrame<'a> {
@@ -361,7 +379,7 @@ impl<'a> ForwardFrame<'a> {
         params: &'a Params,
         aperture: &Aperture,
         windows: &'a [i32],
-        interior: bool,
+        source_ranges: Option<SourceRanges>,
     ) -> Result<Self> {
         let rows = match (params.lens.path(params.model), aperture) {
             // A vignetted polygon or ellipse: its base's table, then each tile's centroid.
@@ -381,7 +399,7 @@ impl<'a> ForwardFrame<'a> {
             area_lut: Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?,
             kernel: Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?,
             aperture_rows: Buffer::from_slice(ctx, "drbokeh aperture_rows", &rows)?,
-            interior,
+            source_ranges,
         })
     }
 }

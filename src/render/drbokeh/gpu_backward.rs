@@ -14,17 +14,17 @@
 //! independent of the tile size.
 use super::backward::{check_inputs, BackwardOptions};
 use super::backward_cpu::tile_reach_cpu;
-use super::bounds::{grow_windows, search_windows};
+use super::bounds::{grow_windows, windows_and_ranges};
 use super::gpu::{halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
 use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
-use crate::render::tiler::{crop_rows, run_batches, run_tiled, Footprint, FrameTiling, TilePlan};
+use crate::render::tiler::{crop_rows, run_batches, run_tiled, Footprint, FrameTiling, TilePlan, TileRoom};
 use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tile_grid::Rect;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, Slot, TexelFormat};
+use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, ReadBack, Slot, TexelFormat};
 use crate::Result;
 
 /// The Dr.Bokeh forward and backward pipelines on one device, for one model and options.
@@ -71,9 +71,9 @@ struct BackwardBuffers {
 
 /// A tile's per-source gradients over its core, host-readable once its batch has run.
 struct TileGradients {
-    rgba: Buffer,
-    disparity: Buffer,
-    k_partial: Buffer,
+    rgba: ReadBack,
+    disparity: ReadBack,
+    k_partial: ReadBack,
 }
 
 /// Bindings of the backward passes 2 and 4 (`drbokeh_backward_own.comp`,
@@ -156,12 +156,13 @@ impl DrBokehGpuGrad {
     ) -> Result<(StackGradients, RenderStats)> {
         check_inputs(stack, lens, grad_output)?;
         let params = Params::new(stack, lens, self.model)?;
-        let windows = grow_windows(search_windows(&params, stack), self.options.window_margin());
+        let (windows, ranges) = windows_and_ranges(&params, stack);
+        let windows = grow_windows(windows, self.options.window_margin());
         let per_layer = params.tiles_x * params.tiles_y;
         let reach: Vec<i32> = windows.chunks(per_layer.max(1)).flat_map(|w| tile_reach_cpu(&params, w)).collect();
         let ctx = self.context();
         let frame = Frame {
-            forward: ForwardFrame::new(ctx, stack, &params, &lens.aperture, &windows, true)?,
+            forward: ForwardFrame::new(ctx, stack, &params, &lens.aperture, &windows, Some(ranges))?,
             reach: &reach,
             tile_reach: Buffer::from_slice(ctx, "drbokeh tile_reach", &reach)?,
             grad_output,
@@ -191,17 +192,29 @@ impl DrBokehGpuGrad {
         let ctx = self.context();
         let params = frame.forward.params;
         let mut grads = FrameGradients::new(params);
+        // The largest tile's rects, as its footprint counts them: receivers reach (widened to
+        // whole search tiles) and the forward's windows around them.
+        let largest = |bounds: &[i32]| bounds.iter().copied().max().unwrap_or(0).max(0) as usize;
+        let receivers_margin = largest(frame.reach) + TILE;
+        let read_margin = receivers_margin + largest(frame.forward.windows);
+        let room = Room {
+            sources: tiling.room(plan.tile, 0),
+            forward: TileRoom {
+                core: tiling.room(plan.tile, receivers_margin),
+                read: tiling.room(plan.tile, read_margin),
+            },
+        };
         let record = |batch: &mut CommandBatch, core: Rect| {
             let receivers = frame.receivers(core);
             let read = receivers.grown(halo(params, frame.forward.windows, receivers), params.width, params.height);
-            let fwd = ForwardBuffers::new(ctx, batch, &frame.forward, receivers, read)?;
-            let bwd = self.buffers(batch, frame, core, receivers, read)?;
+            let fwd = ForwardBuffers::new(ctx, batch, &frame.forward, receivers, read, room.forward)?;
+            let bwd = self.buffers(batch, frame, core, receivers, read, room)?;
             self.forward.record(batch, params, &fwd)?;
             self.record(batch, params, &fwd, &bwd, core)?;
             Ok(TileGradients {
-                rgba: bwd.grad_rgba.readable_in(ctx, batch)?,
-                disparity: bwd.grad_disparity.readable_in(ctx, batch)?,
-                k_partial: bwd.k_partial.readable_in(ctx, batch)?,
+                rgba: bwd.grad_rgba.readable_in(batch)?,
+                disparity: bwd.grad_disparity.readable_in(batch)?,
+                k_partial: bwd.k_partial.readable_in(batch)?,
             })
         };
         let collect = |core: Rect, tile: TileGradients| grads.store(ctx, params, &tile, core);
@@ -218,22 +231,38 @@ impl DrBokehGpuGrad {
         core: Rect,
         receivers: Rect,
         read: Rect,
+        room: Room,
     ) -> Result<BackwardBuffers> {
         let ctx = self.context();
         let params = frame.forward.params;
         let layers = params.layer_count as u64;
-        let (read_n, core_n) = (layers * read.area() as u64, layers * core.area() as u64);
         let gout = crop_rows(&frame.grad_output.pixels, params.width, receivers);
-        let mut zeroed = |name: &str, bytes: u64| Buffer::zeroed_in(ctx, batch, name, bytes);
+        let (read_n, read_room) = (layers * read.area() as u64, layers * room.forward.read as u64);
+        let (core_n, core_room) = (layers * core.area() as u64, layers * room.sources as u64);
+        let mut over_read = |name: &str, per_pixel: u64| {
+            Buffer::zeroed_with_room_in(ctx, batch, name, read_n * per_pixel, read_room * per_pixel)
+        };
+        let (adj_cw, adj_vis) = (over_read("drbokeh adj_cw", VEC4)?, over_read("drbokeh adj_vis", 4)?);
+        let (own, receiver) = (over_read("drbokeh own", VEC4)?, over_read("drbokeh receiver", VEC4)?);
+        let mut over_core = |name: &str, per_pixel: u64| {
+            Buffer::zeroed_with_room_in(ctx, batch, name, core_n * per_pixel, core_room * per_pixel)
+        };
         Ok(BackwardBuffers {
-            adj_cw: zeroed("drbokeh adj_cw", read_n * VEC4)?,
-            adj_vis: zeroed("drbokeh adj_vis", read_n * 4)?,
-            own: zeroed("drbokeh own", read_n * VEC4)?,
-            receiver: zeroed("drbokeh receiver", read_n * VEC4)?,
-            grad_rgba: zeroed("drbokeh grad_rgba", core_n * VEC4)?,
-            grad_disparity: zeroed("drbokeh grad_disparity", core_n * 4)?,
-            k_partial: zeroed("drbokeh k_partial", core_n * 4)?,
-            grad_output: Buffer::from_slices_in(ctx, batch, "drbokeh grad_output", receivers.area(), gout)?,
+            adj_cw,
+            adj_vis,
+            own,
+            receiver,
+            grad_rgba: over_core("drbokeh grad_rgba", VEC4)?,
+            grad_disparity: over_core("drbokeh grad_disparity", 4)?,
+            k_partial: over_core("drbokeh k_partial", 4)?,
+            grad_output: Buffer::from_slices_with_room_in(
+                ctx,
+                batch,
+                "drbokeh grad_output",
+                receivers.area(),
+                room.forward.core,
+                gout,
+            )?,
             tile_reach: frame.tile_reach.clone(),
         })
     }
@@ -303,6 +332,14 @@ impl DrBokehGpuGrad {
 
 /// The frame the tiles cut: the forward's (inputs, grown search windows, device tables), the
 /// windows' transpose (layer-major) on the host and the device, and the output gradient.
+/// Pixels of the largest tile's rects, which every tile's buffers have room for: its sources
+/// (the core), and the forward's over its receivers.
+#[derive(Clone, Copy)]
+struct Room {
+    sources: usize,
+    forward: TileRoom,
+}
+
 struct Frame<'a> {
     forward: ForwardFrame<'a>,
     reach: &'a [i32],

@@ -96,7 +96,7 @@ fn area_table_is_the_exact_footprint_energy() {
 
 #[test]
 fn span_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
-    use super::bounds::{search_windows, span_radii};
+    use super::bounds::{span_radii, windows_and_ranges};
     use crate::tile_grid::Rect;
     let (w, h) = (70, 50);
     let coc = CocModel::new(20.0, 0.0).unwrap();
@@ -117,8 +117,8 @@ fn span_radii_bound_every_tap_that_adds_something_and_trim_constant_blur() {
     let stack = LayerStack::new(w, h, vec![disc, plane]).unwrap();
     let lens = Lens { coc, aperture: Aperture::Disk };
     let params = Params::new(&stack, &lens, Model::DrBokeh).unwrap();
-    let windows = search_windows(&params, &stack);
-    let radii = span_radii(&params, &stack, &windows, Rect { x0: 0, y0: 0, x1: w, y1: h });
+    let (windows, ranges) = windows_and_ranges(&params, &stack);
+    let radii = span_radii(&params, &ranges, &windows, Rect { x0: 0, y0: 0, x1: w, y1: h });
     let per_layer = params.tiles_x * params.tiles_y;
     let push = params.push(0);
     let signed_s = |layer: &Layer, i: usize| push.k_px * (layer.disparity[i] - push.focus_disparity);

@@ -140,13 +140,16 @@ impl ImagePass<'_> {
         let kernel = Buffer::from_slice(ctx, &format!("{name} kernel"), self.kernel)?;
         // RGBA + disparity per read pixel, RGBA per core pixel; the RGBA is the largest binding.
         let footprint = |tile| Footprint::per_pixel(&frame, tile, max_halo, 20, 16, 16);
-        render_image_tiles(ctx, &frame, options, footprint, halo, |batch, core, read| {
+        render_image_tiles(ctx, &frame, options, footprint, halo, |batch, core, read, room| {
+            let (image, disparity) = (format!("{name} image"), format!("{name} disparity"));
             let rgba = crop_rows(&self.image.pixels, width, read);
-            let source = Buffer::from_slices_in(ctx, batch, &format!("{name} image"), read.area(), rgba)?;
-            let disparity = crop_rows(self.disparity, width, read);
-            let depth = Buffer::from_slices_in(ctx, batch, &format!("{name} disparity"), read.area(), disparity)?;
+            let source = Buffer::from_slices_with_room_in(ctx, batch, &image, read.area(), room.read, rgba)?;
+            let disparity_rows = crop_rows(self.disparity, width, read);
+            let depth =
+                Buffer::from_slices_with_room_in(ctx, batch, &disparity, read.area(), room.read, disparity_rows)?;
             // The shader writes every core pixel.
-            let result = Buffer::uninitialised(ctx, &format!("{name} result"), core.area() as u64 * 16)?;
+            let (bytes, room) = (core.area() as u64 * 16, room.core as u64 * 16);
+            let result = Buffer::uninitialised_with_room(ctx, &format!("{name} result"), bytes, room)?;
             let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
             batch.dispatch(
                 self.pipeline,
@@ -154,7 +157,7 @@ impl ImagePass<'_> {
                 &push(core, read),
                 groups,
             )?;
-            result.readable_in(ctx, batch)
+            result.readable_in(batch)
         })
     }
 }

@@ -120,7 +120,7 @@ impl Multiview {
             footprint,
             // What a tile reads is its window, not the service's read rect.
             |_| 0,
-            |batch, core, _| {
+            |batch, core, _, room| {
                 let window = pr.window(core);
                 let pyramid_len = pr.layers * window.pyramid_len;
                 let pyramids = pr.window_pyramids(stack, &window);
@@ -131,7 +131,8 @@ impl Multiview {
                 let levels =
                     Buffer::from_iter_in(ctx, batch, "multiview levels", window.levels.len(), window.levels.iter().copied())?;
                 // The shader writes every core pixel.
-                let result = Buffer::uninitialised(ctx, "multiview result", core.area() as u64 * 16)?;
+                let (bytes, room) = (core.area() as u64 * 16, room.core as u64 * 16);
+                let result = Buffer::uninitialised_with_room(ctx, "multiview result", bytes, room)?;
                 let bindings = [
                     pyramid.all(),
                     heights.all(),
@@ -143,7 +144,7 @@ impl Multiview {
                 ];
                 let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
                 batch.dispatch(&self.pipeline, &bindings, &push(core, &window), groups)?;
-                result.readable_in(ctx, batch)
+                result.readable_in(batch)
             },
         )
     }

@@ -87,21 +87,23 @@ impl Vdslr {
             options,
             footprint,
             |_| halo,
-            |batch, core, read| {
-                let source = Buffer::from_slices_in(
+            |batch, core, read, room| {
+                let source = Buffer::from_slices_with_room_in(
                     ctx,
                     batch,
                     "vdslr image",
                     read.area(),
+                    room.read,
                     crop_rows(&image.pixels, width, read),
                 )?;
                 let relative = crop(&prepared.relative, width, read);
                 let relative = Buffer::from_iter_in(ctx, batch, "vdslr relative disparity", read.area(), relative)?;
-                let true_disparity = Buffer::from_slices_in(
+                let true_disparity = Buffer::from_slices_with_room_in(
                     ctx,
                     batch,
                     "vdslr disparity",
                     read.area(),
+                    room.read,
                     crop_rows(disparity, width, read),
                 )?;
                 // The core's edge records, classified now: a whole frame's would outweigh the image.
@@ -109,7 +111,8 @@ impl Vdslr {
                 let edges =
                     Buffer::from_iter_in(ctx, batch, "vdslr mixed edges", core.area(), edge_records.into_iter())?;
                 // The shader writes every core pixel.
-                let result = Buffer::uninitialised(ctx, "vdslr result", core.area() as u64 * 16)?;
+                let (bytes, room) = (core.area() as u64 * 16, room.core as u64 * 16);
+                let result = Buffer::uninitialised_with_room(ctx, "vdslr result", bytes, room)?;
                 let push = VdslrPush {
                     width: width as i32,
                     height: image.height as i32,
@@ -130,7 +133,7 @@ impl Vdslr {
                     [source.all(), relative.all(), true_disparity.all(), samples.all(), edges.all(), result.all()];
                 let groups = self.pipeline.groups_for([core.width() as u32, core.height() as u32, 1]);
                 batch.dispatch(&self.pipeline, &bindings, &push, groups)?;
-                result.readable_in(ctx, batch)
+                result.readable_in(batch)
             },
         )
     }
