@@ -7,6 +7,7 @@ use std::process::Command;
 
 use anyhow::{bail, Context as _};
 use lensblur_dev::bench::device_timings::{run_timings, timing_cases, CaseTiming};
+use lensblur_dev::bench::process_timings::{process_cases, time_process_case};
 use lensblur::camera::{Aperture, CocModel};
 use lensblur::render::{Lens, Method};
 use lensblur_dev::selfcheck::{self, image_difference, Check, IMAGE_METRIC};
@@ -149,9 +150,12 @@ fn tempdir() -> anyhow::Result<PathBuf> {
 pub fn timings(args: TimingsArgs) -> anyhow::Result<()> {
     let ctx = Context::new(&ContextOptions::from_env()).context("opening the Vulkan device for the timings")?;
     let mut cases = timing_cases(args.small);
+    let mut processes = process_cases(args.small);
     if !args.case.is_empty() {
-        cases.retain(|c| args.case.iter().any(|wanted| c.name.contains(wanted.as_str())));
-        if cases.is_empty() {
+        let wanted = |name: &str| args.case.iter().any(|w| name.contains(w.as_str()));
+        cases.retain(|c| wanted(&c.name));
+        processes.retain(|c| wanted(&c.name));
+        if cases.is_empty() && processes.is_empty() {
             bail!("no timing case's name contains any of {:?}", args.case);
         }
     }
@@ -177,10 +181,32 @@ pub fn timings(args: TimingsArgs) -> anyhow::Result<()> {
             ))
         );
     };
-    let report = run_timings(&ctx, &cases, args.repeats, print)?;
+    let mut report = run_timings(&ctx, &cases, args.repeats, print)?;
     if let Some(ratio) = report.backward_over_forward {
         eprintln!("backward / forward on the same frame: {ratio:.2} (goal < 3)");
     }
+    // Whole processes, EXR to EXR: this binary, each run opening the device itself.
+    let exe = std::env::current_exe().context("locating this binary")?;
+    let dir = tempdir()?;
+    for case in &processes {
+        let timing = time_process_case(&exe, &dir, case, args.repeats.min(3)).with_context(|| case.name.clone())?;
+        let steps: Vec<String> = timing.steps_ms.iter().map(|(k, v)| format!("{k} {:.1}", v.as_f64().unwrap_or_default())).collect();
+        eprintln!(
+            "{:<44} wall {:>9.2} ms ({}); peak device {} ({} the stack){}",
+            case.name,
+            timing.wall_ms,
+            steps.join(", "),
+            timing.peak_device_bytes.map_or("-".into(), |b| format!("{:.1} MiB", b as f64 / 1048576.0)),
+            timing.peak_over_stack.map_or("-".into(), |r| format!("{r:.2}x")),
+            timing.meets_goal.map_or(String::new(), |ok| format!(
+                "  goal {} ms (wall) {}",
+                case.goal_ms.unwrap_or(0.0),
+                if ok { "met" } else { "MISSED" }
+            ))
+        );
+        report.processes.push(timing);
+    }
+    std::fs::remove_dir_all(&dir).ok();
     if let Some(path) = &args.json {
         write_json(path, &report)?;
     }

@@ -127,6 +127,8 @@ struct Report<'a> {
     output: &'a Path,
     method: Method,
     device: Option<String>,
+    /// The most device memory the render's buffers held at once (None on the CPU path).
+    device_peak_bytes: Option<u64>,
     width: usize,
     height: usize,
     k_px: f32,
@@ -206,6 +208,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let rendered = render_loaded(&job, ctx.as_ref(), &args.input, &loaded, &spinner, "")?;
     let (prepare_time, render_time) = (rendered.prepare_time, rendered.render_time);
     let device = ctx.as_ref().map(|c| c.info().name.clone());
+    let device_peak_bytes = ctx.as_ref().map(|c| c.buffer_pool_counts().peak_bytes);
     // The device is closed and its teardown validated before any file appears: a validation
     // error fails the command with nothing written.
     let closing = Instant::now();
@@ -236,7 +239,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         write: ms(write_time),
         total: ms(total.elapsed()),
     };
-    let report = report(&args, &loaded, &lens, layers, device, timings);
+    let report = report(&args, &loaded, &lens, layers, (device, device_peak_bytes), timings);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -443,7 +446,7 @@ fn report<'a>(
     loaded: &LoadedInput,
     lens: &Lens,
     layers: Vec<LayerReport>,
-    device: Option<String>,
+    (device, device_peak_bytes): (Option<String>, Option<u64>),
     timings_ms: Timings,
 ) -> Report<'a> {
     let coc_range_px = layers
@@ -454,6 +457,7 @@ fn report<'a>(
         output: &args.output,
         method: args.method,
         device,
+        device_peak_bytes,
         width: loaded.stack.width,
         height: loaded.stack.height,
         k_px: lens.coc.k_px,

@@ -84,6 +84,9 @@ pub struct PoolCounts {
     /// Bytes of the pool's buffers now, in use and idle, and of the idle ones.
     pub total_bytes: u64,
     pub idle_bytes: u64,
+    /// The most bytes the pool's buffers held at once since the device opened: a render's
+    /// peak device memory for its buffers (what the GPU kit reports per case).
+    pub peak_bytes: u64,
 }
 
 #[derive(Default)]
@@ -156,6 +159,7 @@ impl BufferPool {
         let mut state = self.state();
         state.counts.created += 1;
         state.counts.total_bytes += memory.bytes();
+        state.counts.peak_bytes = state.counts.peak_bytes.max(state.counts.total_bytes);
     }
 
     /// Takes back a buffer whose last handle dropped: kept idle if the pool's limit allows,

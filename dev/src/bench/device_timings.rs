@@ -208,6 +208,8 @@ pub struct TimingReport {
     pub cases: Vec<CaseTiming>,
     /// Backward over forward device time on the same frame (the goal is < 3).
     pub backward_over_forward: Option<f64>,
+    /// Whole `lensblur render` processes, EXR to EXR ([`super::process_timings`]).
+    pub processes: Vec<super::process_timings::ProcessTiming>,
 }
 
 /// A case's inputs and the renderer that times it, built outside the timings.
@@ -339,6 +341,7 @@ pub fn run_timings(
         peak_bandwidth_gb_per_second: peak_bandwidth_gb_per_second(&info.name),
         cases: timings,
         backward_over_forward,
+        processes: Vec::new(),
     })
 }
 

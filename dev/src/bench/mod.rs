@@ -8,6 +8,7 @@
 //! text table via `Display`), [`contact_sheet`] a labelled PNG of all renders and errors.
 pub mod gt_cache;
 pub mod device_timings;
+pub mod process_timings;
 pub mod large;
 mod methods;
 pub mod apertures;
