@@ -213,7 +213,7 @@ pub fn span_radii(params: &Params, ranges: &SourceRanges, windows: &[i32], core:
 /// [`span_radii`] of a tile without shortcuts: no interior, no trim, both orientations.
 pub const NO_SPAN_RADII: [f32; 4] = [0.0, f32::MAX, 0.0, 0.0];
 
-/// The [`AbsSRange`] of every search tile of every layer (layer-major, as the windows), for
+/// The `AbsSRange` of every search tile of every layer (layer-major, as the windows), for
 /// [`span_radii`]: found once per frame with the windows ([`windows_and_ranges`]), where each
 /// frame tile evaluating the search tiles its windows reach evaluated those of its halo again,
 /// one tile after another (the largest host cost of recording a frame's tiles).
