@@ -154,7 +154,7 @@ impl CameraRequest {
 }
 
 /// How to read an input file and split a flat image into layers.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct InputOptions {
     /// Layers of an EXR to use, by name or glob; None: every layer with colour, alpha and depth.
     pub layers: Option<Vec<String>>,

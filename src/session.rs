@@ -2,8 +2,8 @@
 //! pipelines prepared once, the input read once. Each render is a [`RenderJob`] (another
 //! camera, aperture, lens character or method settings); only what the job changes is done
 //! again. A stack whose layering depends on the camera (a flat RGB+Z image split by CoC, deep
-//! samples clustered by it) is re-layered only when the render's circle-of-confusion model
-//! differs from the last one's; true layers are never re-layered. A session's render equals
+//! samples clustered by it) is re-layered only when the render's circle-of-confusion model or
+//! its layering options differ from the last one's; true layers are never re-layered. A session's render equals
 //! the one-shot render of the same job: the same code runs on the same data.
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use crate::camera::{CameraHints, CocModel};
 use crate::image::Image;
-use crate::input::{LoadedInput, ReadInput};
+use crate::input::{InputOptions, LoadedInput, ReadInput};
 use crate::job::RenderJob;
 use crate::render::{InputKind, Renderer};
 use crate::vk::Context;
@@ -34,6 +34,8 @@ pub struct SessionRender {
 struct Layered {
     coc: CocModel,
     wants: InputKind,
+    /// The layering options (spacing, most layers, deep clustering) it was cut with.
+    input: InputOptions,
     loaded: LoadedInput,
 }
 
@@ -67,7 +69,9 @@ impl Session {
         let wants = method.input();
         let camera = self.input.camera(&spec.camera, &CameraHints::default())?;
         let reusable = self.layered.as_ref().is_some_and(|l| {
-            l.wants == wants && (!self.input.layering_depends_on_camera(wants) || l.coc == camera.lens.coc)
+            l.wants == wants
+                && l.input == spec.input
+                && (!self.input.layering_depends_on_camera(wants) || l.coc == camera.lens.coc)
         });
         let mut stats = SessionRender::default();
         if reusable {
@@ -77,7 +81,7 @@ impl Session {
             let layering = Instant::now();
             let coc = camera.lens.coc;
             let loaded = self.input.loaded(&spec.input, camera, wants)?;
-            self.layered = Some(Layered { coc, wants, loaded });
+            self.layered = Some(Layered { coc, wants, input: spec.input.clone(), loaded });
             stats.relayered = true;
             stats.layering_ms = ms(layering.elapsed());
         }
@@ -150,8 +154,15 @@ mod tests {
         RenderJob::new(JobSpec { method: Method::Oracle, camera, character, ..JobSpec::default() }).unwrap()
     }
 
+    /// `job` with the flat image split into one layer at most.
+    fn one_layer(job: RenderJob) -> RenderJob {
+        let mut spec = job.spec().clone();
+        spec.input.auto_layer.max_layers = 1;
+        RenderJob::new(spec).unwrap()
+    }
+
     #[test]
-    fn a_session_renders_what_one_shot_renders_and_relayers_only_when_the_coc_changes() {
+    fn a_session_renders_what_one_shot_renders_and_relayers_only_when_the_cut_changes() {
         let mut session = Session::new(None, ReadInput::from_arrays(flat_arrays()));
         let jobs = [
             (job(4.0, 1.0, "disk", 1.0), true),
@@ -159,6 +170,8 @@ mod tests {
             (job(4.0, 1.0, "disk", 2.0), false),      // the character: same cut
             (job(4.0, 1.0 / 6.0, "disk", 1.0), true), // the focus: a new cut
             (job(4.0, 1.0 / 6.0, "disk", 1.0), false),
+            // The layering options: a new cut at the same focus.
+            (one_layer(job(4.0, 1.0 / 6.0, "disk", 1.0)), true),
         ];
         for (i, (job, relayers)) in jobs.iter().enumerate() {
             let (image, stats) = session.render(job).unwrap();
