@@ -164,7 +164,7 @@ struct Timings {
     layering: f64,
     /// Opening the Vulkan device (0 on the CPU path), while the input is read and layered.
     device_open: f64,
-    /// Building the method's pipelines (from the pipeline cache when it is warm).
+    /// Preparing the method (its pipelines are compiled at their first dispatch, in `render`).
     prepare: f64,
     render: f64,
     /// Closing the device and checking its teardown.

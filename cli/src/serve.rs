@@ -15,7 +15,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::Instant;
 
 use lensblur::image::Image;
-use lensblur::input::{InputOptions, ReadInput};
+use lensblur::input::ReadInput;
 use lensblur::job::{CameraValues, JobOptions, OptionSet, RenderJob};
 use lensblur::render::placement::{place, CpuReason, DevicePreference, Placement};
 use lensblur::render::Method;
@@ -229,8 +229,7 @@ impl Server {
                 Ok(json!({"id": id, "ok": true, "version": PROTOCOL_VERSION, "lensblur": env!("CARGO_PKG_VERSION")}))
             }
             "load" => {
-                let path = take("path").ok_or("load needs \"path\": the stack's file")?;
-                let path = PathBuf::from(path.as_str().ok_or("\"path\" is a string: the stack's file")?);
+                let path = PathBuf::from(string(take("path"), "path", "the stack's file")?);
                 self.load(id, path, body)
             }
             "render" => {
@@ -275,14 +274,20 @@ impl Server {
         Ok(context)
     }
 
+    /// The render job of `options` (the load's and the render's) through `camera` (None: the
+    /// file's header), its Vulkan methods placed as the server was told.
+    fn job(&self, options: Map<String, Value>, camera: Option<&CameraValues>) -> Result<RenderJob, String> {
+        let parsed = JobOptions::from_json(options, OptionSet::File).map_err(|e| e.to_string())?;
+        let mut spec = parsed.spec(camera, Method::default()).map_err(|e| e.to_string())?;
+        spec.device = self.preference;
+        RenderJob::new(spec).map_err(|e| e.to_string())
+    }
+
     fn load(&mut self, id: Value, path: PathBuf, options: Map<String, Value>) -> Result<Value, String> {
         let start = Instant::now();
-        let parsed = JobOptions::from_json(options.clone(), OptionSet::File).map_err(|e| e.to_string())?;
-        // The load's options are every render's defaults: check them as a job now.
-        let spec = parsed.spec(None, Method::default()).map_err(|e| e.to_string())?;
-        let input: InputOptions = spec.input.clone();
-        RenderJob::new(spec).map_err(|e| e.to_string())?;
-        let read = ReadInput::read(&path, &input).map_err(|e| e.with_causes())?;
+        // The load's options are every render's defaults: checked as a job now.
+        let job = self.job(options.clone(), None)?;
+        let read = ReadInput::read(&path, &job.spec().input).map_err(|e| e.with_causes())?;
         let (width, height) = read.size();
         let context = self.context()?;
         self.loads += 1;
@@ -305,16 +310,14 @@ impl Server {
     ) -> Result<Value, String> {
         let start = Instant::now();
         let format = output_format(output)?;
+        // A render takes no file option: the stack was read with the load's.
         JobOptions::from_json(options.clone(), OptionSet::Render).map_err(|e| e.to_string())?;
-        let unknown = self.unknown(name);
-        let stack = self.stacks.get_mut(name).ok_or(unknown)?;
+        let Some(stack) = self.stacks.get(name) else { return Err(self.unknown(name)) };
         // The render's options over the load's.
         let mut merged = stack.options.clone();
         merged.extend(options);
-        let parsed = JobOptions::from_json(merged, OptionSet::File).map_err(|e| e.to_string())?;
-        let mut spec = parsed.spec(camera.as_ref(), Method::default()).map_err(|e| e.to_string())?;
-        spec.device = self.preference;
-        let job = RenderJob::new(spec).map_err(|e| e.to_string())?;
+        let job = self.job(merged, camera.as_ref())?;
+        let stack = self.stacks.get_mut(name).expect("looked up above");
         let (image, stats) = stack.session.render(&job).map_err(|e| format!("{}: {}", stack.path.display(), e.with_causes()))?;
         let writing = Instant::now();
         write(output, format, &image).map_err(|e| e.with_causes())?;

@@ -222,9 +222,9 @@ fn to_json(value: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
 
 /// The render job of `options` through `camera` (None: the file's header), with `method`
 /// unless the options name one.
-fn render_job(options: &JobOptions, camera: Option<&Camera>, method: &str) -> PyResult<RenderJob> {
+fn render_job(options: &JobOptions, camera: Option<&Camera>, method: Method) -> PyResult<RenderJob> {
     let values = camera.map(Camera::values);
-    let spec = options.spec(values.as_ref(), parse_method(method)?).or_py()?;
+    let spec = options.spec(values.as_ref(), method).or_py()?;
     RenderJob::new(spec).or_py()
 }
 
@@ -393,7 +393,7 @@ impl Renderer {
         leaky: bool,
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let job = render_job(&job_options(options, OptionSet::Render)?, Some(camera), "drbokeh")?;
+        let job = render_job(&job_options(options, OptionSet::Render)?, Some(camera), Method::default())?;
         let arrays = read_arrays(layers, depth, depth_kind)?;
         let loaded = job.load_arrays(arrays).or_py()?;
         let image = self.render_job(py, &job, &loaded, leaky)?;
@@ -414,7 +414,7 @@ impl Renderer {
         camera: Option<&Camera>,
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let job = render_job(&job_options(options, OptionSet::File)?, camera, "drbokeh")?;
+        let job = render_job(&job_options(options, OptionSet::File)?, camera, Method::default())?;
         let loaded = py.detach(|| job.load(&path, &CameraHints::default())).or_py()?;
         let image = self.render_job(py, &job, &loaded, false)?;
         image_to_numpy(py, image)
@@ -485,7 +485,7 @@ impl Renderer {
 #[pyclass(module = "lensblur")]
 struct Session {
     session: Mutex<Option<lensblur::session::Session>>,
-    method: String,
+    method: Method,
     last: Mutex<lensblur::session::SessionRender>,
 }
 
@@ -496,7 +496,7 @@ impl Session {
     #[new]
     #[pyo3(signature = (layers, depth, *, method = "drbokeh", device = None, depth_kind = "z"))]
     fn new(layers: &Bound<'_, PyAny>, depth: &Bound<'_, PyAny>, method: &str, device: Option<String>, depth_kind: &str) -> PyResult<Self> {
-        parse_method(method)?;
+        let method = parse_method(method)?;
         let input = lensblur::input::ReadInput::from_arrays(read_arrays(layers, depth, depth_kind)?);
         let mut options = ContextOptions::from_env();
         if device.is_some() {
@@ -505,7 +505,7 @@ impl Session {
         let context = Context::new(&options).or_py()?;
         Ok(Self {
             session: Mutex::new(Some(lensblur::session::Session::new(Some(std::sync::Arc::new(context)), input))),
-            method: method.to_string(),
+            method,
             last: Mutex::default(),
         })
     }
@@ -514,7 +514,7 @@ impl Session {
     /// `lensblur.render` takes them); returns the defocused premultiplied RGBA, (H, W, 4).
     #[pyo3(signature = (camera, **options))]
     fn render<'py>(&self, py: Python<'py>, camera: &Camera, options: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        let job = render_job(&job_options(options, OptionSet::Render)?, Some(camera), &self.method)?;
+        let job = render_job(&job_options(options, OptionSet::Render)?, Some(camera), self.method)?;
         let (image, stats) = py
             .detach(|| {
                 let mut guard = lock(&self.session);

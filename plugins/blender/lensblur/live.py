@@ -24,6 +24,7 @@ import bpy
 
 from . import camera, preferences, result, stack
 from .errors import LensblurError
+from .operator import report_failure
 
 # How often the modal operator looks for changed settings and finished renders.
 POLL_SECONDS = 0.02
@@ -135,27 +136,15 @@ class LiveSession:
     """One stack loaded into a server, and the result image it keeps up to date."""
 
     def __init__(self, context):
-        scene = context.scene
-        s = scene.lensblur
+        s = context.scene.lensblur
         binary = preferences.find_binary(context)
         self.tmp = tempfile.mkdtemp(prefix="lensblur-live-", dir=_shared_memory_dir())
         self.server = None
         try:
-            source = bpy.path.abspath(s.filepath) if s.filepath else ""
-            if source:
-                if not os.path.isfile(source):
-                    raise LensblurError(f"no such file: {source}")
-                stack_path, available = source, stack.file_layers(binary, source)
-            else:
-                stack_path = os.path.join(self.tmp, "stack.exr")
-                available = stack.rendered_view_layers(context)
-            chosen = stack.select_layers(available, s.layers, s.exclude)
-            if not source:
-                stack.check_depth_passes(scene, chosen)
-                stack.export_render_result(scene, stack_path)
+            stack_path, chosen, _ = stack.write_chosen(context, binary, s.filepath, s.layers, s.exclude, self.tmp)
             self.server = Server(binary)
             loaded = checked(self.server.wait(self.server.send("load", path=stack_path, layers=chosen, method=s.method)))
-            self.stack, self.size = loaded["stack"], (loaded["width"], loaded["height"])
+            self.stack = loaded["stack"]
         except BaseException:
             self.close()
             raise
@@ -260,8 +249,7 @@ class LENSBLUR_OT_live(bpy.types.Operator):
         try:
             self._session = LiveSession(context)
         except (LensblurError, RuntimeError, OSError) as e:
-            self.report({"ERROR"}, str(e))
-            return {"CANCELLED"}
+            return report_failure(self, e)
         wm = context.window_manager
         self._timer = wm.event_timer_add(POLL_SECONDS, window=context.window)
         wm.modal_handler_add(self)

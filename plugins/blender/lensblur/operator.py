@@ -119,21 +119,11 @@ class LENSBLUR_OT_defocus(bpy.types.Operator):
         self.check_save_path(source)
         tmp = tempfile.mkdtemp(prefix="lensblur-")
         try:
-            if source:
-                if not os.path.isfile(source):
-                    raise LensblurError(f"no such file: {source}")
-                stack_path = source
-                available = stack.file_layers(binary, source)
-            else:
-                stack_path = os.path.join(tmp, "stack.exr")
-                available = stack.rendered_view_layers(context)
-            chosen = stack.select_layers(available, self.layers, self.exclude)
-            if not source:
-                stack.check_depth_passes(scene, chosen)
+            stack_path, chosen, from_render = stack.write_chosen(context, binary, self.filepath, self.layers, self.exclude, tmp)
+            if from_render:
                 warnings += checks.setup_warnings(scene, chosen)
                 stale = checks.stale_render_warning(scene)
                 warnings += [stale] if stale else []
-                stack.export_render_result(scene, stack_path)
             out_path = os.path.join(tmp, "lensblur_result.exr")
             character = ["--near-blur", camera.fmt(self.near_blur), "--far-blur", camera.fmt(self.far_blur)]
             command = runner.render_command(binary, stack_path, out_path, chosen, flags, self.method, character)

@@ -87,3 +87,24 @@ def file_layers(binary, path):
         raise LensblurError(f"{path}: {info['stack_error']}")
     return [layer["name"] for layer in info.get("layers", [])]
 
+
+def write_chosen(context, binary, filepath, layers, exclude, tmp):
+    """The stack lensblur reads: the EXR `filepath` (blend-relative; empty: the Render Result,
+    written into `tmp` as stack.exr) and the layers `layers`/`exclude` choose of it. Returns
+    (stack path, chosen layer names, whether it came from the Render Result)."""
+    import os
+
+    import bpy
+
+    source = bpy.path.abspath(filepath) if filepath else ""
+    if source:
+        if not os.path.isfile(source):
+            raise LensblurError(f"no such file: {source}")
+        stack_path, available = source, file_layers(binary, source)
+    else:
+        stack_path, available = os.path.join(tmp, "stack.exr"), rendered_view_layers(context)
+    chosen = select_layers(available, layers, exclude)
+    if not source:
+        check_depth_passes(context.scene, chosen)
+        export_render_result(context.scene, stack_path)
+    return stack_path, chosen, not source
