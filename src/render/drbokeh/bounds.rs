@@ -24,54 +24,147 @@ pub fn tile_bounds_cpu(params: &Params, layer: &Layer) -> Vec<[f64; 2]> {
 
 /// One pass over a layer's pixels of the search tile (tx, ty): its `[scatter support, gather
 /// radius]` ([`tile_bounds_cpu`]) and its [`AbsSRange`], which read the same pixels.
+///
+/// The pass keeps only each set's extremes ([`PixelSet`]), and the bounds follow from them:
+/// the radius `k (d - d_f)` and the shaders' `s` are monotone in the disparity under rounding,
+/// so their largest magnitudes sit at the smallest or largest disparity. Evaluating the f64
+/// radius, the support and the f32 `s` at every pixel made this scan the largest host cost of
+/// preparing a frame; the tests keep that per-pixel evaluation (`scan_tile_per_pixel`) and hold
+/// this one equal to it, bit for bit.
 fn scan_tile(params: &Params, layer: &Layer, tx: usize, ty: usize) -> ([f64; 2], AbsSRange) {
     let push = params.push(0);
-    let (mut support, mut gather) = (0.0f64, 0.0f64);
-    let mut range = AbsSRange {
-        source_min: f32::INFINITY,
-        source_max: f32::NEG_INFINITY,
-        all_max: f32::NEG_INFINITY,
-        source_near: false,
-        source_far: false,
-        all_near: false,
-        all_far: false,
-        source_disparity: Disparities::None,
-        all_disparity: Disparities::None,
-    };
+    let (mut all, mut sources) = (PixelSet::EMPTY, PixelSet::EMPTY);
     let columns = tx * TILE..((tx + 1) * TILE).min(params.width);
     for py in ty * TILE..((ty + 1) * TILE).min(params.height) {
         let row = py * params.width + columns.start..py * params.width + columns.end;
         for (&disparity, rgba) in layer.disparity[row.clone()].iter().zip(&layer.rgba.pixels[row]) {
-            let opaque = rgba[3] > 0.0;
-            // The bounds, in f64 as the CPU reference computes radii.
-            let r = params.lens.signed_radius(disparity).abs();
-            gather = gather.max(r + 0.5);
-            if opaque {
-                let s = match params.model {
-                    Model::DrBokeh => math::support(r),
-                    Model::Compat => math::support_compat(r),
-                };
-                support = support.max(s);
-            }
-            // The |s| ranges, in f32 as the shaders compute them.
-            let signed = push.k_px * (disparity - push.focus_disparity);
-            let s = signed.abs();
-            let finite = s.is_finite();
-            let near = signed > 0.0;
-            range.all_max = range.all_max.max(if finite { s } else { f32::INFINITY });
-            range.all_near |= near;
-            range.all_far |= !near;
-            range.all_disparity = range.all_disparity.with(disparity);
-            if opaque {
-                range.source_disparity = range.source_disparity.with(disparity);
-                range.source_min = range.source_min.min(if finite { s } else { 0.0 });
-                range.source_max = range.source_max.max(if finite { s } else { f32::INFINITY });
-                range.source_near |= near;
-                range.source_far |= !near;
+            all.add(disparity, push.focus_disparity);
+            // Transparent pixels scatter nothing: only the others are sources.
+            if rgba[3] > 0.0 {
+                sources.add(disparity, push.focus_disparity);
             }
         }
     }
+    // The bounds, in f64 as the CPU reference computes radii.
+    let gather = all.max_radius(params).map_or(0.0, |r| r + 0.5);
+    let support = sources.max_radius(params).map_or(0.0, |r| match params.model {
+        Model::DrBokeh => math::support(r),
+        Model::Compat => math::support_compat(r),
+    });
+    // The |s| ranges, in f32 as the shaders compute them.
+    let (all_s, source_s) = (all.abs_s(push.k_px, push.focus_disparity), sources.abs_s(push.k_px, push.focus_disparity));
+    let range = AbsSRange {
+        source_min: source_s.map_or(f32::INFINITY, |s| s.min),
+        source_max: source_s.map_or(f32::NEG_INFINITY, |s| s.max),
+        all_max: all_s.map_or(f32::NEG_INFINITY, |s| s.max),
+        source_near: source_s.is_some_and(|s| s.near),
+        source_far: source_s.is_some_and(|s| s.far),
+        all_near: all_s.is_some_and(|s| s.near),
+        all_far: all_s.is_some_and(|s| s.far),
+        source_disparity: sources.disparities(),
+        all_disparity: all.disparities(),
+    };
     ([support, gather], range)
+}
+
+/// What [`scan_tile`] keeps of a set of pixels' disparities: enough to bound any monotone
+/// function of them, and to tell whether they are one value.
+#[derive(Clone, Copy, Debug)]
+struct PixelSet {
+    /// Smallest and largest disparity (NaN left out).
+    lowest: f32,
+    highest: f32,
+    /// Smallest and largest f32 bit pattern (NaN included, as [`Disparities`] counts them).
+    lowest_bits: u32,
+    highest_bits: u32,
+    /// Smallest `|d - d_f|` in f32 (the shaders' subtraction): the source nearest to focus.
+    nearest: f32,
+    /// Whether any disparity is NaN / finite; whether the set has any pixel.
+    any_nan: bool,
+    any_finite: bool,
+    any: bool,
+}
+
+/// [`PixelSet::abs_s`]: the f32 `|s|` bounds of a set, and which sides of focus it lies on.
+#[derive(Clone, Copy, Debug)]
+struct SRange {
+    /// Smallest and largest `|s|`, a non-finite `s` counting as 0 and infinity.
+    min: f32,
+    max: f32,
+    /// Whether some `s > 0` / some `s` is not (NaN included).
+    near: bool,
+    far: bool,
+}
+
+impl PixelSet {
+    const EMPTY: Self = Self {
+        lowest: f32::INFINITY,
+        highest: f32::NEG_INFINITY,
+        lowest_bits: u32::MAX,
+        highest_bits: 0,
+        nearest: f32::INFINITY,
+        any_nan: false,
+        any_finite: false,
+        any: false,
+    };
+
+    #[inline]
+    fn add(&mut self, disparity: f32, focus_disparity: f32) {
+        // f32::min and max leave NaN out.
+        self.lowest = self.lowest.min(disparity);
+        self.highest = self.highest.max(disparity);
+        let bits = disparity.to_bits();
+        self.lowest_bits = self.lowest_bits.min(bits);
+        self.highest_bits = self.highest_bits.max(bits);
+        self.nearest = self.nearest.min((disparity - focus_disparity).abs());
+        self.any_nan |= disparity.is_nan();
+        self.any_finite |= disparity.is_finite();
+        self.any = true;
+    }
+
+    /// Largest f64 CoC radius `|k (d - d_f)|` over the pixels whose radius is a number; `None`
+    /// where none is. The radius is monotone in d, so it is largest at an extreme (a zero k
+    /// makes every finite disparity's radius 0 and an infinite one's NaN).
+    fn max_radius(&self, params: &Params) -> Option<f64> {
+        if params.lens.k_px == 0.0 {
+            return self.any_finite.then_some(0.0);
+        }
+        (self.lowest <= self.highest)
+            .then(|| params.lens.signed_radius(self.lowest).abs().max(params.lens.signed_radius(self.highest).abs()))
+    }
+
+    /// The f32 `s = k (d - d_f)` of the shaders over the set; `None` for an empty set. `s` is
+    /// monotone in d under rounding, so its extremes are the extreme disparities'; the
+    /// smallest `|s|` is `|k|` times the smallest `|d - d_f|` (rounding is symmetric in sign
+    /// and monotone).
+    fn abs_s(&self, k: f32, focus_disparity: f32) -> Option<SRange> {
+        if !self.any {
+            return None;
+        }
+        let s = |d: f32| k * (d - focus_disparity);
+        let is_near = |s: f32| s > 0.0;
+        let (at_lowest, at_highest) = if self.lowest <= self.highest {
+            (s(self.lowest), s(self.highest))
+        } else {
+            (f32::NAN, f32::NAN)
+        };
+        let finite = !self.any_nan && at_lowest.is_finite() && at_highest.is_finite();
+        Some(SRange {
+            min: if finite { k.abs() * self.nearest } else { 0.0 },
+            max: if finite { at_lowest.abs().max(at_highest.abs()) } else { f32::INFINITY },
+            near: is_near(at_lowest) || is_near(at_highest),
+            // NaN is not near.
+            far: self.any_nan || !is_near(at_lowest) || !is_near(at_highest),
+        })
+    }
+
+    fn disparities(&self) -> Disparities {
+        match (self.any, self.lowest_bits == self.highest_bits) {
+            (false, _) => Disparities::None,
+            (true, true) => Disparities::One(self.lowest_bits),
+            (true, false) => Disparities::Several,
+        }
+    }
 }
 
 /// Window of a tile that no source reaches: the gather loops `-h..=h` run zero times.
@@ -220,7 +313,7 @@ pub const NO_SPAN_RADII: [f32; 4] = [0.0, f32::MAX, 0.0, 0.0];
 pub struct SourceRanges(Vec<AbsSRange>);
 
 /// f32 `|s|` ranges of one tile, evaluated as `glsl/drbokeh_layer_sources.comp` does.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct AbsSRange {
     /// Smallest over the sources with alpha > 0 (0 if one is not finite, infinity if none).
     source_min: f32,
@@ -248,6 +341,8 @@ enum Disparities {
 }
 
 impl Disparities {
+    /// The per-pixel scan of the tests adds the pixels one at a time.
+    #[cfg(test)]
     fn with(self, disparity: f32) -> Self {
         match self {
             Disparities::None => Disparities::One(disparity.to_bits()),
@@ -262,4 +357,129 @@ pub(crate) fn search_tiles(params: &Params, core: Rect) -> impl Iterator<Item = 
     let (tx0, tx1) = (core.x0 / TILE, core.x1.div_ceil(TILE));
     let (ty0, ty1) = (core.y0 / TILE, core.y1.div_ceil(TILE));
     (ty0..ty1).flat_map(move |ty| (tx0..tx1).map(move |tx| ty * params.tiles_x + tx))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Aperture, CocModel};
+    use crate::image::Image;
+    use crate::render::Lens;
+
+    /// The per-pixel evaluation [`scan_tile`] replaces: every pixel's f64 radius and support and
+    /// f32 `s`, as the CPU reference and the shaders compute them.
+    fn scan_tile_per_pixel(
+        params: &Params,
+        layer: &Layer,
+        tx: usize,
+        ty: usize,
+    ) -> ([f64; 2], AbsSRange) {
+        let push = params.push(0);
+        let (mut support, mut gather) = (0.0f64, 0.0f64);
+        let mut range = AbsSRange {
+            source_min: f32::INFINITY,
+            source_max: f32::NEG_INFINITY,
+            all_max: f32::NEG_INFINITY,
+            source_near: false,
+            source_far: false,
+            all_near: false,
+            all_far: false,
+            source_disparity: Disparities::None,
+            all_disparity: Disparities::None,
+        };
+        let columns = tx * TILE..((tx + 1) * TILE).min(params.width);
+        for py in ty * TILE..((ty + 1) * TILE).min(params.height) {
+            let row = py * params.width + columns.start..py * params.width + columns.end;
+            for (&disparity, rgba) in layer.disparity[row.clone()].iter().zip(&layer.rgba.pixels[row]) {
+                let opaque = rgba[3] > 0.0;
+                let r = params.lens.signed_radius(disparity).abs();
+                gather = gather.max(r + 0.5);
+                if opaque {
+                    let s = match params.model {
+                        Model::DrBokeh => math::support(r),
+                        Model::Compat => math::support_compat(r),
+                    };
+                    support = support.max(s);
+                }
+                let signed = push.k_px * (disparity - push.focus_disparity);
+                let s = signed.abs();
+                let finite = s.is_finite();
+                let near = signed > 0.0;
+                range.all_max = range.all_max.max(if finite { s } else { f32::INFINITY });
+                range.all_near |= near;
+                range.all_far |= !near;
+                range.all_disparity = range.all_disparity.with(disparity);
+                if opaque {
+                    range.source_disparity = range.source_disparity.with(disparity);
+                    range.source_min = range.source_min.min(if finite { s } else { 0.0 });
+                    range.source_max = range.source_max.max(if finite { s } else { f32::INFINITY });
+                    range.source_near |= near;
+                    range.source_far |= !near;
+                }
+            }
+        }
+        ([support, gather], range)
+    }
+
+    /// A deterministic scramble in [0, 1).
+    fn hash(i: usize) -> f32 {
+        let mut x = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03;
+        x ^= x >> 29;
+        x = x.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        x ^= x >> 32;
+        (x >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// Tiles of every kind the bounds must survive: one disparity, +0 and -0 together, values
+    /// on both sides of focus and exactly at it, NaN, transparent and negative alpha, and a
+    /// partial last tile; under both models, a zero and a non-zero blur.
+    #[test]
+    fn the_extremes_scan_equals_the_per_pixel_scan_bit_for_bit() {
+        let (w, h): (usize, usize) = (16 * 7 + 5, 16 * 2 + 9);
+        let focus = 0.4f32;
+        let disparity_of = |i: usize, tile: usize| -> f32 {
+            let u = hash(i * 3 + 1);
+            match tile % 7 {
+                0 => 0.25,
+                1 => if u < 0.5 { 0.0 } else { -0.0 },
+                2 => focus + (u - 0.5) * 1e-3,
+                3 => if u < 0.1 { f32::NAN } else { u },
+                4 => if u < 0.5 { focus } else { focus + 0.3 },
+                5 => focus - 0.5 * u,
+                _ => u * 2.0 - 0.5,
+            }
+        };
+        let tile_of = |x: usize, y: usize| (y / TILE) * w.div_ceil(TILE) + x / TILE;
+        let layer = Layer {
+            name: "scanned".into(),
+            rgba: Image::from_fn(w, h, |x, y| {
+                let u = hash((y * w + x) * 3 + 2);
+                let alpha = if tile_of(x, y) % 3 == 0 { 0.0 } else if u < 0.3 { 0.0 } else if u < 0.35 { -0.5 } else { u };
+                [u, u, u, alpha]
+            }),
+            disparity: (0..w * h).map(|i| disparity_of(i, tile_of(i % w, i / w))).collect(),
+        };
+        // Params refuses NaN in the range it reads: it gets a stack without them, and the
+        // scans read the layer with them.
+        let clean = Layer { disparity: layer.disparity.iter().map(|d| if d.is_nan() { 0.5 } else { *d }).collect(), ..layer.clone() };
+        let stack = LayerStack::new(w, h, vec![clean]).unwrap();
+        let mut compared = 0;
+        for k in [0.0f32, 7.5, 40.0] {
+            for model in [Model::DrBokeh, Model::Compat] {
+                let lens = Lens { coc: CocModel::new(k, focus).unwrap(), aperture: Aperture::Disk };
+                let params = Params::new(&stack, &lens, model).unwrap();
+                for ty in 0..params.tiles_y {
+                    for tx in 0..params.tiles_x {
+                        let (fast, slow) = (scan_tile(&params, &layer, tx, ty), scan_tile_per_pixel(&params, &layer, tx, ty));
+                        assert_eq!(fast.0.map(f64::to_bits), slow.0.map(f64::to_bits), "bounds of tile ({tx}, {ty}), k {k}, {model:?}");
+                        let bits = |r: &AbsSRange| [r.source_min, r.source_max, r.all_max].map(f32::to_bits);
+                        assert_eq!(bits(&fast.1), bits(&slow.1), "|s| of tile ({tx}, {ty}), k {k}, {model:?}");
+                        assert_eq!(fast.1, slow.1, "ranges of tile ({tx}, {ty}), k {k}, {model:?}");
+                        compared += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(compared, 6 * 8 * 3);
+    }
 }

@@ -173,7 +173,7 @@ impl DrBokehGpu {
             }
         };
         let interior = self.kernel != LayerKernel::OptimisedNoInterior;
-        let frame = ForwardFrame::new(&self.ctx, stack, &params, &lens.aperture, &windows, interior.then_some(ranges))?;
+        let frame = ForwardFrame::new(stack, &params, &lens.aperture, &windows, interior.then_some(ranges));
         // Work bound: every layer's square of the largest search window (span paths do less).
         let work = params.layer_count as u64 * (2 * max_window.max(0) as u64 + 1).pow(2);
         let tiling = params.tiling().with_work(work);
@@ -190,6 +190,7 @@ impl DrBokehGpu {
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
         let (ctx, params) = (&self.ctx, frame.params);
+        frame.begin_attempt();
         let mut image = Image::new(params.width, params.height);
         let max_halo = frame.windows.iter().copied().max().unwrap_or(0).max(0) as usize;
         let room = TileRoom { core: tiling.room(plan.tile, 0), read: tiling.room(plan.tile, max_halo) };
@@ -314,6 +315,7 @@ impl ForwardBuffers {
         room: TileRoom,
     ) -> Result<Self> {
         let (stack, params) = (frame.stack, frame.params);
+        let tables = frame.tables(ctx, batch)?;
         let tile_radii = match &frame.source_ranges {
             Some(ranges) => span_radii(params, ranges, frame.windows, core),
             None => vec![NO_SPAN_RADII; frame.windows.len()],
@@ -348,39 +350,48 @@ impl ForwardBuffers {
             rgba: Buffer::from_slices_with_room_in(ctx, batch, "drbokeh rgba", read_n, read_room, rgba)?,
             disparity: Buffer::from_slices_with_room_in(ctx, batch, "drbokeh disparity", read_n, read_room, disparity)?,
             tile_radii: Buffer::from_iter_in(ctx, batch, "drbokeh tile_radii", tile_radii.len(), tile_radii)?,
-            tile_window: frame.tile_window.clone(),
-            area_lut: frame.area_lut.clone(),
-            kernel: frame.kernel.clone(),
-            aperture_rows: frame.aperture_rows.clone(),
+            tile_window: tables.tile_window,
+            area_lut: tables.area_lut,
+            kernel: tables.kernel,
+            aperture_rows: tables.aperture_rows,
         })
     }
 }
 
-/// What every tile of a frame shares: the inputs, the search windows, and the device tables
-/// every tile binds (uploaded once per frame).
+/// What every tile of a frame shares: the inputs, the search windows, and the tables every
+/// tile binds (uploaded once per attempt at the frame, by its first tile's batch).
 pub(crate) struct ForwardFrame<'a> {
     pub stack: &'a LayerStack,
     pub params: &'a Params,
     pub windows: &'a [i32],
-    tile_window: Buffer,
-    area_lut: Buffer,
-    kernel: Buffer,
+    area_lut: Vec<f32>,
+    kernel: Vec<f32>,
     /// The gauge path's closed-form gauge constants and row table ([`aperture_rows`]).
-    aperture_rows: Buffer,
+    aperture_rows: Vec<[f32; 4]>,
+    /// The tables on the device, once a tile has recorded their upload ([`Self::tables`]).
+    tables: Mutex<Option<FrameTables>>,
     /// What the tiles' [`span_radii`] combine; `None`: tiles upload radii [0, f32::MAX]
     /// ([`LayerKernel::OptimisedNoInterior`]).
     source_ranges: Option<SourceRanges>,
 }
 
+/// The device copies of a frame's shared tables.
+#[derive(Clone)]
+pub(crate) struct FrameTables {
+    tile_window: Buffer,
+    area_lut: Buffer,
+    kernel: Buffer,
+    aperture_rows: Buffer,
+}
+
 impl<'a> ForwardFrame<'a> {
     pub fn new(
-        ctx: &Context,
         stack: &'a LayerStack,
         params: &'a Params,
         aperture: &Aperture,
         windows: &'a [i32],
         source_ranges: Option<SourceRanges>,
-    ) -> Result<Self> {
+    ) -> Self {
         let rows = match (params.lens.path(params.model), aperture) {
             // A vignetted polygon or ellipse: its base's table, then each tile's centroid.
             (AperturePath::Gauge, Aperture::Vignetted { base, .. }) if params.lens.is_vignetted_base() => {
@@ -391,16 +402,42 @@ impl<'a> ForwardFrame<'a> {
             (AperturePath::Kernel, Aperture::Kernel(kernel)) => kernel_run_table(kernel),
             _ => vec![EMPTY_APERTURE_ROW],
         };
-        Ok(Self {
+        Self {
             stack,
             params,
             windows,
-            tile_window: Buffer::from_slice(ctx, "drbokeh tile_window", windows)?,
-            area_lut: Buffer::from_slice(ctx, "drbokeh area_lut", &params.area_lut_f32())?,
-            kernel: Buffer::from_slice(ctx, "drbokeh kernel", &params.kernel_f32())?,
-            aperture_rows: Buffer::from_slice(ctx, "drbokeh aperture_rows", &rows)?,
+            area_lut: params.area_lut_f32(),
+            kernel: params.kernel_f32(),
+            aperture_rows: rows,
+            tables: Mutex::new(None),
             source_ranges,
-        })
+        }
+    }
+
+    /// Starts an attempt at the frame: tables uploaded by an earlier attempt's batch (which an
+    /// out-of-memory error may have stopped before it ran) are uploaded again.
+    pub fn begin_attempt(&self) {
+        *self.tables.lock().unwrap_or_else(|e| e.into_inner()) = None;
+    }
+
+    /// The shared tables on the device: the first tile of an attempt records their upload into
+    /// its `batch` (ahead of its own passes, which the copy's barrier orders), later tiles bind
+    /// the same buffers. Separate uploads, each a submission and a wait of its own, cost a few
+    /// milliseconds per frame on a discrete GPU: as much as rendering a 1024^2 frame.
+    fn tables(&self, ctx: &Context, batch: &mut CommandBatch) -> Result<FrameTables> {
+        let mut tables = self.tables.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(tables) = &*tables {
+            return Ok(tables.clone());
+        }
+        let upload = |batch: &mut CommandBatch, name: &str, data: &[f32]| Buffer::from_slices_in(ctx, batch, name, data.len(), [data]);
+        let uploaded = FrameTables {
+            tile_window: Buffer::from_slices_in(ctx, batch, "drbokeh tile_window", self.windows.len(), [self.windows])?,
+            area_lut: upload(batch, "drbokeh area_lut", &self.area_lut)?,
+            kernel: upload(batch, "drbokeh kernel", &self.kernel)?,
+            aperture_rows: Buffer::from_slices_in(ctx, batch, "drbokeh aperture_rows", self.aperture_rows.len(), [self.aperture_rows.as_slice()])?,
+        };
+        *tables = Some(uploaded.clone());
+        Ok(uploaded)
     }
 }
 

@@ -162,7 +162,7 @@ impl DrBokehGpuGrad {
         let reach: Vec<i32> = windows.chunks(per_layer.max(1)).flat_map(|w| tile_reach_cpu(&params, w)).collect();
         let ctx = self.context();
         let frame = Frame {
-            forward: ForwardFrame::new(ctx, stack, &params, &lens.aperture, &windows, Some(ranges))?,
+            forward: ForwardFrame::new(stack, &params, &lens.aperture, &windows, Some(ranges)),
             reach: &reach,
             tile_reach: Buffer::from_slice(ctx, "drbokeh tile_reach", &reach)?,
             grad_output,
@@ -191,6 +191,7 @@ impl DrBokehGpuGrad {
     ) -> Result<(StackGradients, RenderStats)> {
         let ctx = self.context();
         let params = frame.forward.params;
+        frame.forward.begin_attempt();
         let mut grads = FrameGradients::new(params);
         // The largest tile's rects, as its footprint counts them: receivers reach (widened to
         // whole search tiles) and the forward's windows around them.

@@ -288,7 +288,10 @@ fn eye_centroid(base: &Aperture, shift: [f64; 2]) -> Result<[f64; 2]> {
 
 fn area_table_of(lens: &LensView) -> Vec<f64> {
     let count = (AREA_TABLE_RADIUS_PX / AREA_STEP_PX).round() as usize + 1;
+    // On every core: the sums grow with the cube of the radius, and one thread's table was
+    // most of a preview frame's preparation (~1 ms, against 0.2 ms of device time at 256^2).
     (0..count)
+        .into_par_iter()
         .map(|i| {
             let r = i as f64 * AREA_STEP_PX;
             let half = math::support(r).ceil() as i64;
