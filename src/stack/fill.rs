@@ -8,6 +8,8 @@
 //! names the known pixel mirrored across the edge (the symmetric fill of Virtual DSLR, Yang
 //! et al. 2016), so what is cut by an occluder (an HDR light) continues at full strength.
 
+use rayon::prelude::*;
+
 struct Level<const N: usize> {
     width: usize,
     height: usize,
@@ -25,11 +27,14 @@ fn pull_children<const N: usize>(fine: &Level<N>, x: usize, y: usize) -> [Option
     })
 }
 
+/// The next coarser level, row by row on every core (each coarse pixel reads its own 2x2 block):
+/// the pyramid of every layer with transparent pixels is built while a stack is read, and one
+/// thread's passes were most of reading a large layered EXR.
 fn pull<const N: usize>(fine: &Level<N>) -> Level<N> {
     let (width, height) = (fine.width.div_ceil(2), fine.height.div_ceil(2));
     let mut values = vec![[0.0; N]; width * height];
     let mut weights = vec![0.0; width * height];
-    for y in 0..height {
+    values.par_chunks_mut(width).zip(weights.par_chunks_mut(width)).enumerate().for_each(|(y, (values, weights))| {
         for x in 0..width {
             let (mut sum, mut total) = ([0.0f32; N], 0.0f32);
             for i in pull_children(fine, x, y).into_iter().flatten() {
@@ -40,11 +45,11 @@ fn pull<const N: usize>(fine: &Level<N>) -> Level<N> {
                 }
             }
             if total > 0.0 {
-                values[y * width + x] = sum.map(|s| s / total);
+                values[x] = sum.map(|s| s / total);
             }
-            weights[y * width + x] = total.min(1.0);
+            weights[x] = total.min(1.0);
         }
-    }
+    });
     Level { width, height, values, weights }
 }
 
@@ -91,21 +96,25 @@ fn sample_coarse<const N: usize>(coarse: &Level<N>, x: usize, y: usize) -> [f32;
     }
 }
 
+/// Fills the fine level's missing weight from the coarse level, row by row on every core (each
+/// fine pixel writes only itself).
 fn push<const N: usize>(fine: &mut Level<N>, coarse: &Level<N>) {
-    for y in 0..fine.height {
-        for x in 0..fine.width {
-            let i = y * fine.width + x;
-            let w = fine.weights[i].clamp(0.0, 1.0);
-            if w < 1.0 {
-                let c = sample_coarse(coarse, x, y);
-                for (v, c) in fine.values[i].iter_mut().zip(c) {
-                    let own = if w > 0.0 { w * *v } else { 0.0 };
-                    *v = own + (1.0 - w) * c;
+    let width = fine.width;
+    fine.values.par_chunks_mut(width).zip(fine.weights.par_chunks_mut(width)).enumerate().for_each(
+        |(y, (values, weights))| {
+            for x in 0..width {
+                let w = weights[x].clamp(0.0, 1.0);
+                if w < 1.0 {
+                    let c = sample_coarse(coarse, x, y);
+                    for (v, c) in values[x].iter_mut().zip(c) {
+                        let own = if w > 0.0 { w * *v } else { 0.0 };
+                        *v = own + (1.0 - w) * c;
+                    }
+                    weights[x] = 1.0;
                 }
-                fine.weights[i] = 1.0;
             }
-        }
-    }
+        },
+    );
 }
 
 /// Replaces `values` wherever `weights` is 0 by a smooth weighted extension of the pixels
