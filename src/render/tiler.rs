@@ -566,14 +566,17 @@ pub(crate) fn render_image_tiles(
 
 /// Copies a tile's core-local RGBA result into the frame.
 pub(crate) fn store_core(ctx: &Context, image: &mut Image, core: Rect, result: &ReadBack) -> Result<()> {
-    use rayon::prelude::*;
-    // Row by row on every core: one thread's copy of a large core was most of the collect time
-    // on a discrete GPU (171 ms of an H200's 4096^2 frame).
     let width = image.width;
-    result.read_with(ctx, |result: &[[f32; 4]]| {
-        let rows = image.pixels.par_chunks_exact_mut(width).skip(core.y0).take(core.height());
-        rows.zip(result.par_chunks_exact(core.width())).for_each(|(row, from)| row[core.x0..core.x1].copy_from_slice(from));
-    })
+    result.read_with(ctx, |result: &[[f32; 4]]| place_core_rows(&mut image.pixels, width, core, result))
+}
+
+/// Copies a core's rows (`rows`: `core.width()` items each, row-major) into their place in a
+/// frame `width` items wide, row by row on every core: one thread's copy of a large core was
+/// most of the collect time on a discrete GPU (171 ms of an H200's 4096^2 frame).
+pub(crate) fn place_core_rows<T: Copy + Send + Sync>(frame: &mut [T], width: usize, core: Rect, rows: &[T]) {
+    use rayon::prelude::*;
+    let targets = frame.par_chunks_exact_mut(width).skip(core.y0).take(core.height());
+    targets.zip(rows.par_chunks_exact(core.width())).for_each(|(row, from)| row[core.x0..core.x1].copy_from_slice(from));
 }
 
 /// Push-constant form of a tile: the core and read rects as (x, y, width, height), which the
