@@ -196,20 +196,17 @@ impl Buffer {
         })
     }
 
-    /// [`Self::from_iter_in`] from contiguous runs (a tile's rows of a frame), each copied with
-    /// one memory copy: element-wise writes of a tile's inputs into write-combined staging
-    /// memory were the largest host cost of large frames on a discrete GPU.
-    pub fn from_slices_in<'a, T: bytemuck::Pod + Sync>(
-        ctx: &Context,
-        batch: &mut CommandBatch,
-        name: &str,
-        len: usize,
-        slices: impl IntoIterator<Item = &'a [T]>,
-    ) -> Result<Self> {
-        Self::from_slices_with_room_in(ctx, batch, name, len, len, slices)
+    /// [`Self::from_slice`] recorded into `batch`: no submission of its own (a frame's tables
+    /// ride in its first tile's batch).
+    pub fn from_slice_in<T: bytemuck::Pod + Sync>(ctx: &Context, batch: &mut CommandBatch, name: &str, data: &[T]) -> Result<Self> {
+        Self::from_slices_with_room_in(ctx, batch, name, data.len(), data.len(), [data])
     }
 
-    /// [`Self::from_slices_in`] with room for `room` items ([`Self::uninitialised_with_room`]).
+    /// [`Self::from_iter_in`] from contiguous runs (a tile's rows of a frame), each copied with
+    /// one memory copy, in memory with room for `room` items
+    /// ([`Self::uninitialised_with_room`]): element-wise writes of a tile's inputs into
+    /// write-combined staging memory were the largest host cost of large frames on a discrete
+    /// GPU.
     pub fn from_slices_with_room_in<'a, T: bytemuck::Pod + Sync>(
         ctx: &Context,
         batch: &mut CommandBatch,

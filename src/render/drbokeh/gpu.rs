@@ -429,12 +429,11 @@ impl<'a> ForwardFrame<'a> {
         if let Some(tables) = &*tables {
             return Ok(tables.clone());
         }
-        let upload = |batch: &mut CommandBatch, name: &str, data: &[f32]| Buffer::from_slices_in(ctx, batch, name, data.len(), [data]);
         let uploaded = FrameTables {
-            tile_window: Buffer::from_slices_in(ctx, batch, "drbokeh tile_window", self.windows.len(), [self.windows])?,
-            area_lut: upload(batch, "drbokeh area_lut", &self.area_lut)?,
-            kernel: upload(batch, "drbokeh kernel", &self.kernel)?,
-            aperture_rows: Buffer::from_slices_in(ctx, batch, "drbokeh aperture_rows", self.aperture_rows.len(), [self.aperture_rows.as_slice()])?,
+            tile_window: Buffer::from_slice_in(ctx, batch, "drbokeh tile_window", self.windows)?,
+            area_lut: Buffer::from_slice_in(ctx, batch, "drbokeh area_lut", &self.area_lut)?,
+            kernel: Buffer::from_slice_in(ctx, batch, "drbokeh kernel", &self.kernel)?,
+            aperture_rows: Buffer::from_slice_in(ctx, batch, "drbokeh aperture_rows", &self.aperture_rows)?,
         };
         *tables = Some(uploaded.clone());
         Ok(uploaded)

@@ -405,16 +405,15 @@ impl FrameGradients {
     /// frame, straight from the read-backs: a copy of each into a vector first, then one thread
     /// placing its rows, made reading back most of a 1024^2 backward's wall time on an H200.
     fn store(&mut self, ctx: &Context, params: &Params, tile: &TileGradients, core: Rect) -> Result<()> {
-        let (n, core_n) = (params.width * params.height, core.area());
-        fn place<T: Copy + Send + Sync>(frame: &mut [T], tile: &[T], (n, core_n, width): (usize, usize, usize), core: Rect) {
-            for (layer, rows) in frame.chunks_exact_mut(n).zip(tile.chunks_exact(core_n)) {
-                place_core_rows(layer, width, core, rows);
+        fn place<T: Copy + Send + Sync>(frame: &mut [T], tile: &[T], params: &Params, core: Rect) {
+            let layers = frame.chunks_exact_mut(params.width * params.height).zip(tile.chunks_exact(core.area()));
+            for (layer, rows) in layers {
+                place_core_rows(layer, params.width, core, rows);
             }
         }
-        let sizes = (n, core_n, params.width);
-        tile.rgba.read_with(ctx, |rgba: &[[f32; 4]]| place(&mut self.rgba, rgba, sizes, core))?;
-        tile.disparity.read_with(ctx, |disparity: &[f32]| place(&mut self.disparity, disparity, sizes, core))?;
-        tile.k_partial.read_with(ctx, |k_partial: &[f32]| place(&mut self.k_partial, k_partial, sizes, core))
+        tile.rgba.read_with(ctx, |rgba: &[[f32; 4]]| place(&mut self.rgba, rgba, params, core))?;
+        tile.disparity.read_with(ctx, |disparity: &[f32]| place(&mut self.disparity, disparity, params, core))?;
+        tile.k_partial.read_with(ctx, |k_partial: &[f32]| place(&mut self.k_partial, k_partial, params, core))
     }
 
     /// Splits the frame per layer and sums the scalar shares in f64 in image order (layer by
