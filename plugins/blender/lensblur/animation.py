@@ -19,7 +19,7 @@ import bpy
 from . import camera, checks, compat, methods, preferences, result, settings, stack
 from .errors import LensblurError
 from .job import RenderJob, tool_message
-from .operator import POLL_SECONDS, report_failure
+from .operator import POLL_SECONDS, end_polling, report_failure
 
 SEQUENCE_NAME = "lensblur_sequence"
 DIRECTORY_HELP = "Folder for the layer frames, the camera file and the defocused frames"
@@ -268,10 +268,8 @@ class ShotOperator:
         return {"FINISHED"}
 
     def end_modal(self, context):
-        wm = context.window_manager
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        context.workspace.status_text_set(None)
+        context.window_manager.progress_end()
+        end_polling(self, context)
 
     def report_warnings(self, warnings):
         for warning in warnings:

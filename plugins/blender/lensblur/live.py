@@ -24,7 +24,7 @@ import bpy
 
 from . import camera, preferences, result, stack
 from .errors import LensblurError
-from .operator import report_failure
+from .operator import begin_polling, end_polling, report_failure
 
 # How often the modal operator looks for changed settings and finished renders.
 POLL_SECONDS = 0.02
@@ -250,10 +250,7 @@ class LENSBLUR_OT_live(bpy.types.Operator):
             self._session = LiveSession(context)
         except (LensblurError, RuntimeError, OSError) as e:
             return report_failure(self, e)
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(POLL_SECONDS, window=context.window)
-        wm.modal_handler_add(self)
-        context.workspace.status_text_set("lensblur live: rendering (Esc leaves)")
+        begin_polling(self, context, POLL_SECONDS, "lensblur live: rendering (Esc leaves)")
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
@@ -288,6 +285,5 @@ class LENSBLUR_OT_live(bpy.types.Operator):
         return {"PASS_THROUGH"}
 
     def end(self, context):
-        context.window_manager.event_timer_remove(self._timer)
-        context.workspace.status_text_set(None)
+        end_polling(self, context)
         self._session.close()

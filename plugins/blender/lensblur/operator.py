@@ -29,6 +29,21 @@ class Prepared:
         shutil.rmtree(self.tmp, ignore_errors=True)
 
 
+def begin_polling(op, context, seconds, status):
+    """Runs `op` as a modal operator woken every `seconds` by a window timer, with `status` in
+    the status bar (the one-shot render and Live mode; `end_polling` undoes it, for the
+    animation operators too)."""
+    wm = context.window_manager
+    op._timer = wm.event_timer_add(seconds, window=context.window)
+    wm.modal_handler_add(op)
+    context.workspace.status_text_set(status)
+
+
+def end_polling(op, context):
+    context.window_manager.event_timer_remove(op._timer)
+    context.workspace.status_text_set(None)
+
+
 def report_failure(op, error):
     """LensblurError: the message says what to do. Blender's own calls (image loading, file
     output) fail with RuntimeError/OSError: a report says what failed, the console keeps the
@@ -82,22 +97,19 @@ class LENSBLUR_OT_defocus(bpy.types.Operator):
             self._job = RenderJob(self._prepared.command)
         except (LensblurError, RuntimeError, OSError) as e:
             return report_failure(self, e)
-        wm = context.window_manager
-        self._timer = wm.event_timer_add(POLL_SECONDS, window=context.window)
-        wm.modal_handler_add(self)
-        context.workspace.status_text_set("lensblur: rendering (Esc cancels)")
+        begin_polling(self, context, POLL_SECONDS, "lensblur: rendering (Esc cancels)")
         return {"RUNNING_MODAL"}
 
     def modal(self, context, event):
         if event.type == "ESC":
             self._job.cancel()
             self._prepared.cleanup()
-            self.end_modal(context)
+            end_polling(self, context)
             self.report({"WARNING"}, "lensblur: cancelled; nothing was written")
             return {"CANCELLED"}
         if event.type != "TIMER" or self._job.poll() is None:
             return {"PASS_THROUGH"}
-        self.end_modal(context)
+        end_polling(self, context)
         try:
             self.finish(context, self._prepared, self._job.result(), self._job.warnings)
         except (LensblurError, RuntimeError, OSError) as e:
@@ -105,10 +117,6 @@ class LENSBLUR_OT_defocus(bpy.types.Operator):
         finally:
             self._prepared.cleanup()
         return {"FINISHED"}
-
-    def end_modal(self, context):
-        context.window_manager.event_timer_remove(self._timer)
-        context.workspace.status_text_set(None)
 
     def prepare(self, context):
         """Writes the stack to a temporary folder; returns what renders it."""
