@@ -77,9 +77,8 @@ def material(name, colour, roughness=None, emit=0.0, checker=None):
     return mat
 
 
-def world(horizon, zenith, strength):
-    """An HDR sky: `horizon` to `zenith` colour times `strength` for camera and glossy rays,
-    a twentieth of it for diffuse rays (less noise in the truth, the same sky in view)."""
+def new_world():
+    """A new world node tree for the scene: (nodes, links)."""
     w = bpy.data.worlds.new("Sky")
     bpy.context.scene.world = w
     # The dim sky is sampled as a light (multiple importance): hit only by chance, its light
@@ -88,20 +87,18 @@ def world(horizon, zenith, strength):
     w.use_nodes = True
     nodes, links = w.node_tree.nodes, w.node_tree.links
     nodes.clear()
-    coords = nodes.new("ShaderNodeTexCoord")
-    xyz = nodes.new("ShaderNodeSeparateXYZ")
-    ramp = nodes.new("ShaderNodeValToRGB")
-    ramp.color_ramp.elements[0].color = (*horizon, 1.0)
-    ramp.color_ramp.elements[1].color = (*zenith, 1.0)
-    ramp.color_ramp.elements[1].position = 0.6
-    links.new(coords.outputs["Generated"], xyz.inputs[0])
-    links.new(xyz.outputs["Z"], ramp.inputs["Fac"])
+    return nodes, links
+
+
+def seen_sky(nodes, links, colour, strength):
+    """The world's output: the `colour` socket times `strength` for camera and glossy rays, a
+    twentieth of it for diffuse rays (less noise in the truth, the same sky in view)."""
     bright = nodes.new("ShaderNodeBackground")
     bright.inputs["Strength"].default_value = strength
     dim = nodes.new("ShaderNodeBackground")
     dim.inputs["Strength"].default_value = 0.05 * strength
-    links.new(ramp.outputs["Color"], bright.inputs["Color"])
-    links.new(ramp.outputs["Color"], dim.inputs["Color"])
+    links.new(colour, bright.inputs["Color"])
+    links.new(colour, dim.inputs["Color"])
     path = nodes.new("ShaderNodeLightPath")
     seen = nodes.new("ShaderNodeMath")
     seen.operation = "MAXIMUM"
@@ -113,6 +110,20 @@ def world(horizon, zenith, strength):
     links.new(bright.outputs[0], mix.inputs[2])
     out = nodes.new("ShaderNodeOutputWorld")
     links.new(mix.outputs[0], out.inputs["Surface"])
+
+
+def world(horizon, zenith, strength):
+    """An HDR sky: `horizon` to `zenith` colour times `strength` (see `seen_sky`)."""
+    nodes, links = new_world()
+    coords = nodes.new("ShaderNodeTexCoord")
+    xyz = nodes.new("ShaderNodeSeparateXYZ")
+    ramp = nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].color = (*horizon, 1.0)
+    ramp.color_ramp.elements[1].color = (*zenith, 1.0)
+    ramp.color_ramp.elements[1].position = 0.6
+    links.new(coords.outputs["Generated"], xyz.inputs[0])
+    links.new(xyz.outputs["Z"], ramp.inputs["Fac"])
+    seen_sky(nodes, links, ramp.outputs["Color"], strength)
 
 
 def sun(strength, elevation_deg=40.0, azimuth_deg=30.0):
@@ -520,6 +531,190 @@ SCENES = {
 }
 
 
+# --- procedural scenes (issue 46) -------------------------------------------------------
+# A scene named "<split>-<index>" (split "dev" or "test") is drawn from a seed: its family
+# (index modulo FAMILIES, so every family is in both splits), then placement, wire gauge and
+# spacing, lens 35-135 mm, f-stop 1.4-8 and one of the HDR worlds Blender ships. The dev set
+# is for tuning; the test set is scored only for a candidate one would ship.
+
+WORLDS = ["city", "courtyard", "forest", "interior", "night", "studio", "sunrise", "sunset"]
+
+
+def hdri_world(rng, name, strength):
+    """One of Blender's studio-light HDRIs, turned at random, times `strength` (see `seen_sky`)."""
+    folder = bpy.utils.system_resource("DATAFILES", path="studiolights/world")
+    nodes, links = new_world()
+    coords = nodes.new("ShaderNodeTexCoord")
+    turn = nodes.new("ShaderNodeMapping")
+    turn.inputs["Rotation"].default_value = (0.0, 0.0, rng.uniform(0.0, 2.0 * math.pi))
+    env = nodes.new("ShaderNodeTexEnvironment")
+    env.image = bpy.data.images.load(os.path.join(folder, name + ".exr"))
+    links.new(coords.outputs["Generated"], turn.inputs["Vector"])
+    links.new(turn.outputs["Vector"], env.inputs["Vector"])
+    seen_sky(nodes, links, env.outputs["Color"], strength)
+
+
+def random_colour(rng, lo=0.1, hi=0.85):
+    return (rng.uniform(lo, hi), rng.uniform(lo, hi), rng.uniform(lo, hi))
+
+
+def city_lights(group, rng, depth, lens, count):
+    """Small bright lamps scattered over the frame at about `depth` (bokeh discs when blurred)."""
+    h = half_width(depth, lens)
+    bulbs = [material(f"lamp{i}", (1.0, rng.uniform(0.6, 1.0), rng.uniform(0.3, 0.9)), emit=rng.uniform(30.0, 120.0)) for i in range(3)]
+    for _ in range(count):
+        d = depth * rng.uniform(0.9, 1.2)
+        group.sphere(rng.choice(bulbs), (rng.uniform(-h, h) * 1.1, d, EYE + rng.uniform(-h, h)), 0.004 * d * 50.0 / lens,
+                     rings=6, segments=10)
+
+
+def backdrop(group, rng, depth, lens, night):
+    """A city block or a courtyard at `depth`: the in-focus or blurred far structure."""
+    if night:
+        h = half_width(depth, lens) * 1.6
+        for i in range(8):
+            x = -h + 2 * h * i / 8
+            top = EYE + rng.uniform(-0.5, 1.0) * half_width(depth, lens)
+            group.box(material(f"tower{i}", random_colour(rng, 0.05, 0.3), checker=random_colour(rng, 0.02, 0.15)),
+                      (x, depth + rng.uniform(0.0, 2.0), -1.0), (x + 2 * h / 8 * 0.9, depth + 3.0, top))
+        city_lights(group, rng, depth * 0.95, lens, rng.randint(10, 30))
+    else:
+        courtyard(group, depth, lens, rng)
+
+
+def proc_fence(rng, lens, fstop, fence_in_focus):
+    """Failure cases 1 and 3 of issue 46: a wire fence over a far backdrop, the fence in
+    focus over blurred city lights or blurred over an in-focus, lit backdrop with a bright
+    bead on a wire."""
+    near = rng.uniform(0.8, 2.5)
+    far = rng.uniform(8.0, 25.0)
+    fence, back = Group("fence"), Group("back")
+    h = half_width(near, lens) * 1.3
+    px = 2.0 * half_width(near, lens) / 256.0  # metres per pixel at the fence
+    radius = px * rng.uniform(0.35, 1.0)
+    spacing = px * rng.uniform(8.0, 24.0)
+    wire = material("wire", random_colour(rng, 0.15, 0.7), roughness=rng.uniform(0.1, 0.5))
+    if rng.random() < 0.5:
+        diagonal_fence(fence, wire, near, h, EYE - h, EYE + h, spacing, radius, rng.uniform(25.0, 65.0))
+    else:
+        grid(fence, wire, near, h, EYE - h, EYE + h, spacing, radius)
+    night = fence_in_focus and rng.random() < 0.8
+    backdrop(back, rng, far, lens, night)
+    if not fence_in_focus:
+        for _ in range(rng.randint(1, 3)):
+            fence.sphere(material("bead", (1.0, 0.9, 0.7), emit=rng.uniform(30.0, 80.0)),
+                         (rng.uniform(-0.5, 0.5) * half_width(near, lens), near - 0.01, EYE + rng.uniform(-0.5, 0.5) * half_width(near, lens)),
+                         radius * 2.5, rings=6, segments=10)
+    return (near if fence_in_focus else far), [fence, back], ("night" if night else rng.choice(["courtyard", "sunrise", "sunset", "forest"]))
+
+
+def proc_silhouette(rng, lens, fstop):
+    """Failure case 2: an in-focus round silhouette (a head, a vase) over a blurred night city."""
+    near = rng.uniform(1.0, 3.0)
+    far = rng.uniform(10.0, 30.0)
+    subject, back = Group("subject"), Group("back")
+    h = half_width(near, lens)
+    r = h * rng.uniform(0.25, 0.5)
+    cx = rng.uniform(-0.4, 0.4) * h
+    subject.sphere(material("skin", random_colour(rng, 0.2, 0.8), checker=random_colour(rng, 0.1, 0.6)), (cx, near, EYE + rng.uniform(-0.3, 0.1) * h), r, rings=24, segments=48)
+    subject.box(material("body", random_colour(rng, 0.05, 0.5)), (cx - 1.3 * r, near, EYE - 3.0 * h), (cx + 1.3 * r, near + 0.3, EYE - 0.2 * h - r * 0.8))
+    backdrop(back, rng, far, lens, True)
+    return near, [subject, back], "night"
+
+
+def proc_foliage(rng, lens, fstop):
+    near, far = rng.uniform(1.5, 4.0), rng.uniform(6.0, 20.0)
+    leaves, back = Group("leaves"), Group("back")
+    h = half_width(near, lens) * 1.2
+    greens = [material(f"leaf{i}", (0.05 + 0.1 * i, 0.3 + 0.1 * i, 0.05)) for i in range(3)]
+    holes = [(rng.uniform(-h, h), EYE + rng.uniform(-h, h), rng.uniform(0.05, 0.2) * h) for _ in range(rng.randint(2, 6))]
+    for _ in range(int(1500 * rng.uniform(0.5, 1.0))):
+        cx, cz = rng.uniform(-h, h), EYE + rng.uniform(-h, h)
+        if any((cx - x) ** 2 + (cz - z) ** 2 < r * r for x, z, r in holes):
+            continue
+        size, turn = rng.uniform(0.02, 0.06) * h, rng.uniform(0.0, math.pi)
+        pts = [(cx + size * math.cos(turn + a) * (1.0 if k % 2 == 0 else 0.5), near + rng.uniform(-0.05, 0.05),
+                cz + size * math.sin(turn + a) * (1.0 if k % 2 == 0 else 0.5))
+               for k, a in enumerate([0.0, math.pi / 2, math.pi, 3 * math.pi / 2])]
+        leaves.quad(rng.choice(greens), pts)
+    backdrop(back, rng, far, lens, rng.random() < 0.3)
+    focus = near if rng.random() < 0.4 else far
+    return focus, [leaves, back], rng.choice(["forest", "courtyard", "sunrise"])
+
+
+def proc_strands(rng, lens, fstop):
+    near, far = rng.uniform(1.0, 3.0), rng.uniform(5.0, 25.0)
+    hair, back = Group("hair"), Group("back")
+    h = half_width(near, lens)
+    px = 2.0 * h / 256.0
+    fibre = material("fibre", random_colour(rng, 0.2, 0.7), roughness=0.25)
+    for _ in range(rng.randint(30, 80)):
+        hair.tube(fibre, strand_points(rng, rng.uniform(-h, h), near, EYE + h * 1.2, 2.4 * h, px * rng.uniform(1.0, 4.0)), px * rng.uniform(0.2, 0.6), sides=4)
+    night = rng.random() < 0.5
+    backdrop(back, rng, far, lens, night)
+    focus = near if rng.random() < 0.5 else far
+    return focus, [hair, back], ("night" if night else rng.choice(["courtyard", "sunset", "city"]))
+
+
+def proc_planes(rng, lens, fstop):
+    """Three to five textured planes at spread depths (the held-out five-planes case)."""
+    count = rng.randint(3, 5)
+    depths = sorted(rng.uniform(1.0, 20.0) for _ in range(count))
+    groups = []
+    for i, depth in enumerate(depths):
+        g = Group(f"plane{i}")
+        h = half_width(depth, lens)
+        x = rng.uniform(-1.0, 0.6) * h
+        z = EYE + rng.uniform(-1.0, 0.4) * h
+        g.box(material(f"plane{i}", random_colour(rng), checker=random_colour(rng)), (x, depth, z), (x + rng.uniform(0.3, 0.9) * h, depth + 0.05, z + rng.uniform(0.3, 0.9) * h))
+        if rng.random() < 0.5:
+            g.sphere(material(f"spot{i}", (1.0, 0.9, 0.8), emit=rng.uniform(20.0, 80.0)), (x, depth - 0.02, z), 0.004 * depth * 50.0 / lens, rings=6, segments=10)
+        groups.append(g)
+    back = Group("back")
+    backdrop(back, rng, rng.uniform(25.0, 40.0), lens, rng.random() < 0.3)
+    focus = rng.choice(depths + [30.0])
+    return focus, groups + [back], rng.choice(WORLDS)
+
+
+FAMILIES = [
+    ("fence-in-focus", lambda rng, lens, fstop: proc_fence(rng, lens, fstop, True)),
+    ("fence-blurred", lambda rng, lens, fstop: proc_fence(rng, lens, fstop, False)),
+    ("silhouette", proc_silhouette),
+    ("foliage", proc_foliage),
+    ("strands", proc_strands),
+    ("planes", proc_planes),
+]
+SPLITS = ("dev", "test")
+
+
+def procedural(name):
+    """The scene builder for "<split>-<index>": a family by index, the rest from the name's
+    seed. Returns the builder in the (lens, f-stop, focus, groups) form of SCENES."""
+    split, index = name.rsplit("-", 1)
+    family, make = FAMILIES[int(index) % len(FAMILIES)]
+
+    def build_scene(rng):
+        lens = math.exp(rng.uniform(math.log(35.0), math.log(135.0)))
+        fstop = math.exp(rng.uniform(math.log(1.4), math.log(8.0)))
+        focus, groups, sky = make(rng, lens, fstop)
+        hdri_world(rng, sky, rng.uniform(0.8, 2.0))
+        if sky not in ("night", "interior", "studio"):
+            sun(rng.uniform(1.5, 3.0), rng.uniform(20.0, 60.0), rng.uniform(0.0, 360.0))
+        return lens, fstop, focus, groups
+
+    build_scene.family = family
+    return build_scene
+
+
+def scene_builder(name):
+    if name in SCENES:
+        return SCENES[name]
+    split, _, index = name.rpartition("-")
+    if split in SPLITS and index.isdigit():
+        return procedural(name)
+    raise SystemExit(f"unknown scene {name!r}; known: {list(SCENES)} and dev-N / test-N")
+
+
 # --- rendering --------------------------------------------------------------------------
 
 def setup(size):
@@ -561,7 +756,8 @@ def build(name, params, out_dir):
     start = time.perf_counter()
     scene = setup(params["size"])
     rng = random.Random(name)
-    lens, fstop, focus, groups = SCENES[name](rng)
+    builder = scene_builder(name)
+    lens, fstop, focus, groups = builder(rng)
     for g in groups:
         g.build()
     cam_data = bpy.data.cameras.new("Camera")
@@ -594,6 +790,7 @@ def build(name, params, out_dir):
         "focus_distance": focus, "size": params["size"], "groups": [g.name for g in groups],
         "truth_spp": params["truth_spp"], "pinhole_spp": params["pinhole_spp"], "layer_spp": params["layer_spp"],
         "seconds": time.perf_counter() - start, "blender": bpy.app.version_string,
+        "family": getattr(builder, "family", name),
     }
     with open(os.path.join(folder, "camera.json"), "w") as f:
         json.dump(info, f, indent=1)
@@ -604,9 +801,8 @@ def main():
     args = sys.argv[sys.argv.index("--") + 1:]
     out_dir, params = args[0], json.loads(args[1])
     names = params.get("scenes") or list(SCENES)
-    unknown = [n for n in names if n not in SCENES]
-    if unknown:
-        raise SystemExit(f"unknown scenes {unknown}; known: {list(SCENES)}")
+    for name in names:
+        scene_builder(name)  # refuses an unknown name before anything renders
     for name in names:
         build(name, params, out_dir)
 

@@ -18,11 +18,12 @@ pub mod fill;
 pub mod gradients;
 pub mod info;
 pub mod ldr;
+pub mod matting;
 pub mod naming;
 pub mod output_format;
 
 pub use arrays::{grad_output_from_array, stack_from_arrays, stack_to_arrays, ArrayStack};
-pub use autolayer::{split_into_layers, AutoLayerOptions};
+pub use autolayer::{split_into_layers, AutoLayerOptions, Matting};
 pub use depth_clean::known_depth_weight;
 pub use exr_read::{read_parts, read_rgba, read_stack, ReadOptions, DEFAULT_MAX_PIXELS};
 pub use exr_replace::{replace_channels, ChannelReplacement, HeaderEdits};

@@ -2,7 +2,7 @@
 //! --cycles) rendered by Blender Cycles, through drbokeh-auto, vdslr and gather beside the
 //! OpenDefocus peer (dev/peers/opendefocus, run as a separate program): PSNR and seconds per scene.
 use anyhow::Context;
-use lensblur_dev::bench::cycles::{cycles_truths, CyclesSettings, CYCLES_SCENES};
+use lensblur_dev::bench::cycles::{cycles_truths, is_cycles_scene, split_scenes, CyclesSettings};
 use lensblur_dev::bench::{all_methods, run_single_image, scenes, select_methods, SINGLE_IMAGE_METHODS};
 use lensblur::vk::Context as GpuContext;
 
@@ -10,7 +10,8 @@ use super::bar;
 
 #[derive(clap::Args)]
 #[command(after_help = "Examples:\n  lensblur bench single-image --quick\n  lensblur bench single-image --cycles --cycles-size 128\n  \
-lensblur bench single-image --scenes thin-near --sheet single.png")]
+lensblur bench single-image --scenes thin-near --sheet single.png\n  \
+lensblur bench single-image --cycles --split dev --cycles-size 256 --cycles-spp 256 --without-blender")]
 pub struct Args {
     #[command(flatten)]
     truth: super::TruthArgs,
@@ -26,6 +27,20 @@ pub struct Args {
     /// per-group layers a 32nd (at least 1).
     #[arg(long, value_name = "SPP", default_value_t = CyclesSettings::BENCH.truth_spp, requires = "cycles")]
     cycles_spp: u32,
+    /// Only the procedural Cycles scenes of one split (issue 46): `dev` to tune on, `test` to
+    /// score a candidate one would ship (never while tuning).
+    #[arg(long, value_name = "SPLIT", value_parser = ["dev", "test"], requires = "cycles", conflicts_with = "scenes")]
+    split: Option<String>,
+    /// How many scenes of --split (each family appears every 6 scenes).
+    #[arg(long, value_name = "N", default_value_t = 24, requires = "split")]
+    split_size: usize,
+    /// Only render the scenes into the cache (no method runs, nothing scored): a test split can
+    /// be rendered while tuning on the dev split without being looked at.
+    #[arg(long)]
+    render_only: bool,
+    /// Leave out Blender's Defocus node columns (a Blender process per scene and node).
+    #[arg(long)]
+    without_blender: bool,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -35,9 +50,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let names: Vec<String> = if truth.methods.is_empty() { SINGLE_IMAGE_METHODS.map(String::from).to_vec() } else { truth.methods.clone() };
     let methods = select_methods(all_methods(Some(&gpu))?, &names)?;
     // --scenes may name scenes of both sets; a set none of whose scenes is named is left out.
-    let (cycles_names, traced_names): (Vec<String>, Vec<String>) = truth.scenes.iter().cloned().partition(|n| CYCLES_SCENES.contains(&n.as_str()));
+    let (cycles_names, traced_names): (Vec<String>, Vec<String>) = match &args.split {
+        Some(split) => (split_scenes(split, args.split_size), Vec::new()),
+        None => truth.scenes.iter().cloned().partition(|n| is_cycles_scene(n)),
+    };
     let mut truths = Vec::new();
-    if truth.scenes.is_empty() || !traced_names.is_empty() {
+    if args.split.is_none() && (truth.scenes.is_empty() || !traced_names.is_empty()) {
         let tracing = bar("ray tracing {msg}", "rows")?;
         truths = scenes::single_image_truths(&traced_names, truth.quick, Some(tracing.clone()), truth.cache())
             .context("ray tracing the single-image scenes")?;
@@ -46,15 +64,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !cycles_names.is_empty() && !args.cycles {
         anyhow::bail!("scene '{}' is a Cycles scene: add --cycles", cycles_names[0]);
     }
-    if args.cycles && (truth.scenes.is_empty() || !cycles_names.is_empty()) {
+    if args.cycles && (args.split.is_some() || truth.scenes.is_empty() || !cycles_names.is_empty()) {
         let cache = truth.cache.join("cycles");
         let settings = CyclesSettings::with_truth_spp(args.cycles_size, args.cycles_spp);
         let rendered = cycles_truths(&cycles_names, &settings, &cache, &|name| eprintln!("Blender rendered {name}"))
             .context("rendering the Cycles scenes with Blender")?;
         truths.extend(rendered);
     }
+    if args.render_only {
+        eprintln!("{} scenes rendered into the cache; nothing scored (--render-only)", truths.len());
+        drop(methods);
+        gpu.finish()?;
+        return Ok(());
+    }
     let progress = bar("{msg}", "renders")?;
-    let table = run_single_image(&truths, &methods, &progress, true)?;
+    let table = run_single_image(&truths, &methods, &progress, !args.without_blender)?;
     println!("{table}");
     truth.write_outputs(&truths, &table.report)?;
     drop(methods);

@@ -34,6 +34,28 @@ pub const CYCLES_SCENES: [&str; 13] = [
     "deep-f8",
 ];
 
+/// The procedural splits of issue 46: a scene `<split>-<index>` is drawn by the script from
+/// its name (family by index, everything else from the name's seed). `dev` is for tuning;
+/// `test` is scored only for a candidate one would ship.
+pub const SPLITS: [&str; 2] = ["dev", "test"];
+
+/// Whether the script builds `name`: a fixed scene or a procedural `<split>-<index>`.
+pub fn is_cycles_scene(name: &str) -> bool {
+    CYCLES_SCENES.contains(&name) || split_of(name).is_some()
+}
+
+/// The split of a procedural scene name, if it is one.
+pub fn split_of(name: &str) -> Option<&'static str> {
+    let (split, index) = name.rsplit_once('-')?;
+    let known = SPLITS.iter().copied().find(|s| *s == split)?;
+    (!index.is_empty() && index.bytes().all(|b| b.is_ascii_digit())).then_some(known)
+}
+
+/// The first `count` scenes of `split`.
+pub fn split_scenes(split: &str, count: usize) -> Vec<String> {
+    (0..count).map(|i| format!("{split}-{i}")).collect()
+}
+
 /// Resolution and samples of one rendering of the set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct CyclesSettings {
@@ -69,10 +91,15 @@ impl CyclesSettings {
 /// into (or loaded from) `cache`. Renders the missing ones in one Blender run; `progress` is
 /// told each scene's name as Blender finishes it. Fails, never skips, when Blender is missing.
 pub fn cycles_truths(names: &[String], settings: &CyclesSettings, cache: &Path, progress: &dyn Fn(&str)) -> Result<Vec<GroundTruth>> {
-    if let Some(unknown) = names.iter().find(|n| !CYCLES_SCENES.contains(&n.as_str())) {
-        return Err(Error::invalid("scene name", format!("no Cycles scene '{unknown}'; available: {}", CYCLES_SCENES.join(", "))));
+    if let Some(unknown) = names.iter().find(|n| !is_cycles_scene(n)) {
+        return Err(Error::invalid(
+            "scene name",
+            format!("no Cycles scene '{unknown}'; available: {} and the procedural dev-N, test-N", CYCLES_SCENES.join(", ")),
+        ));
     }
-    let wanted: Vec<&str> = CYCLES_SCENES.iter().copied().filter(|s| names.is_empty() || names.iter().any(|n| n == s)).collect();
+    // The fixed scenes in table order, then the procedural ones as named.
+    let mut wanted: Vec<&str> = CYCLES_SCENES.iter().copied().filter(|s| names.is_empty() || names.iter().any(|n| n == s)).collect();
+    wanted.extend(names.iter().map(String::as_str).filter(|n| split_of(n).is_some()));
     let missing: Vec<&str> = wanted.iter().copied().filter(|s| !cache.join(settings.cache_key(s)).join("camera.json").is_file()).collect();
     if !missing.is_empty() {
         render_into_cache(&missing, settings, cache, progress)?;
@@ -220,6 +247,19 @@ mod tests {
         let table = SCRIPT.split("SCENES = {").nth(1).and_then(|s| s.split('}').next()).expect("the script's SCENES table");
         let names: Vec<&str> = table.lines().filter_map(|l| l.trim().strip_prefix('"')?.split('"').next()).collect();
         assert_eq!(names, CYCLES_SCENES);
+    }
+
+    #[test]
+    fn procedural_names_belong_to_one_split() {
+        assert_eq!(split_of("dev-0"), Some("dev"));
+        assert_eq!(split_of("test-23"), Some("test"));
+        for not in ["dev-", "dev-x", "train-3", "test", "fence-near-hdr"] {
+            assert_eq!(split_of(not), None, "{not}");
+        }
+        assert_eq!(split_scenes("test", 3), ["test-0", "test-1", "test-2"]);
+        assert!(is_cycles_scene("grid-near") && is_cycles_scene("dev-7") && !is_cycles_scene("dev-7b"));
+        // The script knows the same splits.
+        assert!(SCRIPT.contains(r#"SPLITS = ("dev", "test")"#));
     }
 
     #[test]

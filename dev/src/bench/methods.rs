@@ -6,7 +6,7 @@ use lensblur::raytrace::GroundTruth;
 use lensblur::render::drbokeh::RenderOptions;
 use lensblur::render::{Lens, Method, MethodInput, MethodSettings};
 use lensblur::stack::deep::{deep_to_layers, DeepImage, DeepLayerOptions};
-use lensblur::stack::{split_into_layers, AutoLayerOptions};
+use lensblur::stack::{split_into_layers, AutoLayerOptions, Matting};
 use lensblur::vk::Context;
 use lensblur::{Error, Result};
 
@@ -107,8 +107,9 @@ pub fn select_methods(methods: Vec<BenchMethod>, names: &[String]) -> Result<Vec
 }
 
 /// The Vulkan renderers of the registry on one device, then `drbokeh-auto`: what `lensblur
-/// render` does with one image + depth (split it into layers with soft cuts and push-pull fill
-/// of the hidden background, then Dr.Bokeh), and `drbokeh-deep`: what it does with a deep file
+/// render` does with one image + depth (split it into layers with solved mattes and push-pull
+/// fill of the hidden background, then Dr.Bokeh), `drbokeh-auto-sampled`: the same with the
+/// layering before issue 46, and `drbokeh-deep`: what it does with a deep file
 /// of the true layers (one sample per covered pixel per layer, clustered back into layers).
 pub fn gpu_methods(ctx: &Context) -> Result<Vec<BenchMethod>> {
     let mut methods: Vec<BenchMethod> =
@@ -117,6 +118,15 @@ pub fn gpu_methods(ctx: &Context) -> Result<Vec<BenchMethod>> {
     methods.push(BenchMethod::new("drbokeh-auto", InputKind::SingleImage, move |case| {
         let (image, disparity) = case.single_image()?;
         let stack = split_into_layers(image, disparity, &case.lens.coc, &AutoLayerOptions::default());
+        drbokeh.render(MethodInput::Layers(&stack), case.lens, &RenderOptions::default(), &MethodSettings::default())
+    }));
+    // The layering before issue 46 (sampled matting, cuts at 1 px jumps), for before/after
+    // tables in one run.
+    let drbokeh = Method::DrBokeh.prepare(Some(ctx))?;
+    methods.push(BenchMethod::new("drbokeh-auto-sampled", InputKind::SingleImage, move |case| {
+        let (image, disparity) = case.single_image()?;
+        let options = AutoLayerOptions { matting: Matting::Sampled, discontinuity_px: 1.0, ..AutoLayerOptions::default() };
+        let stack = split_into_layers(image, disparity, &case.lens.coc, &options);
         drbokeh.render(MethodInput::Layers(&stack), case.lens, &RenderOptions::default(), &MethodSettings::default())
     }));
     let drbokeh = Method::DrBokeh.prepare(Some(ctx))?;
@@ -139,3 +149,4 @@ pub fn all_methods(ctx: Option<&Context>) -> Result<Vec<BenchMethod>> {
     methods.extend(references);
     Ok(methods)
 }
+
