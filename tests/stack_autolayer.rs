@@ -1,7 +1,7 @@
 //! Auto-layering of a flat RGB+Z image: layers in CoC, soft cuts, hidden background fill.
 use lensblur::camera::CocModel;
 use lensblur::image::Image;
-use lensblur::stack::{split_into_layers, AutoLayerOptions, LayerStack, Matting};
+use lensblur::stack::{split_into_layers, AutoLayerOptions, LayerStack};
 
 const BG: [f32; 4] = [0.1, 0.6, 0.3, 1.0];
 const FG: [f32; 4] = [0.9, 0.2, 0.1, 1.0];
@@ -46,16 +46,11 @@ fn max_diff(a: &Image, b: &Image) -> f32 {
     a.pixels.iter().zip(&b.pixels).flat_map(|(p, q)| (0..4).map(move |k| (p[k] - q[k]).abs())).fold(0.0, f32::max)
 }
 
-/// The earlier sampled matting (issues 22 and 35): the tests that pin down its rules use it.
-fn sampled() -> AutoLayerOptions {
-    AutoLayerOptions { matting: Matting::Sampled, discontinuity_px: 1.0, ..AutoLayerOptions::default() }
-}
-
 /// Both mattings, each with the tolerance a test holds it to: the solved matte (the default)
 /// trades exactness on these two-colour toy edges for robustness on real ones, where its depth
 /// prior pulls alpha a few hundredths towards the Z sample.
 fn both(solved: f32, sampled_tolerance: f32) -> [(AutoLayerOptions, f32); 2] {
-    [(AutoLayerOptions::default(), solved), (sampled(), sampled_tolerance)]
+    [(AutoLayerOptions::default(), solved), (AutoLayerOptions::sampled(), sampled_tolerance)]
 }
 
 fn coc() -> CocModel {
@@ -235,7 +230,7 @@ fn a_sharp_hair_strand_keeps_its_darkness_out_of_the_background() {
         }
     });
     let disparity: Vec<f32> = (0..32 * 32).map(|i| if skin(i % 32, i / 32) || strand(i % 32, i / 32) { 1.0 } else { 0.25 }).collect();
-    let stack = split_into_layers(&image, &disparity, &CocModel::new(20.0, 1.0).unwrap(), &sampled());
+    let stack = split_into_layers(&image, &disparity, &CocModel::new(20.0, 1.0).unwrap(), &AutoLayerOptions::sampled());
     assert_eq!(stack.layers.len(), 2);
     let back = stack.layers[1].rgba.get(20, 15);
     assert!((0..3).all(|k| (back[k] - BG[k]).abs() < 0.05), "background under the mixed pixel: {back:?}");
@@ -275,7 +270,7 @@ fn light_behind_hair() -> (Image, Vec<f32>) {
 #[test]
 fn hdr_light_between_in_focus_hair_strands_stays_out_of_the_front_layer() {
     let (image, disparity) = light_behind_hair();
-    let stack = split_into_layers(&image, &disparity, &CocModel::new(20.0, 1.0).unwrap(), &sampled());
+    let stack = split_into_layers(&image, &disparity, &CocModel::new(20.0, 1.0).unwrap(), &AutoLayerOptions::sampled());
     assert_eq!(stack.layers.len(), 2);
     let front = &stack.layers[0].rgba;
     for (i, p) in front.pixels.iter().enumerate() {
@@ -363,7 +358,7 @@ fn an_hdr_lit_blurred_wire_leaves_no_ghost_in_the_in_focus_back() {
     let image = Image::from_fn(32, 32, |_, y| mix(WIRE, WALL, cover(y)));
     let on_wire = |x: usize, y: usize| cover(y) > 0.0 && x % 2 == 0;
     let disparity: Vec<f32> = (0..32 * 32).map(|i| if on_wire(i % 32, i / 32) { 1.0 } else { 0.25 }).collect();
-    let stack = split_into_layers(&image, &disparity, &coc(), &sampled());
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::sampled());
     assert_eq!(stack.layers.len(), 2);
     let (front, back) = (&stack.layers[0].rgba, &stack.layers[1].rgba);
     for x in 4..28 {

@@ -4,7 +4,7 @@
 //! cache, `~/.cache/lensblur/gt-cache/cycles/<scene>-<size>-<key>`).
 use std::path::PathBuf;
 
-use lensblur::stack::{split_into_layers, write_stack, AutoLayerOptions, Matting, StackWriteOptions};
+use lensblur::stack::{split_into_layers, write_stack, AutoLayerOptions, StackWriteOptions};
 use lensblur_dev::bench::{cycles::load_scene, BenchCase};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -14,8 +14,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let truth = load_scene(&PathBuf::from(folder))?;
     let disparity = BenchCase::disparity_of(&truth);
-    let matting = if rest.iter().any(|a| a == "sampled") { Matting::Sampled } else { Matting::Solved };
-    let stack = split_into_layers(&truth.pinhole, &disparity, &truth.coc, &AutoLayerOptions { matting, ..Default::default() });
+    let options = if rest.iter().any(|a| a == "sampled") { AutoLayerOptions::sampled() } else { AutoLayerOptions::default() };
+    let stack = split_into_layers(&truth.pinhole, &disparity, &truth.coc, &options);
     write_stack(&PathBuf::from(out), &stack, &StackWriteOptions::default())?;
     println!("{} layers -> {out}", stack.layers.len());
     Ok(())

@@ -17,7 +17,7 @@ use lensblur::image::Image;
 use lensblur::raytrace::GroundTruth;
 use lensblur::render::drbokeh::{DrBokehGpu, Model};
 use lensblur::render::Lens;
-use lensblur::stack::{split_into_layers, AutoLayerOptions, Matting};
+use lensblur::stack::{split_into_layers, AutoLayerOptions};
 use lensblur_dev::bench::{cycles::load_scene, scenes::single_image_truths, BenchCase};
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -35,7 +35,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let ctx = lensblur::vk::Context::from_env()?;
     let drbokeh = DrBokehGpu::new(&ctx)?;
-    let sampled = AutoLayerOptions { matting: Matting::Sampled, discontinuity_px: 1.0, ..AutoLayerOptions::default() };
     for scale in [4usize, 16] {
         let (w, h) = (truth.pinhole.width, truth.pinhole.height);
         let image = Image::from_fn(w * scale, h * scale, |x, y| truth.pinhole.get(x / scale, y / scale));
@@ -43,7 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let disparity: Vec<f32> = (0..w * scale * h * scale).map(|i| small[(i / (w * scale) / scale) * w + (i % (w * scale)) / scale]).collect();
         let coc = CocModel::new(truth.coc.k_px * scale as f32, truth.coc.focus_disparity).unwrap();
         let lens = Lens { coc, aperture: Aperture::Disk };
-        for (name, options) in [("sampled (before)", sampled), ("solved (default)", AutoLayerOptions::default())] {
+        for (name, options) in [("sampled (before)", AutoLayerOptions::sampled()), ("solved (default)", AutoLayerOptions::default())] {
             let (mut split, mut render, mut layers) = (Vec::new(), Vec::new(), 0);
             for _ in 0..3 {
                 let start = Instant::now();

@@ -24,7 +24,7 @@
 //!    way from where it is seen (1 own, 0 farther), so a layer continues under a wire only
 //!    where it is seen on both sides, not across the sky behind it.
 use rayon::prelude::*;
-use super::fill::{mirror_sources, push_pull};
+use super::fill::{compress, expand, mirror_sources, push_pull};
 use super::matting::{solve_matte, MatteOptions};
 use super::{Layer, LayerStack};
 use crate::camera::CocModel;
@@ -55,6 +55,14 @@ pub enum Matting {
     Solved,
     /// Local colour means and samples, with the rules of issues 22 and 35 (the earlier default).
     Sampled,
+}
+
+impl AutoLayerOptions {
+    /// The auto-layering before issue 46: the sampled matting, cuts at 1 px CoC jumps (the
+    /// bench's `drbokeh-auto-sampled`, the "before" of its tables).
+    pub fn sampled() -> Self {
+        Self { matting: Matting::Sampled, discontinuity_px: 1.0, ..Self::default() }
+    }
 }
 
 impl Default for AutoLayerOptions {
@@ -177,11 +185,10 @@ struct Band {
     /// Front layer's premultiplied colour and the hidden background colour here.
     front_rgba: [f32; 4],
     back_rgba: [f32; 4],
-    /// How much of the back shows here (1 - alpha), for solved mattes: the back colour then
-    /// seeds the back layer's fill in proportion, and a back wholly covered is filled like any
-    /// hidden pixel (its estimate extrapolates the front's neighbourhood). None: the sampled
-    /// rules, where the back colour is the back's own.
-    back_visibility: Option<f32>,
+    /// How much the back layer's fill trusts `back_rgba`: for a solved matte how much of the
+    /// back shows here (1 - alpha; a back wholly covered is an estimate extrapolated from its
+    /// neighbours), 1 for the sampled rules, where the back colour is the back's own.
+    back_seen: f32,
 }
 
 fn sub_scaled(a: [f32; 4], b: [f32; 4], s: f32) -> [f32; 4] {
@@ -222,20 +229,6 @@ fn band_pairs(
         }
     }
     out
-}
-
-/// Reversible range compression `c / (1 + max(r, g, b))` (alpha kept): averages taken in it
-/// are not ruled by a few HDR lights, so a light next to a cut cannot smear over the hidden
-/// background or into a matte (issue 22, failure 1).
-fn compress(c: [f32; 4]) -> [f32; 4] {
-    let s = 1.0 / (1.0 + c[0].max(c[1]).max(c[2]).max(0.0));
-    [c[0] * s, c[1] * s, c[2] * s, c[3]]
-}
-
-/// The inverse of [`compress`].
-fn expand(c: [f32; 4]) -> [f32; 4] {
-    let s = 1.0 / (1.0 - c[0].max(c[1]).max(c[2]).clamp(0.0, 0.999));
-    [c[0] * s, c[1] * s, c[2] * s, c[3]]
 }
 
 fn is_hdr(c: [f32; 4]) -> bool {
@@ -412,7 +405,7 @@ fn band_with(
     let c = image.pixels[p];
     if !sharp_near(label, coc, image.width, p, front) {
         if let Some(front_rgba) = thin_front_split(image, label, pairs, p, front, b) {
-            return Some((Band { front, back, front_rgba, back_rgba: b, back_visibility: None }, 0.0));
+            return Some((Band { front, back, front_rgba, back_rgba: b, back_seen: 1.0 }, 0.0));
         }
     }
     let f = local_colour(image, label, pairs, front, x, y, radius)?;
@@ -421,7 +414,7 @@ fn band_with(
         // Light past the edge of a surface that holds none: see [`split_light`].
         let f = darkest_surface(image, label, p, front).unwrap_or(f);
         let split = split_light(c, f, geometric_alpha(label, image.width, p, front));
-        return Some((Band { front, back, front_rgba: split.0, back_rgba: split.1, back_visibility: None }, 0.0));
+        return Some((Band { front, back, front_rgba: split.0, back_rgba: split.1, back_seen: 1.0 }, 0.0));
     }
     let sharp_front = sharp_near(label, coc, image.width, p, front);
     // Sample-based matting: the local means and the nearby pixels of either side are
@@ -451,7 +444,7 @@ fn band_with(
         }
     }
     let (front_rgba, back_rgba, residual) = best;
-    Some((Band { front, back, front_rgba, back_rgba, back_visibility: None }, residual))
+    Some((Band { front, back, front_rgba, back_rgba, back_seen: 1.0 }, residual))
 }
 
 /// The front's share of pixel `p` beside a blurred structure thinner than the band (a wire, a
@@ -669,10 +662,10 @@ fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], optio
             .into_par_iter()
             .filter(|&p| matte.unknown[p] && out[p].is_none())
             .filter_map(|p| {
-                // The layers either side: the pixel's own, and the nearest across the cut.
+                // The layers either side: the pixel's own, and the one across the cut whose
+                // pixel is nearest (the nearer layer on a tie): a bar passing a few pixels away
+                // is not what an edge hides.
                 let (x, y) = ((p % w) as i64, (p / w) as i64);
-                // The layer across the cut whose pixel is nearest (the nearer layer on a tie):
-                // a bar passing a few pixels away is not what an edge hides.
                 let mut other: Option<(i64, usize)> = None;
                 for qy in (y - reach).max(0)..=(y + reach).min(h as i64 - 1) {
                     for qx in (x - reach).max(0)..=(x + reach).min(w as i64 - 1) {
@@ -696,7 +689,7 @@ fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], optio
                     _ => matte.background[p][k],
                 });
                 let front_rgba = [0, 1, 2, 3].map(|k| if k == 3 { a } else { (c[k] - (1.0 - a) * b[k]).max(0.0) });
-                Some((p, Band { front, back, front_rgba, back_rgba: [b[0], b[1], b[2], 1.0], back_visibility: Some(1.0 - a) }))
+                Some((p, Band { front, back, front_rgba, back_rgba: [b[0], b[1], b[2], 1.0], back_seen: 1.0 - a }))
             })
             .collect();
         for (p, band) in claimed {
@@ -718,7 +711,7 @@ enum Cell {
 fn cell(k: usize, p: usize, image: &Image, label: &[usize], bands: &[Option<Band>]) -> Cell {
     match bands[p] {
         Some(b) if k == b.front => Cell::Partial(b.front_rgba),
-        Some(b) if k == b.back => Cell::Own(b.back_rgba, b.back_visibility.unwrap_or(1.0)),
+        Some(b) if k == b.back => Cell::Own(b.back_rgba, b.back_seen),
         Some(b) if k > b.back => Cell::Hidden,
         Some(_) => Cell::Empty,
         None if label[p] == k => Cell::Own(image.pixels[p], 1.0),

@@ -10,6 +10,20 @@
 
 use rayon::prelude::*;
 
+/// Reversible range compression `c / (1 + max(r, g, b))` (alpha kept): averages taken in it
+/// are not ruled by a few HDR lights, so a light next to a cut cannot smear over the hidden
+/// background or into a matte (issue 22, failure 1).
+pub(crate) fn compress(c: [f32; 4]) -> [f32; 4] {
+    let s = 1.0 / (1.0 + c[0].max(c[1]).max(c[2]).max(0.0));
+    [c[0] * s, c[1] * s, c[2] * s, c[3]]
+}
+
+/// The inverse of [`compress`].
+pub(crate) fn expand(c: [f32; 4]) -> [f32; 4] {
+    let s = 1.0 / (1.0 - c[0].max(c[1]).max(c[2]).clamp(0.0, 0.999));
+    [c[0] * s, c[1] * s, c[2] * s, c[3]]
+}
+
 struct Level<const N: usize> {
     width: usize,
     height: usize,

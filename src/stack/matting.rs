@@ -15,12 +15,13 @@
 //!    replaced by a push-pull fill of each side's confident pixels (the same coarse-to-fine
 //!    idea), then red-black Gauss-Seidel sweeps on the unknown pixels only.
 //!
-//! The guide image of the Laplacian is range-compressed (`c / (1 + max c)`: HDR lights do not
-//! rule the local colour models), while F and B are solved in linear HDR, never clipped to
-//! the display range: a light seen between wires keeps its energy in B.
+//! The guide image of the Laplacian is linear colour up to the frame's 90th percentile and
+//! logarithmic above (`guide_value`: HDR lights do not rule the local colour models), while F
+//! and B are solved in linear HDR, never clipped to the display range: a light seen between
+//! wires keeps its energy in B.
 use rayon::prelude::*;
 
-use super::fill::push_pull;
+use super::fill::{compress, expand, push_pull};
 
 /// Parameters of [`solve_matte`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,7 +29,7 @@ pub struct MatteOptions {
     /// Unknown band: pixels within this many pixels (Chebyshev) of the depth edge.
     pub radius_px: usize,
     /// Regularisation of each 3x3 window's colour covariance (Levin et al.'s epsilon; the
-    /// guide is in [0, 1)).
+    /// guide is 1 at the frame's 90th percentile).
     pub epsilon: f32,
     /// Confidence of the depth prior on the edge itself, and how much it grows per pixel of
     /// distance from it (squared).
@@ -71,12 +72,6 @@ pub struct Matte {
     /// Conjugate-gradient iterations taken and the final relative residual.
     pub iterations: usize,
     pub residual: f32,
-}
-
-/// Range compression of the Laplacian's guide (see the module docs).
-fn guide_colour(c: [f32; 4]) -> [f32; 3] {
-    let s = 1.0 / (1.0 + c[0].max(c[1]).max(c[2]).max(0.0));
-    [c[0].max(0.0) * s, c[1].max(0.0) * s, c[2].max(0.0) * s]
 }
 
 /// Linear colour mixes linearly, so the Laplacian's guide is linear up to the lights; it is
@@ -350,15 +345,9 @@ fn snap(a: f32) -> f32 {
 /// Fills one side's colour everywhere from its confident pixels (weight 1), in the
 /// range-compressed space of the layering's fills so that a light does not smear.
 fn side_fill(image: &[[f32; 4]], width: usize, height: usize, weight: &[f32]) -> Vec<[f32; 3]> {
-    let mut values: Vec<[f32; 3]> = image.iter().map(|&c| guide_colour(c)).collect();
+    let mut values: Vec<[f32; 4]> = image.iter().map(|&c| compress(c.map(|v| v.max(0.0)))).collect();
     push_pull(width, height, &mut values, weight);
-    values
-        .into_iter()
-        .map(|c| {
-            let s = 1.0 / (1.0 - c[0].max(c[1]).max(c[2]).clamp(0.0, 0.999));
-            c.map(|v| v * s)
-        })
-        .collect()
+    values.into_iter().map(expand).map(|c| [c[0], c[1], c[2]]).collect()
 }
 
 /// Weight of the smoothness term between two neighbours (Germer et al. 2020: regularisation
@@ -426,28 +415,24 @@ fn estimate_colours(
     // The sweeps spread colour along the band as well as across it: behind an in-focus edge an
     // HDR light's B would run along the whole silhouette (a bright streak once blurred).
     // The background stays within the range of what pixels nearly all of it (alpha under
-    // MOSTLY_BACK_ALPHA, in the band or not: a light between two wires is all band) show
+    // NEARLY_BACK_ALPHA, in the band or not: a light between two wires is all band) show
     // nearest; a mixed pixel's colour would let the front's colour in.
-    let nearly_back: Vec<f32> = alpha.iter().map(|&a| if a < MOSTLY_BACK_ALPHA { 1.0 } else { 0.0 }).collect();
-    let clamped: Vec<([f32; 3], [f32; 3])> = unknown_list
+    let nearly_back: Vec<f32> = alpha.iter().map(|&a| if a < NEARLY_BACK_ALPHA { 1.0 } else { 0.0 }).collect();
+    let clamped: Vec<[f32; 3]> = unknown_list
         .par_iter()
-        .map(|&p| {
-            let clamp_to = |colour: [f32; 3], known: &[f32]| match known_range(image, width, height, known, p) {
-                Some((lo, hi)) => [0, 1, 2].map(|k| colour[k].clamp(lo[k], hi[k])),
-                None => colour,
-            };
-            (foreground[p], clamp_to(background[p], &nearly_back))
+        .map(|&p| match known_range(image, width, height, &nearly_back, p) {
+            Some((lo, hi)) => [0, 1, 2].map(|k| background[p][k].clamp(lo[k], hi[k])),
+            None => background[p],
         })
         .collect();
-    for (&p, (f, b)) in unknown_list.iter().zip(clamped) {
-        foreground[p] = f;
+    for (&p, b) in unknown_list.iter().zip(clamped) {
         background[p] = b;
     }
     (foreground, background)
 }
 
 /// Alpha under which a pixel's colour is the background's for [`estimate_colours`]' range.
-const MOSTLY_BACK_ALPHA: f32 = 0.1;
+const NEARLY_BACK_ALPHA: f32 = 0.1;
 
 /// How far (px) [`estimate_colours`] looks for the colours a side shows: the nearest reach
 /// where that side shows at all.

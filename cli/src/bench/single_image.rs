@@ -4,6 +4,7 @@
 use anyhow::Context;
 use lensblur_dev::bench::cycles::{cycles_truths, is_cycles_scene, split_scenes, CyclesSettings};
 use lensblur_dev::bench::{all_methods, run_single_image, scenes, select_methods, SINGLE_IMAGE_METHODS};
+use lensblur::raytrace::GroundTruth;
 use lensblur::vk::Context as GpuContext;
 
 use super::bar;
@@ -46,9 +47,28 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let truth = &args.truth;
     truth.check_sheet()?;
+    if args.render_only {
+        // Rendering needs Blender only: no device, no method.
+        let truths = truths(&args)?;
+        eprintln!("{} scenes rendered into the cache; nothing scored (--render-only)", truths.len());
+        return Ok(());
+    }
     let gpu = GpuContext::from_env().context("the single-image table needs a Vulkan device")?;
     let names: Vec<String> = if truth.methods.is_empty() { SINGLE_IMAGE_METHODS.map(String::from).to_vec() } else { truth.methods.clone() };
     let methods = select_methods(all_methods(Some(&gpu))?, &names)?;
+    let truths = truths(&args)?;
+    let progress = bar("{msg}", "renders")?;
+    let table = run_single_image(&truths, &methods, &progress, !args.without_blender)?;
+    println!("{table}");
+    truth.write_outputs(&truths, &table.report)?;
+    drop(methods);
+    gpu.finish()?;
+    Ok(())
+}
+
+/// The scenes asked for: ray traced, and with --cycles rendered by Blender (both cached).
+fn truths(args: &Args) -> anyhow::Result<Vec<GroundTruth>> {
+    let truth = &args.truth;
     // --scenes may name scenes of both sets; a set none of whose scenes is named is left out.
     let (cycles_names, traced_names): (Vec<String>, Vec<String>) = match &args.split {
         Some(split) => (split_scenes(split, args.split_size), Vec::new()),
@@ -64,24 +84,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !cycles_names.is_empty() && !args.cycles {
         anyhow::bail!("scene '{}' is a Cycles scene: add --cycles", cycles_names[0]);
     }
-    if args.cycles && (args.split.is_some() || truth.scenes.is_empty() || !cycles_names.is_empty()) {
+    if args.cycles && (truth.scenes.is_empty() || !cycles_names.is_empty()) {
         let cache = truth.cache.join("cycles");
         let settings = CyclesSettings::with_truth_spp(args.cycles_size, args.cycles_spp);
         let rendered = cycles_truths(&cycles_names, &settings, &cache, &|name| eprintln!("Blender rendered {name}"))
             .context("rendering the Cycles scenes with Blender")?;
         truths.extend(rendered);
     }
-    if args.render_only {
-        eprintln!("{} scenes rendered into the cache; nothing scored (--render-only)", truths.len());
-        drop(methods);
-        gpu.finish()?;
-        return Ok(());
-    }
-    let progress = bar("{msg}", "renders")?;
-    let table = run_single_image(&truths, &methods, &progress, !args.without_blender)?;
-    println!("{table}");
-    truth.write_outputs(&truths, &table.report)?;
-    drop(methods);
-    gpu.finish()?;
-    Ok(())
+    Ok(truths)
 }

@@ -6,7 +6,7 @@ use lensblur::raytrace::GroundTruth;
 use lensblur::render::drbokeh::RenderOptions;
 use lensblur::render::{Lens, Method, MethodInput, MethodSettings};
 use lensblur::stack::deep::{deep_to_layers, DeepImage, DeepLayerOptions};
-use lensblur::stack::{split_into_layers, AutoLayerOptions, Matting};
+use lensblur::stack::{split_into_layers, AutoLayerOptions};
 use lensblur::vk::Context;
 use lensblur::{Error, Result};
 
@@ -120,13 +120,11 @@ pub fn gpu_methods(ctx: &Context) -> Result<Vec<BenchMethod>> {
         let stack = split_into_layers(image, disparity, &case.lens.coc, &AutoLayerOptions::default());
         drbokeh.render(MethodInput::Layers(&stack), case.lens, &RenderOptions::default(), &MethodSettings::default())
     }));
-    // The layering before issue 46 (sampled matting, cuts at 1 px jumps), for before/after
-    // tables in one run.
+    // The layering before issue 46, for before/after tables in one run.
     let drbokeh = Method::DrBokeh.prepare(Some(ctx))?;
     methods.push(BenchMethod::new("drbokeh-auto-sampled", InputKind::SingleImage, move |case| {
         let (image, disparity) = case.single_image()?;
-        let options = AutoLayerOptions { matting: Matting::Sampled, discontinuity_px: 1.0, ..AutoLayerOptions::default() };
-        let stack = split_into_layers(image, disparity, &case.lens.coc, &options);
+        let stack = split_into_layers(image, disparity, &case.lens.coc, &AutoLayerOptions::sampled());
         drbokeh.render(MethodInput::Layers(&stack), case.lens, &RenderOptions::default(), &MethodSettings::default())
     }));
     let drbokeh = Method::DrBokeh.prepare(Some(ctx))?;
@@ -149,4 +147,3 @@ pub fn all_methods(ctx: Option<&Context>) -> Result<Vec<BenchMethod>> {
     methods.extend(references);
     Ok(methods)
 }
-
