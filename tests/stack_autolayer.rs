@@ -375,3 +375,48 @@ fn an_hdr_lit_blurred_wire_leaves_no_ghost_in_the_in_focus_back() {
     }
     assert!(max_diff(&composite(&stack), &image) < 1e-4, "over gives the input");
 }
+
+/// An in-focus wire (column 16, disparity 1, CoC 0) over a dark wall (disparity 0.25, CoC 15
+/// px), with `behind` behind the wire around (15, 16): the wire pixel beside it shows the
+/// light through the wire (half covered, depth sample on the wire), as a wire crossing in
+/// front of a street light does in a render.
+fn wire_over(behind: impl Fn(usize, usize) -> [f32; 4]) -> (Image, Vec<f32>) {
+    const WIRE: [f32; 4] = [0.08, 0.06, 0.05, 1.0];
+    let image = Image::from_fn(32, 32, |x, y| if x == 16 { mix(WIRE, behind(x, y), 0.5) } else { behind(x, y) });
+    let disparity = (0..32 * 32).map(|i| if i % 32 == 16 { 1.0 } else { 0.25 }).collect();
+    (image, disparity)
+}
+
+#[test]
+fn a_compact_light_behind_an_in_focus_wire_is_not_pulled_into_the_sharp_layer() {
+    // A street light (80, two pixels wide) whose light the wire pixel beside it shares.
+    let light = |x: usize, y: usize| if (15..=16).contains(&x) && (15..=16).contains(&y) { grey(80.0) } else { grey(0.05) };
+    let (image, disparity) = wire_over(light);
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+    assert_eq!(stack.layers.len(), 2);
+    // The light's own pixel belongs to the wall: the sharp layer may hold at most a tenth of
+    // it, else the light renders as a sharp dot instead of a disc.
+    let front = stack.layers[0].rgba.get(15, 16);
+    assert!(front[3] < 0.1 && front[0] < 8.0, "the light's pixel in the sharp layer: {front:?}");
+    // The light-lit wire pixel gives the back layer the light it shows.
+    let back = stack.layers[1].rgba.get(16, 16);
+    assert!(back[0] > 20.0, "the light behind the wire is in the back layer: {back:?}");
+    let err = max_diff(&composite(&stack), &image);
+    assert!(err < 3e-3, "composite differs from the input by {err}");
+}
+
+#[test]
+fn a_wire_over_a_bright_sky_keeps_its_coverage() {
+    // The same wire over an HDR sky (3.0) everywhere: nothing stands out behind it, so the
+    // wire pixels keep their depth prior and stay half covered in the sharp layer.
+    let (image, disparity) = wire_over(|_, _| grey(3.0));
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+    for y in 4..28 {
+        let a = stack.layers[0].rgba.get(16, y)[3];
+        assert!(a > 0.3, "wire pixel (16, {y}) has alpha {a}");
+    }
+}
+
+fn grey(v: f32) -> [f32; 4] {
+    [v, v, v, 1.0]
+}

@@ -26,6 +26,7 @@
 use rayon::prelude::*;
 use super::fill::{compress, expand, mirror_sources, push_pull};
 use super::matting::{solve_matte, MatteOptions};
+use super::spill_depth::assign_spill_depth;
 use super::{Layer, LayerStack};
 use crate::camera::CocModel;
 use crate::image::Image;
@@ -43,6 +44,14 @@ pub struct AutoLayerOptions {
     /// How mixed pixels at a discontinuity are split between the two sides.
     #[serde(default)]
     pub matting: Matting,
+    /// Pixels holding mostly the light a brighter, nearer neighbour spilled into them take
+    /// that neighbour's depth before layering ([`super::spill_depth`]).
+    #[serde(default = "yes")]
+    pub spill_depth: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// How [`split_into_layers`] finds alpha and the two colours of a mixed pixel.
@@ -61,7 +70,7 @@ impl AutoLayerOptions {
     /// The auto-layering before issue 46: the sampled matting, cuts at 1 px CoC jumps (the
     /// bench's `drbokeh-auto-sampled`, the "before" of its tables).
     pub fn sampled() -> Self {
-        Self { matting: Matting::Sampled, discontinuity_px: 1.0, ..Self::default() }
+        Self { matting: Matting::Sampled, discontinuity_px: 1.0, spill_depth: false, ..Self::default() }
     }
 }
 
@@ -69,7 +78,7 @@ impl Default for AutoLayerOptions {
     fn default() -> Self {
         // A jump of 0.75 px is a cut (dev split of issue 46: 33.02 dB mean at 1 px, 33.71 at
         // 0.75, 33.62 at 0.5 and below, where a foliage scene lost 1.2 dB).
-        Self { coc_spacing_px: 4.0, max_layers: 16, band_px: 1, discontinuity_px: 0.75, matting: Matting::default() }
+        Self { coc_spacing_px: 4.0, max_layers: 16, band_px: 1, discontinuity_px: 0.75, matting: Matting::default(), spill_depth: true }
     }
 }
 
@@ -337,6 +346,35 @@ fn light_from_behind(image: &Image, label: &[usize], p: usize, front: usize) -> 
     }
     farther > BEHIND_RATIO * nearer
 }
+
+/// Whether pixel `p` is lit by a compact light behind layer `front`: [`light_from_behind`],
+/// and the brightest farther pixel within [`SAMPLE_RADIUS`] stands out from the farther pixels
+/// there (over [`COMPACT_LIGHT_RATIO`] times their median): a street light, not a bright sky,
+/// whose light a thin wire over it shares.
+fn compact_light_behind(image: &Image, label: &[usize], p: usize, front: usize) -> bool {
+    if !light_from_behind(image, label, p, front) {
+        return false;
+    }
+    let (w, h) = (image.width as i64, image.height as i64);
+    let (x, y) = ((p % image.width) as i64, (p / image.width) as i64);
+    let mut farther: Vec<f32> = Vec::with_capacity(25);
+    for qy in (y - SAMPLE_RADIUS).max(0)..=(y + SAMPLE_RADIUS).min(h - 1) {
+        for qx in (x - SAMPLE_RADIUS).max(0)..=(x + SAMPLE_RADIUS).min(w - 1) {
+            let q = (qy * w + qx) as usize;
+            if label[q] > front {
+                farther.push(max3(image.pixels[q]));
+            }
+        }
+    }
+    // light_from_behind found a farther pixel: the list is not empty.
+    let mid = farther.len() / 2;
+    let median = *farther.select_nth_unstable_by(mid, f32::total_cmp).1;
+    let brightest = farther.iter().copied().fold(0.0f32, f32::max);
+    brightest > COMPACT_LIGHT_RATIO * median
+}
+
+/// How far the brightest farther pixel must stand out for [`compact_light_behind`].
+const COMPACT_LIGHT_RATIO: f32 = 2.0;
 
 /// How much brighter the farther side must be for [`light_from_behind`].
 const BEHIND_RATIO: f32 = 1.1;
@@ -657,7 +695,14 @@ fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], optio
                 near.into_iter().flatten().any(|q| front[q] != front[p] && (coc[q] - coc[p]).abs() >= options.discontinuity_px)
             })
             .collect();
-        let Some(matte) = solve_matte(&image.pixels, w, h, &front, &edge, &matte_options) else { continue };
+        // The Z prior says "front" where the sample hit the front, except for HDR light that
+        // comes from behind it: a light seen between wires lights the wire pixels beside it
+        // too, and as a front prior they would pull the whole light into the sharp layer.
+        let prior: Vec<bool> = (0..w * h)
+            .into_par_iter()
+            .map(|p| front[p] && !(is_hdr(image.pixels[p]) && compact_light_behind(image, label, p, f)))
+            .collect();
+        let Some(matte) = solve_matte(&image.pixels, w, h, &prior, &edge, &matte_options) else { continue };
         let claimed: Vec<(usize, Band)> = (0..w * h)
             .into_par_iter()
             .filter(|&p| matte.unknown[p] && out[p].is_none())
@@ -788,6 +833,13 @@ fn build_layer(k: usize, image: &Image, disparity: &[f32], label: &[usize], band
 /// If `disparity` does not have one value per pixel (readers guarantee it).
 pub fn split_into_layers(image: &Image, disparity: &[f32], coc: &CocModel, options: &AutoLayerOptions) -> LayerStack {
     assert_eq!(disparity.len(), image.pixels.len(), "one disparity per pixel");
+    let spilled;
+    let disparity = if options.spill_depth {
+        spilled = assign_spill_depth(image, disparity, coc, options.discontinuity_px);
+        &spilled[..]
+    } else {
+        disparity
+    };
     let signed: Vec<f32> = disparity.iter().map(|&d| coc.signed_radius(d)).collect();
     let (label, count) = labels(&signed, options);
     let bands = match options.matting {

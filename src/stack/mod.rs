@@ -21,6 +21,7 @@ pub mod ldr;
 pub mod matting;
 pub mod naming;
 pub mod output_format;
+pub mod spill_depth;
 
 pub use arrays::{grad_output_from_array, stack_from_arrays, stack_to_arrays, ArrayStack};
 pub use autolayer::{split_into_layers, AutoLayerOptions, Matting};
