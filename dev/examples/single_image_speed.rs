@@ -4,7 +4,9 @@
 //! split into layers, then Dr.Bokeh, with the sampled matting of issues 22 and 35 (the layering
 //! before issue 46) and the solved one (the default) in the same run. A benchmark that prints
 //! numbers (medians of 3 runs), not a test:
-//! `cargo run --release --example single_image_speed [CYCLES_SCENE_FOLDER]`. Without a folder,
+//! `cargo run --release --example single_image_speed [CYCLES_SCENE_FOLDER [SCALES]]`, SCALES a
+//! comma-separated list of upscales (default `4,16`; `-` for the folder means the default scene).
+//! Without a folder,
 //! the ray-traced five-planes scene (traced on first use, then read from the bench's
 //! ground-truth cache, `~/.cache/lensblur/gt-cache`); with one, a scene of the Cycles cache
 //! (`~/.cache/lensblur/gt-cache/cycles/<scene>-<size>-<key>`: a fence is the solver's worst case,
@@ -26,7 +28,11 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let truth: GroundTruth = match std::env::args().nth(1) {
+    let scales: Vec<usize> = match std::env::args().nth(2) {
+        Some(list) => list.split(',').map(str::parse).collect::<Result<_, _>>().map_err(|e| format!("SCALES {list:?}: {e}"))?,
+        None => vec![4, 16],
+    };
+    let truth: GroundTruth = match std::env::args().nth(1).filter(|f| f != "-") {
         Some(folder) => load_scene(&PathBuf::from(folder))?,
         None => {
             let cache = lensblur::cache_dir::user_cache_dir().map(|dir| dir.join("gt-cache"));
@@ -35,7 +41,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let ctx = lensblur::vk::Context::from_env()?;
     let drbokeh = DrBokehGpu::new(&ctx)?;
-    for scale in [4usize, 16] {
+    for scale in scales {
         let (w, h) = (truth.pinhole.width, truth.pinhole.height);
         let image = Image::from_fn(w * scale, h * scale, |x, y| truth.pinhole.get(x / scale, y / scale));
         let small = BenchCase::disparity_of(&truth);
