@@ -25,7 +25,7 @@
 //!    where it is seen on both sides, not across the sky behind it.
 use rayon::prelude::*;
 use super::fill::{compress, expand, mirror_sources, push_pull};
-use super::matting::{solve_matte, MatteOptions};
+use super::matting::{solve_matte, Matte, MatteOptions};
 use super::spill_depth::assign_spill_depth;
 use super::{Layer, LayerStack};
 use crate::camera::CocModel;
@@ -682,9 +682,7 @@ fn own_range(image: &Image, label: &[usize], pairs: &[Option<(usize, usize)>], p
 fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], options: &AutoLayerOptions) -> Vec<Option<Band>> {
     let (w, h) = (image.width, image.height);
     let matte_options = MatteOptions::default();
-    let reach = matte_options.radius_px as i64 + 1;
-    let mut out: Vec<Option<Band>> = vec![None; w * h];
-    for f in 0..count.saturating_sub(1) {
+    let solve_cut = |f: usize| -> Option<Matte> {
         let front: Vec<bool> = label.iter().map(|&l| l <= f).collect();
         // Pixels beside a real discontinuity across this cut (not a slice of one slanted surface).
         let edge: Vec<bool> = (0..w * h)
@@ -702,46 +700,75 @@ fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], optio
             .into_par_iter()
             .map(|p| front[p] && !(is_hdr(image.pixels[p]) && compact_light_behind(image, label, p, f)))
             .collect();
-        let Some(matte) = solve_matte(&image.pixels, w, h, &prior, &edge, &matte_options) else { continue };
-        let claimed: Vec<(usize, Band)> = (0..w * h)
-            .into_par_iter()
-            .filter(|&p| matte.unknown[p] && out[p].is_none())
-            .filter_map(|p| {
-                // The layers either side: the pixel's own, and the one across the cut whose
-                // pixel is nearest (the nearer layer on a tie): a bar passing a few pixels away
-                // is not what an edge hides.
-                let (x, y) = ((p % w) as i64, (p / w) as i64);
-                let mut other: Option<(i64, usize)> = None;
-                for qy in (y - reach).max(0)..=(y + reach).min(h as i64 - 1) {
-                    for qx in (x - reach).max(0)..=(x + reach).min(w as i64 - 1) {
-                        let l = label[qy as usize * w + qx as usize];
-                        if (l <= f) != (label[p] <= f) {
-                            let distance = (qx - x).pow(2) + (qy - y).pow(2);
-                            if other.map_or(true, |(d, o)| distance < d || (distance == d && l < o)) {
-                                other = Some((distance, l));
-                            }
-                        }
-                    }
-                }
-                let (_, other) = other?;
-                let (front, back) = (label[p].min(other), label[p].max(other));
-                let (a, c) = (matte.alpha[p], image.pixels[p]);
-                // The back's share may not exceed what the pixel shows: "over" stays exact. A
-                // pixel none of the front covers is all back.
-                let b = [0, 1, 2].map(|k| match a {
-                    a if a <= 0.0 => c[k].max(0.0),
-                    a if a < 1.0 => matte.background[p][k].min(c[k].max(0.0) / (1.0 - a)),
-                    _ => matte.background[p][k],
-                });
-                let front_rgba = [0, 1, 2, 3].map(|k| if k == 3 { a } else { (c[k] - (1.0 - a) * b[k]).max(0.0) });
-                Some((p, Band { front, back, front_rgba, back_rgba: [b[0], b[1], b[2], 1.0], back_seen: 1.0 - a }))
-            })
-            .collect();
-        for (p, band) in claimed {
-            out[p] = Some(band);
+        solve_matte(&image.pixels, w, h, &prior, &edge, &matte_options)
+    };
+    let cuts = count.saturating_sub(1);
+    let mut out: Vec<Option<Band>> = vec![None; w * h];
+    // The cuts' mattes are independent; only their claims on pixels go in order (a pixel two
+    // cuts claim keeps the nearer cut's). A small frame's bands are too small to keep both
+    // cores busy one cut at a time, so its cuts are solved side by side; a large frame's one
+    // at a time, holding one matte (about 30 bytes a pixel) at once.
+    if w * h <= CONCURRENT_CUTS_MAX_PIXELS {
+        let mattes: Vec<Option<Matte>> = (0..cuts).into_par_iter().map(solve_cut).collect();
+        for (f, matte) in mattes.into_iter().enumerate() {
+            if let Some(matte) = matte {
+                claim_band(image, label, f, &matte, matte_options.radius_px, &mut out);
+            }
+        }
+    } else {
+        for f in 0..cuts {
+            if let Some(matte) = solve_cut(f) {
+                claim_band(image, label, f, &matte, matte_options.radius_px, &mut out);
+            }
         }
     }
     out
+}
+
+/// Largest frame whose cuts [`solved_bands`] solves concurrently.
+const CONCURRENT_CUTS_MAX_PIXELS: usize = 1024 * 1024;
+
+/// Gives the unclaimed pixels of cut `f`'s matte their band: front and back layers, colours.
+fn claim_band(image: &Image, label: &[usize], f: usize, matte: &Matte, radius_px: usize, out: &mut [Option<Band>]) {
+    let (w, h) = (image.width, image.height);
+    let reach = radius_px as i64 + 1;
+    let claimed: Vec<(usize, Band)> = (0..w * h)
+        .into_par_iter()
+        .filter(|&p| matte.unknown[p] && out[p].is_none())
+        .filter_map(|p| {
+            // The layers either side: the pixel's own, and the one across the cut whose
+            // pixel is nearest (the nearer layer on a tie): a bar passing a few pixels away
+            // is not what an edge hides.
+            let (x, y) = ((p % w) as i64, (p / w) as i64);
+            let mut other: Option<(i64, usize)> = None;
+            for qy in (y - reach).max(0)..=(y + reach).min(h as i64 - 1) {
+                for qx in (x - reach).max(0)..=(x + reach).min(w as i64 - 1) {
+                    let l = label[qy as usize * w + qx as usize];
+                    if (l <= f) != (label[p] <= f) {
+                        let distance = (qx - x).pow(2) + (qy - y).pow(2);
+                        if other.map_or(true, |(d, o)| distance < d || (distance == d && l < o)) {
+                            other = Some((distance, l));
+                        }
+                    }
+                }
+            }
+            let (_, other) = other?;
+            let (front, back) = (label[p].min(other), label[p].max(other));
+            let (a, c) = (matte.alpha[p], image.pixels[p]);
+            // The back's share may not exceed what the pixel shows: "over" stays exact. A
+            // pixel none of the front covers is all back.
+            let b = [0, 1, 2].map(|k| match a {
+                a if a <= 0.0 => c[k].max(0.0),
+                a if a < 1.0 => matte.background[p][k].min(c[k].max(0.0) / (1.0 - a)),
+                _ => matte.background[p][k],
+            });
+            let front_rgba = [0, 1, 2, 3].map(|k| if k == 3 { a } else { (c[k] - (1.0 - a) * b[k]).max(0.0) });
+            Some((p, Band { front, back, front_rgba, back_rgba: [b[0], b[1], b[2], 1.0], back_seen: 1.0 - a }))
+        })
+        .collect();
+    for (p, band) in claimed {
+        out[p] = Some(band);
+    }
 }
 
 /// What layer `k` holds at one pixel.
