@@ -26,7 +26,7 @@
 use rayon::prelude::*;
 use super::fill::{compress, expand, mirror_sources, push_pull};
 use super::matting::{solve_matte, Matte, MatteOptions};
-use super::spill_depth::assign_spill_depth;
+use super::spill_depth::{assign_spill_depth, upper_median};
 use super::{Layer, LayerStack};
 use crate::camera::CocModel;
 use crate::image::Image;
@@ -334,17 +334,48 @@ fn split_light(c: [f32; 4], f: [f32; 4], alpha: f32) -> ([f32; 4], [f32; 4]) {
 /// wire lit by the sky where it sees the wire (about as often on the wall as on the wire, so
 /// near ties are the front's).
 fn light_from_behind(image: &Image, label: &[usize], p: usize, front: usize) -> bool {
-    let (w, h) = (image.width as i64, image.height as i64);
-    let (x, y) = ((p % image.width) as i64, (p / image.width) as i64);
-    let (mut nearer, mut farther) = (0.0f32, 0.0f32);
-    for qy in (y - SAMPLE_RADIUS).max(0)..=(y + SAMPLE_RADIUS).min(h - 1) {
-        for qx in (x - SAMPLE_RADIUS).max(0)..=(x + SAMPLE_RADIUS).min(w - 1) {
-            let q = (qy * w + qx) as usize;
-            let side = if label[q] <= front { &mut nearer } else { &mut farther };
-            *side = side.max(max3(image.pixels[q]));
+    SidesAround::of(image, label, p, front).light_from_behind()
+}
+
+/// The pixels within [`SAMPLE_RADIUS`] of one pixel on either side of layer `front`, by their
+/// brightest channel: the brightest of `front` or nearer, and every farther one.
+struct SidesAround {
+    nearer: f32,
+    farther: [f32; SAMPLE_WINDOW_PIXELS],
+    farther_count: usize,
+}
+
+/// Pixels in the (2 [`SAMPLE_RADIUS`] + 1)^2 window.
+const SAMPLE_WINDOW_PIXELS: usize = (2 * SAMPLE_RADIUS as usize + 1).pow(2);
+
+impl SidesAround {
+    fn of(image: &Image, label: &[usize], p: usize, front: usize) -> Self {
+        let (w, h) = (image.width as i64, image.height as i64);
+        let (x, y) = ((p % image.width) as i64, (p / image.width) as i64);
+        let mut sides = Self { nearer: 0.0, farther: [0.0; SAMPLE_WINDOW_PIXELS], farther_count: 0 };
+        for qy in (y - SAMPLE_RADIUS).max(0)..=(y + SAMPLE_RADIUS).min(h - 1) {
+            for qx in (x - SAMPLE_RADIUS).max(0)..=(x + SAMPLE_RADIUS).min(w - 1) {
+                let q = (qy * w + qx) as usize;
+                let bright = max3(image.pixels[q]);
+                if label[q] <= front {
+                    sides.nearer = sides.nearer.max(bright);
+                } else {
+                    sides.farther[sides.farther_count] = bright;
+                    sides.farther_count += 1;
+                }
+            }
         }
+        sides
     }
-    farther > BEHIND_RATIO * nearer
+
+    fn brightest_farther(&self) -> f32 {
+        self.farther[..self.farther_count].iter().copied().fold(0.0f32, f32::max)
+    }
+
+    /// See [`light_from_behind`].
+    fn light_from_behind(&self) -> bool {
+        self.brightest_farther() > BEHIND_RATIO * self.nearer
+    }
 }
 
 /// Whether pixel `p` is lit by a compact light behind layer `front`: [`light_from_behind`],
@@ -352,25 +383,13 @@ fn light_from_behind(image: &Image, label: &[usize], p: usize, front: usize) -> 
 /// there (over [`COMPACT_LIGHT_RATIO`] times their median): a street light, not a bright sky,
 /// whose light a thin wire over it shares.
 fn compact_light_behind(image: &Image, label: &[usize], p: usize, front: usize) -> bool {
-    if !light_from_behind(image, label, p, front) {
+    let mut sides = SidesAround::of(image, label, p, front);
+    if !sides.light_from_behind() {
         return false;
     }
-    let (w, h) = (image.width as i64, image.height as i64);
-    let (x, y) = ((p % image.width) as i64, (p / image.width) as i64);
-    let mut farther: Vec<f32> = Vec::with_capacity(25);
-    for qy in (y - SAMPLE_RADIUS).max(0)..=(y + SAMPLE_RADIUS).min(h - 1) {
-        for qx in (x - SAMPLE_RADIUS).max(0)..=(x + SAMPLE_RADIUS).min(w - 1) {
-            let q = (qy * w + qx) as usize;
-            if label[q] > front {
-                farther.push(max3(image.pixels[q]));
-            }
-        }
-    }
+    let brightest = sides.brightest_farther();
     // light_from_behind found a farther pixel: the list is not empty.
-    let mid = farther.len() / 2;
-    let median = *farther.select_nth_unstable_by(mid, f32::total_cmp).1;
-    let brightest = farther.iter().copied().fold(0.0f32, f32::max);
-    brightest > COMPACT_LIGHT_RATIO * median
+    brightest > COMPACT_LIGHT_RATIO * upper_median(&mut sides.farther[..sides.farther_count])
 }
 
 /// How far the brightest farther pixel must stand out for [`compact_light_behind`].

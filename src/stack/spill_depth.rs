@@ -91,6 +91,12 @@ fn own_luminance(lum: &[f32], disparity: &[f32], (w, h): (usize, usize), x: usiz
         }
     }
     // The pixel itself is always in: the list is never empty.
-    let mid = same.len() / 2;
-    *same.select_nth_unstable_by(mid, f32::total_cmp).1
+    upper_median(&mut same)
+}
+
+/// The upper median of `values` (the middle one of an odd count, the higher middle of an even
+/// count), reordering them. `values` must not be empty.
+pub(crate) fn upper_median(values: &mut [f32]) -> f32 {
+    let mid = values.len() / 2;
+    *values.select_nth_unstable_by(mid, f32::total_cmp).1
 }
