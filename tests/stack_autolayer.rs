@@ -420,3 +420,56 @@ fn a_wire_over_a_bright_sky_keeps_its_coverage() {
 fn grey(v: f32) -> [f32; 4] {
     [v, v, v, 1.0]
 }
+
+/// Disparity of signed CoC `s` px under [`coc`] (K = 20, focus at 0.25).
+fn at_coc(s: f32) -> f32 {
+    0.25 + s / 20.0
+}
+
+#[test]
+fn blurred_leaves_over_a_sharp_wall_are_cut_although_a_ground_plane_fills_most_of_their_gap() {
+    // Top half: a wall in focus with 4x4 leaves at 1.35 px CoC. Bottom half: a ground plane
+    // rising from 0 to 0.95 px, which leaves one empty 0.25 px bin below the leaves, a gap
+    // narrower than `discontinuity_px` (the dev-39 scene of issue 46).
+    let (w, h) = (64, 64);
+    let leaf = |x: usize, y: usize| y < 32 && x % 8 < 4 && y % 8 < 4;
+    let coc_at = |x: usize, y: usize| if leaf(x, y) { 1.35 } else if y < 32 { 0.0 } else { 0.95 * (y - 32) as f32 / 31.0 };
+    let disparity: Vec<f32> = (0..w * h).map(|i| at_coc(coc_at(i % w, i / w))).collect();
+    let image = Image::from_fn(w, h, |x, y| if leaf(x, y) { FG } else { BG });
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+    assert_eq!(stack.layers.len(), 2, "the leaves are a layer of their own");
+    let front = &stack.layers[0].rgba;
+    assert_eq!(front.get(1, 1)[3], 1.0, "a leaf is in the front layer");
+    assert_eq!(front.get(5, 5)[3], 0.0, "the wall between leaves is not");
+    assert!(max_diff(&composite(&stack), &image) < 1e-5);
+    let without = AutoLayerOptions { narrow_gaps: false, ..AutoLayerOptions::default() };
+    assert_eq!(split_into_layers(&image, &disparity, &coc(), &without).layers.len(), 1, "the histogram gap alone is no cut");
+}
+
+#[test]
+fn surfaces_that_meet_gently_along_a_border_stay_one_layer_despite_a_few_jumps() {
+    // A ramp from 0 to 0.74 px meets a plateau at 1.01 px along a column (jumps of 0.27 px,
+    // across one empty bin); two 4x4 blobs of the plateau's CoC sit on the ramp's low end
+    // (32 jumps of at least 0.5 px, fewer than twice the 64 gentle contacts).
+    let (w, h) = (64, 64);
+    let blob = |x: usize, y: usize| (2..6).contains(&x) && ((10..14).contains(&y) || (40..44).contains(&y));
+    let coc_at = |x: usize, y: usize| if x >= 32 || blob(x, y) { 1.01 } else { 0.74 * x as f32 / 31.0 };
+    let disparity: Vec<f32> = (0..w * h).map(|i| at_coc(coc_at(i % w, i / w))).collect();
+    let image = Image::from_fn(w, h, |x, y| if x >= 32 || blob(x, y) { MID } else { BG });
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+    assert_eq!(stack.layers.len(), 1, "a border of gentle contacts keeps the two surfaces together");
+}
+
+#[test]
+fn edges_of_a_cut_jumping_less_than_a_cut_gap_are_still_matted() {
+    // The square scene with the square 0.65 px of CoC in front of the background: its 30% and
+    // 70% edge columns get fractional alpha (within the solved matte's 0.06 of the other tests).
+    let (image, disparity) = square_scene();
+    let disparity: Vec<f32> = disparity.iter().map(|&d| if d > 0.5 { at_coc(0.65) } else { at_coc(0.0) }).collect();
+    let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+    assert_eq!(stack.layers.len(), 2);
+    let front = &stack.layers[0].rgba;
+    assert!((front.get(10, 12)[3] - 0.3).abs() < 0.06, "{:?}", front.get(10, 12));
+    assert!((front.get(21, 12)[3] - 0.7).abs() < 0.06, "{:?}", front.get(21, 12));
+    assert!(max_diff(&composite(&stack), &image) < 1e-5);
+}
