@@ -406,6 +406,33 @@ fn a_compact_light_behind_an_in_focus_wire_is_not_pulled_into_the_sharp_layer() 
 }
 
 #[test]
+fn a_lamp_behind_a_wire_that_barely_covers_it_still_goes_to_the_back() {
+    // An in-focus wire two pixels wide (x = 15, 16) crosses a lamp (x = 16, 17): it covers all of
+    // column 15 but 5% of column 16, whose pixels hold 95% of the lamp's 80 and are brighter
+    // than the lamp's own pixels beside them (75, its fall-off): the dev-60 scene of issue 46.
+    const WIRE: [f32; 4] = [0.08, 0.06, 0.05, 1.0];
+    let lamp = |y: usize| (15..=16).contains(&y);
+    let image = Image::from_fn(32, 32, |x, y| match x {
+        15 => WIRE,
+        16 if lamp(y) => mix(WIRE, grey(80.0), 0.05),
+        16 => mix(WIRE, grey(0.05), 0.05),
+        17 if lamp(y) => grey(75.0),
+        _ => grey(0.05),
+    });
+    let disparity = (0..32 * 32).map(|i| if (15..=16).contains(&(i % 32)) { 1.0 } else { 0.25 }).collect::<Vec<f32>>();
+    // Focus on the wire: the lamp behind it is blurred 15 px.
+    let focus_on_wire = CocModel::new(20.0, 1.0).unwrap();
+    let stack = split_into_layers(&image, &disparity, &focus_on_wire, &AutoLayerOptions::default());
+    assert_eq!(stack.layers.len(), 2);
+    let front = stack.layers[0].rgba.get(16, 16);
+    assert!(front[0] < 8.0, "the sharp layer keeps at most a tenth of the lamp: {front:?}");
+    let back = stack.layers[1].rgba.get(16, 16);
+    assert!(back[0] > 20.0, "the lamp's light over the wire is in the back layer: {back:?}");
+    let err = max_diff(&composite(&stack), &image);
+    assert!(err < 3e-3, "composite differs from the input by {err}");
+}
+
+#[test]
 fn a_wire_over_a_bright_sky_keeps_its_coverage() {
     // The same wire over an HDR sky (3.0) everywhere: nothing stands out behind it, so the
     // wire pixels keep their depth prior and stay half covered in the sharp layer.
