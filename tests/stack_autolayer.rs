@@ -433,6 +433,27 @@ fn a_lamp_behind_a_wire_that_barely_covers_it_still_goes_to_the_back() {
 }
 
 #[test]
+fn a_sunlit_wire_in_focus_keeps_its_own_light_beside_its_spill() {
+    // An in-focus wire (row 16) lit to 5.0 over a dark, blurred background; the pixel filter
+    // spills 92% of its light into the background row above it (row 15, background depth), as
+    // bright beside it as a lamp would be (the dev-90 scene of issue 46). The light is the
+    // wire's own: every front pixel holds it, so it stays in the sharp layer.
+    let image = Image::from_fn(32, 32, |_, y| match y {
+        16 => grey(5.0),
+        15 => grey(4.6),
+        _ => grey(0.05),
+    });
+    let disparity = (0..32 * 32).map(|i| if i / 32 == 16 { 1.0 } else { 0.25 }).collect::<Vec<f32>>();
+    let focus_on_wire = CocModel::new(20.0, 1.0).unwrap();
+    let stack = split_into_layers(&image, &disparity, &focus_on_wire, &AutoLayerOptions::default());
+    assert_eq!(stack.layers.len(), 2);
+    for x in 4..28 {
+        let front = stack.layers[0].rgba.get(x, 16);
+        assert!(front[0] > 4.0, "wire pixel ({x}, 16) keeps its light in the sharp layer: {front:?}");
+    }
+}
+
+#[test]
 fn a_wire_over_a_bright_sky_keeps_its_coverage() {
     // The same wire over an HDR sky (3.0) everywhere: nothing stands out behind it, so the
     // wire pixels keep their depth prior and stay half covered in the sharp layer.

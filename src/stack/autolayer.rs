@@ -435,7 +435,10 @@ fn light_from_behind(image: &Image, label: &[usize], p: usize, front: usize) -> 
 /// The pixels within [`SAMPLE_RADIUS`] of one pixel on either side of layer `front`, by their
 /// brightest channel: the brightest of `front` or nearer, and every farther one.
 struct SidesAround {
+    /// The brightest pixel of layer `front` or nearer.
     nearer: f32,
+    nearer_all: [f32; SAMPLE_WINDOW_PIXELS],
+    nearer_count: usize,
     farther: [f32; SAMPLE_WINDOW_PIXELS],
     farther_count: usize,
 }
@@ -447,13 +450,21 @@ impl SidesAround {
     fn of(image: &Image, label: &[usize], p: usize, front: usize) -> Self {
         let (w, h) = (image.width as i64, image.height as i64);
         let (x, y) = ((p % image.width) as i64, (p / image.width) as i64);
-        let mut sides = Self { nearer: 0.0, farther: [0.0; SAMPLE_WINDOW_PIXELS], farther_count: 0 };
+        let mut sides = Self {
+            nearer: 0.0,
+            nearer_all: [0.0; SAMPLE_WINDOW_PIXELS],
+            nearer_count: 0,
+            farther: [0.0; SAMPLE_WINDOW_PIXELS],
+            farther_count: 0,
+        };
         for qy in (y - SAMPLE_RADIUS).max(0)..=(y + SAMPLE_RADIUS).min(h - 1) {
             for qx in (x - SAMPLE_RADIUS).max(0)..=(x + SAMPLE_RADIUS).min(w - 1) {
                 let q = (qy * w + qx) as usize;
                 let bright = max3(image.pixels[q]);
                 if label[q] <= front {
                     sides.nearer = sides.nearer.max(bright);
+                    sides.nearer_all[sides.nearer_count] = bright;
+                    sides.nearer_count += 1;
                 } else {
                     sides.farther[sides.farther_count] = bright;
                     sides.farther_count += 1;
@@ -480,17 +491,28 @@ impl SidesAround {
 ///
 /// Where `p` is sharper than the back (`sharp_front`: an in-focus wire over a blurred lamp), the
 /// light can have come from behind when the brightest farther pixel holds at least
-/// [`LAMP_SHARE`] of `p`'s own brightness, whatever the other front pixels hold: where a wire
-/// crosses a lamp, every wire pixel over the lamp holds its light, and the brightest of them
-/// kept the lamp sharp in the wire's layer (dev-60 of issue 46, 19.20 -> 20.35 dB; dev-24
-/// 21.72 -> 23.09; dev-30 +0.53; dev-56 -0.26, where a blurred light's rim moved; 0.8 to 0.95
-/// for the share gave the same scores). Where the front is the blurrier
+/// [`LAMP_SHARE`] of `p`'s own brightness and `p` stands out from the front pixels there (over
+/// [`COMPACT_LIGHT_RATIO`] times their median: the light is not the front's own), whatever the
+/// brightest front pixel holds: where a wire crosses a lamp, every wire pixel over the lamp
+/// holds its light, and the brightest of them kept the lamp sharp in the wire's layer (dev-60
+/// of issue 46, 19.20 -> 20.35 dB; dev-24 21.72 -> 23.09; dev-30 +0.53; dev-56 -0.26, where a
+/// blurred light's rim moved; 0.8 to 0.95 for the share gave the same scores). Without the
+/// front's median a sunlit wire in focus, whose own light the pixel filter spills into the
+/// background beside it, went to the blurred back (dev-90: 29.43 -> 26.02). Where the front is the blurrier
 /// side (a blurred fence over an in-focus sky), [`light_from_behind`]'s stricter test stands:
 /// the fixed Cycles scenes of blurred wires over bright skies lost up to 3.9 dB without it.
 fn compact_light_behind(image: &Image, label: &[usize], p: usize, front: usize, sharp_front: bool) -> bool {
     let mut sides = SidesAround::of(image, label, p, front);
     let brightest = sides.brightest_farther();
-    let from_behind = if sharp_front { sides.farther_count > 0 && brightest >= LAMP_SHARE * max3(image.pixels[p]) } else { sides.light_from_behind() };
+    let own = max3(image.pixels[p]);
+    let from_behind = if sharp_front {
+        // p itself is a front pixel: the list is not empty.
+        sides.farther_count > 0
+            && brightest >= LAMP_SHARE * own
+            && own > COMPACT_LIGHT_RATIO * upper_median(&mut sides.nearer_all[..sides.nearer_count])
+    } else {
+        sides.light_from_behind()
+    };
     // Either test found a farther pixel: the list is not empty.
     from_behind && brightest > COMPACT_LIGHT_RATIO * upper_median(&mut sides.farther[..sides.farther_count])
 }
