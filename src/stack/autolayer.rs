@@ -10,9 +10,9 @@
 //!    slice. The count adapts (at most `max_layers`).
 //! 2. Depth is not anti-aliased but colour is: at every cut where the CoC jumps by at least
 //!    `matte_jump_px` between neighbours (`discontinuity_px` for the sampled rules), alpha and
-//!    the background colour of the mixed pixels
-//!    are solved ([`super::matting`]: closed-form matting with the Z pass as a soft prior, then
-//!    the two colours by least squares in linear HDR). The front layer gets `c - (1 - alpha) B`,
+//!    the background colour of the mixed pixels are solved ([`super::matting`]: closed-form
+//!    matting with the Z pass as a soft prior, then the two colours by least squares in linear
+//!    HDR). The front layer gets `c - (1 - alpha) B`,
 //!    the back layer `B`, so "over" reproduces the input exactly while a blurred foreground can
 //!    become transparent. [`Matting::Sampled`] keeps the earlier rules instead: alpha by
 //!    projecting the colour onto the line between local foreground and background colours, an
@@ -132,7 +132,7 @@ fn boundaries(coc: &[f32], width: usize, options: &AutoLayerOptions) -> Vec<f32>
     let bins = ((hi - lo) / bin).floor() as usize + 1;
     let mut histogram = vec![0usize; bins];
     for &s in coc {
-        histogram[(((s - lo) / bin) as usize).min(bins - 1)] += 1;
+        histogram[bin_index(s, lo, bin, bins)] += 1;
     }
     let centre = |b: usize| lo + (b as f32 + 0.5) * bin;
     // (cut, priority): gaps by their width, in-surface cuts below every gap.
@@ -174,10 +174,7 @@ fn narrow_gap_cuts(coc: &[f32], width: usize, histogram: &[usize], min_gap: usiz
     if runs.len() < 2 || width == 0 {
         return;
     }
-    let run_of = |s: f32| {
-        let b = (((s - lo) / bin) as usize).min(histogram.len() - 1);
-        runs.partition_point(|&(start, _)| start <= b) - 1
-    };
+    let run_of = |s: f32| runs.partition_point(|&(start, _)| start <= bin_index(s, lo, bin, histogram.len())) - 1;
     let run_label: Vec<usize> = coc.iter().map(|&s| run_of(s)).collect();
     // (jumps, gentle contacts) between runs i and i + 1, over right and down neighbours.
     let mut contacts = vec![(0usize, 0usize); runs.len() - 1];
@@ -216,6 +213,12 @@ const NARROW_GAP_MIN_JUMPS_PER_MILLE: usize = 1;
 const NARROW_GAP_MIN_JUMPS: usize = 8;
 /// Jumps across a narrow gap must outnumber the gentle contacts between its sides this often.
 const NARROW_GAP_JUMP_RATIO: usize = 2;
+
+/// The histogram bin of signed CoC `s`, for [`boundaries`] and the runs of [`narrow_gap_cuts`]
+/// alike (a pixel must fall in the run whose bins it filled).
+fn bin_index(s: f32, lo: f32, bin: f32, bins: usize) -> usize {
+    (((s - lo) / bin) as usize).min(bins - 1)
+}
 
 /// The histogram split at every inner run of at least `min_gap` empty bins: the bin ranges
 /// `[start, end)` between such gaps, in order, covering the first and last bins (a gap at
@@ -433,11 +436,9 @@ fn light_from_behind(image: &Image, label: &[usize], p: usize, front: usize) -> 
 }
 
 /// The pixels within [`SAMPLE_RADIUS`] of one pixel on either side of layer `front`, by their
-/// brightest channel: the brightest of `front` or nearer, and every farther one.
+/// brightest channel: those of `front` or nearer, and the farther ones.
 struct SidesAround {
-    /// The brightest pixel of layer `front` or nearer.
-    nearer: f32,
-    nearer_all: [f32; SAMPLE_WINDOW_PIXELS],
+    nearer: [f32; SAMPLE_WINDOW_PIXELS],
     nearer_count: usize,
     farther: [f32; SAMPLE_WINDOW_PIXELS],
     farther_count: usize,
@@ -451,8 +452,7 @@ impl SidesAround {
         let (w, h) = (image.width as i64, image.height as i64);
         let (x, y) = ((p % image.width) as i64, (p / image.width) as i64);
         let mut sides = Self {
-            nearer: 0.0,
-            nearer_all: [0.0; SAMPLE_WINDOW_PIXELS],
+            nearer: [0.0; SAMPLE_WINDOW_PIXELS],
             nearer_count: 0,
             farther: [0.0; SAMPLE_WINDOW_PIXELS],
             farther_count: 0,
@@ -462,8 +462,7 @@ impl SidesAround {
                 let q = (qy * w + qx) as usize;
                 let bright = max3(image.pixels[q]);
                 if label[q] <= front {
-                    sides.nearer = sides.nearer.max(bright);
-                    sides.nearer_all[sides.nearer_count] = bright;
+                    sides.nearer[sides.nearer_count] = bright;
                     sides.nearer_count += 1;
                 } else {
                     sides.farther[sides.farther_count] = bright;
@@ -478,9 +477,13 @@ impl SidesAround {
         self.farther[..self.farther_count].iter().copied().fold(0.0f32, f32::max)
     }
 
+    fn brightest_nearer(&self) -> f32 {
+        self.nearer[..self.nearer_count].iter().copied().fold(0.0f32, f32::max)
+    }
+
     /// See [`light_from_behind`].
     fn light_from_behind(&self) -> bool {
-        self.brightest_farther() > BEHIND_RATIO * self.nearer
+        self.brightest_farther() > BEHIND_RATIO * self.brightest_nearer()
     }
 }
 
@@ -498,9 +501,10 @@ impl SidesAround {
 /// of issue 46, 19.20 -> 20.35 dB; dev-24 21.72 -> 23.09; dev-30 +0.53; dev-56 -0.26, where a
 /// blurred light's rim moved; 0.8 to 0.95 for the share gave the same scores). Without the
 /// front's median a sunlit wire in focus, whose own light the pixel filter spills into the
-/// background beside it, went to the blurred back (dev-90: 29.43 -> 26.02). Where the front is the blurrier
-/// side (a blurred fence over an in-focus sky), [`light_from_behind`]'s stricter test stands:
-/// the fixed Cycles scenes of blurred wires over bright skies lost up to 3.9 dB without it.
+/// background beside it, went to the blurred back (dev-90: 29.43 -> 26.02). Where the front
+/// is the blurrier side (a blurred fence over an in-focus sky), [`light_from_behind`]'s
+/// stricter test stands: the fixed Cycles scenes of blurred wires over bright skies lost up to
+/// 3.9 dB without it.
 fn compact_light_behind(image: &Image, label: &[usize], p: usize, front: usize, sharp_front: bool) -> bool {
     let mut sides = SidesAround::of(image, label, p, front);
     let brightest = sides.brightest_farther();
@@ -509,7 +513,7 @@ fn compact_light_behind(image: &Image, label: &[usize], p: usize, front: usize, 
         // p itself is a front pixel: the list is not empty.
         sides.farther_count > 0
             && brightest >= LAMP_SHARE * own
-            && own > COMPACT_LIGHT_RATIO * upper_median(&mut sides.nearer_all[..sides.nearer_count])
+            && own > COMPACT_LIGHT_RATIO * upper_median(&mut sides.nearer[..sides.nearer_count])
     } else {
         sides.light_from_behind()
     };
