@@ -97,23 +97,22 @@ fn guide_value(v: f64) -> f64 {
 
 /// Chebyshev distance (px) to the nearest edge pixel plus one (1 on the edge: the edge runs
 /// beside it), up to `limit + 1`.
+///
+/// Each edge pixel lowers the distances around it: edges are a percent or two of a frame, and
+/// a search around every pixel of it was the layering's hottest loop.
 fn edge_distance(edge: &[bool], width: usize, height: usize, limit: usize) -> Vec<usize> {
     let r = limit as i64 - 1;
-    (0..width * height)
-        .into_par_iter()
-        .map(|p| {
-            let (x, y) = ((p % width) as i64, (p / width) as i64);
-            let mut best = limit + 1;
-            for qy in (y - r).max(0)..=(y + r).min(height as i64 - 1) {
-                for qx in (x - r).max(0)..=(x + r).min(width as i64 - 1) {
-                    if edge[qy as usize * width + qx as usize] {
-                        best = best.min((qx - x).unsigned_abs().max((qy - y).unsigned_abs()) as usize + 1);
-                    }
-                }
+    let mut best = vec![limit + 1; width * height];
+    for p in (0..width * height).filter(|&p| edge[p]) {
+        let (x, y) = ((p % width) as i64, (p / width) as i64);
+        for qy in (y - r).max(0)..=(y + r).min(height as i64 - 1) {
+            for qx in (x - r).max(0)..=(x + r).min(width as i64 - 1) {
+                let q = qy as usize * width + qx as usize;
+                best[q] = best[q].min((qx - x).unsigned_abs().max((qy - y).unsigned_abs()) as usize + 1);
             }
-            best
-        })
-        .collect()
+        }
+    }
+    best
 }
 
 /// The 3x3 windows of the matting Laplacian that touch an unknown pixel: centre, colour mean,
@@ -378,10 +377,13 @@ fn estimate_colours(
         }
     }
     let parity: [Vec<usize>; 2] = [0, 1].map(|k| unknown_list.iter().copied().filter(|&p| (p % width + p / width) % 2 == k).collect());
+    // One buffer for every sweep's updates; a band of a few thousand pixels is swept on one
+    // core (rayon's split and join cost more than the sweep), a long one on all of them.
+    let mut updates: Vec<([f32; 3], [f32; 3])> = Vec::with_capacity(parity[0].len().max(parity[1].len()));
     for _ in 0..sweeps {
         for set in &parity {
-            let updates: Vec<([f32; 3], [f32; 3])> = set
-                .par_iter()
+            set.par_iter()
+                .with_min_len(SWEEP_PIXELS_PER_TASK)
                 .map(|&p| {
                     let (x, y) = (p % width, p / width);
                     let a = alpha[p];
@@ -405,8 +407,8 @@ fn estimate_colours(
                     let b = [0, 1, 2].map(|k| ((a00 * b1[k] - a01 * b0[k]) * inv).max(0.0));
                     (f, b)
                 })
-                .collect();
-            for (&p, (f, b)) in set.iter().zip(updates) {
+                .collect_into_vec(&mut updates);
+            for (&p, &(f, b)) in set.iter().zip(&updates) {
                 foreground[p] = f;
                 background[p] = b;
             }
@@ -430,6 +432,9 @@ fn estimate_colours(
     }
     (foreground, background)
 }
+
+/// Fewest pixels of a colour sweep handed to one task of the thread pool.
+const SWEEP_PIXELS_PER_TASK: usize = 512;
 
 /// Alpha under which a pixel's colour is the background's for [`estimate_colours`]' range.
 const NEARLY_BACK_ALPHA: f32 = 0.1;
