@@ -203,34 +203,64 @@ fn windows_of(p: usize, width: usize, height: usize, windows: &Windows) -> impl 
         .filter_map(move |c| (windows.slot[c] != u32::MAX).then_some(windows.slot[c] as usize))
 }
 
-/// `(L x)_i` at the unknown pixels, for `x` given on the whole frame.
-fn apply_laplacian(guide: &[[f64; 3]], width: usize, height: usize, windows: &Windows, unknown: &[usize], x: &[f64]) -> Vec<f64> {
-    // Per window: the affine model's offset and slope fitted to x (He et al. 2010).
-    let models: Vec<(f64, [f64; 3])> = (0..windows.centres.len())
-        .into_par_iter()
-        .map(|k| {
-            let pixels = window_pixels(windows.centres[k], width);
-            let (mut a, mut s) = (0.0f64, [0.0f64; 3]);
-            for &q in &pixels {
-                a += x[q] / 9.0;
-                (0..3).for_each(|c| s[c] += guide[q][c] * x[q] / 9.0);
-            }
-            let mu = windows.mean[k];
-            let v = mat_vec(&windows.inverse[k], [0, 1, 2].map(|c| s[c] - mu[c] * a));
-            (a - dot3(mu, v), v)
-        })
-        .collect();
-    unknown
-        .par_iter()
-        .map(|&p| {
-            let mut out = 0.0f64;
-            for k in windows_of(p, width, height, windows) {
-                let (offset, slope) = models[k];
-                out += x[p] - offset - dot3(guide[p], slope);
-            }
-            out
-        })
-        .collect()
+/// The matting Laplacian `L` at the unknown pixels, applied matrix-free; its per-window
+/// models live in one buffer that every application of the conjugate gradients reuses.
+struct Laplacian<'a> {
+    guide: &'a [[f64; 3]],
+    width: usize,
+    windows: &'a Windows,
+    unknown: &'a [usize],
+    /// Per window: the affine model's offset and slope fitted to the last `x` (He et al. 2010).
+    models: Vec<(f64, [f64; 3])>,
+    /// The windows holding each unknown pixel (`windows_of`, in its order), listed once:
+    /// unknown `i`'s are `containing[starts[i]..starts[i + 1]]`.
+    containing: Vec<u32>,
+    starts: Vec<usize>,
+}
+
+impl<'a> Laplacian<'a> {
+    fn new(guide: &'a [[f64; 3]], width: usize, height: usize, windows: &'a Windows, unknown: &'a [usize]) -> Self {
+        let mut starts = Vec::with_capacity(unknown.len() + 1);
+        let mut containing = Vec::with_capacity(unknown.len() * 9);
+        starts.push(0);
+        for &p in unknown {
+            containing.extend(windows_of(p, width, height, windows).map(|k| k as u32));
+            starts.push(containing.len());
+        }
+        Self { guide, width, windows, unknown, models: Vec::new(), containing, starts }
+    }
+
+    /// `(L x)_i` at the unknown pixels into `out`, for `x` given on the whole frame.
+    fn apply(&mut self, x: &[f64], out: &mut Vec<f64>) {
+        let (guide, width, windows) = (self.guide, self.width, self.windows);
+        (0..windows.centres.len())
+            .into_par_iter()
+            .map(|k| {
+                let pixels = window_pixels(windows.centres[k], width);
+                let (mut a, mut s) = (0.0f64, [0.0f64; 3]);
+                for &q in &pixels {
+                    a += x[q] / 9.0;
+                    (0..3).for_each(|c| s[c] += guide[q][c] * x[q] / 9.0);
+                }
+                let mu = windows.mean[k];
+                let v = mat_vec(&windows.inverse[k], [0, 1, 2].map(|c| s[c] - mu[c] * a));
+                (a - dot3(mu, v), v)
+            })
+            .collect_into_vec(&mut self.models);
+        let (models, containing, starts) = (&self.models, &self.containing, &self.starts);
+        self.unknown
+            .par_iter()
+            .enumerate()
+            .map(|(i, &p)| {
+                let mut out = 0.0f64;
+                for &k in &containing[starts[i]..starts[i + 1]] {
+                    let (offset, slope) = models[k as usize];
+                    out += x[p] - offset - dot3(guide[p], slope);
+                }
+                out
+            })
+            .collect_into_vec(out);
+    }
 }
 
 /// The diagonal of `L` at the unknown pixels (the Jacobi preconditioner).
@@ -274,27 +304,31 @@ pub fn solve_matte(image: &[[f32; 4]], width: usize, height: usize, front: &[boo
             f64::from(options.edge_confidence) + f64::from(options.confidence_growth) * d * d
         })
         .collect();
+    let mut laplacian = Laplacian::new(&guide, width, height, &windows, &unknown_list);
     // Right-hand side: C z - L x_fixed, x_fixed = the labels outside the band, 0 inside.
     let mut fixed: Vec<f64> = prior.clone();
     unknown_list.iter().for_each(|&p| fixed[p] = 0.0);
-    let lx_fixed = apply_laplacian(&guide, width, height, &windows, &unknown_list, &fixed);
+    let mut lx_fixed = Vec::new();
+    laplacian.apply(&fixed, &mut lx_fixed);
     let b: Vec<f64> = (0..unknown_list.len()).map(|i| confidence[i] * prior[unknown_list[i]] - lx_fixed[i]).collect();
     let diagonal: Vec<f64> = laplacian_diagonal(&guide, width, height, &windows, &unknown_list)
         .iter()
         .zip(&confidence)
         .map(|(d, c)| (d + c).max(1e-6))
         .collect();
-    // Operator on the unknowns: (L + C) restricted to the band.
+    // Operator on the unknowns: (L + C) restricted to the band, into `out` (every buffer of
+    // the iterations is allocated once).
     let mut scratch = vec![0.0f64; n];
-    let mut apply = |v: &[f64]| -> Vec<f64> {
+    let mut apply = |v: &[f64], out: &mut Vec<f64>| {
         unknown_list.iter().zip(v).for_each(|(&p, &x)| scratch[p] = x);
-        let lv = apply_laplacian(&guide, width, height, &windows, &unknown_list, &scratch);
-        lv.iter().zip(v).zip(&confidence).map(|((l, x), c)| l + c * x).collect()
+        laplacian.apply(&scratch, out);
+        out.iter_mut().zip(v).zip(&confidence).for_each(|((l, x), c)| *l = *l + c * x);
     };
     // Preconditioned conjugate gradients from the prior.
     let mut x: Vec<f64> = unknown_list.iter().map(|&p| prior[p]).collect();
-    let ax = apply(&x);
-    let mut r: Vec<f64> = b.iter().zip(&ax).map(|(b, a)| b - a).collect();
+    let mut ap = Vec::with_capacity(x.len());
+    apply(&x, &mut ap);
+    let mut r: Vec<f64> = b.iter().zip(&ap).map(|(b, a)| b - a).collect();
     let mut z: Vec<f64> = r.iter().zip(&diagonal).map(|(r, d)| r / d).collect();
     let mut p = z.clone();
     let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -304,7 +338,7 @@ pub fn solve_matte(image: &[[f32; 4]], width: usize, height: usize, front: &[boo
     let mut iterations = 0;
     let mut residual = norm(&r) / b_norm;
     while iterations < options.max_iterations && residual > f64::from(options.tolerance) {
-        let ap = apply(&p);
+        apply(&p, &mut ap);
         let pap = dotf(&p, &ap);
         if pap <= 0.0 {
             break;
@@ -514,12 +548,18 @@ mod tests {
         let guide: Vec<[f64; 3]> = (0..size * size).map(|p| [((p * 7) % 11) as f64 / 11.0, ((p * 3) % 5) as f64 / 5.0, 0.3]).collect();
         let all: Vec<usize> = (0..size * size).collect();
         let w = windows(&guide, size, size, &all, 1e-5);
+        let mut laplacian = Laplacian::new(&guide, size, size, &w, &all);
+        let mut apply = |x: &[f64]| {
+            let mut out = Vec::new();
+            laplacian.apply(x, &mut out);
+            out
+        };
         let ones = vec![1.0f64; size * size];
-        let l1 = apply_laplacian(&guide, size, size, &w, &all, &ones);
+        let l1 = apply(&ones);
         assert!(l1.iter().all(|v| v.abs() < 1e-4), "L 1 = {:?}", l1.iter().fold(0.0f64, |m, v| m.max(v.abs())));
         let x: Vec<f64> = (0..size * size).map(|p| ((p * 13) % 17) as f64 / 17.0).collect();
         let y: Vec<f64> = (0..size * size).map(|p| ((p * 5) % 7) as f64 / 7.0).collect();
-        let (lx, ly) = (apply_laplacian(&guide, size, size, &w, &all, &x), apply_laplacian(&guide, size, size, &w, &all, &y));
+        let (lx, ly) = (apply(&x), apply(&y));
         let (xly, ylx): (f64, f64) = (x.iter().zip(&ly).map(|(a, b)| a * b).sum(), y.iter().zip(&lx).map(|(a, b)| a * b).sum());
         assert!((xly - ylx).abs() < 1e-3 * xly.abs().max(1.0), "{xly} vs {ylx}");
         // And its diagonal is what the operator gives for a unit vector.
@@ -527,7 +567,7 @@ mod tests {
         for p in [0, 13, 50, 143] {
             let mut e = vec![0.0f64; size * size];
             e[p] = 1.0;
-            let le = apply_laplacian(&guide, size, size, &w, &all, &e);
+            let le = apply(&e);
             assert!((le[p] - diagonal[p]).abs() < 1e-4, "pixel {p}: {} vs {}", le[p], diagonal[p]);
         }
     }
