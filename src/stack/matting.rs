@@ -322,7 +322,7 @@ pub fn solve_matte(image: &[[f32; 4]], width: usize, height: usize, front: &[boo
     let mut apply = |v: &[f64], out: &mut Vec<f64>| {
         unknown_list.iter().zip(v).for_each(|(&p, &x)| scratch[p] = x);
         laplacian.apply(&scratch, out);
-        out.iter_mut().zip(v).zip(&confidence).for_each(|((l, x), c)| *l = *l + c * x);
+        out.iter_mut().zip(v).zip(&confidence).for_each(|((l, x), c)| *l += c * x);
     };
     // Preconditioned conjugate gradients from the prior.
     let mut x: Vec<f64> = unknown_list.iter().map(|&p| prior[p]).collect();
@@ -411,41 +411,27 @@ fn estimate_colours(
         }
     }
     let parity: [Vec<usize>; 2] = [0, 1].map(|k| unknown_list.iter().copied().filter(|&p| (p % width + p / width) % 2 == k).collect());
-    // One buffer for every sweep's updates; a band of a few thousand pixels is swept on one
-    // core (rayon's split and join cost more than the sweep), a long one on all of them.
-    let mut updates: Vec<([f32; 3], [f32; 3])> = Vec::with_capacity(parity[0].len().max(parity[1].len()));
+    // A pixel's 4-neighbours are all of the other parity: each half sweep reads the other
+    // half's colours and writes its own, in place, in arrays of the band's pixels alone.
+    let mut slot = vec![u32::MAX; alpha.len()];
+    for set in &parity {
+        set.iter().enumerate().for_each(|(i, &p)| slot[p] = i as u32);
+    }
+    let pixels: [Vec<SweepPixel>; 2] = parity.each_ref().map(|set| set.par_iter().map(|&p| SweepPixel::new(p, width, height, alpha, unknown, &slot)).collect());
+    let mut colours: [Vec<([f32; 3], [f32; 3])>; 2] = parity.each_ref().map(|set| set.iter().map(|&p| (foreground[p], background[p])).collect());
     for _ in 0..sweeps {
-        for set in &parity {
-            set.par_iter()
-                .with_min_len(SWEEP_PIXELS_PER_TASK)
-                .map(|&p| {
-                    let (x, y) = (p % width, p / width);
-                    let a = alpha[p];
-                    let (mut a00, a01, mut a11) = (a * a, a * (1.0 - a), (1.0 - a) * (1.0 - a));
-                    let c = image[p];
-                    let mut b0 = [0, 1, 2].map(|k| a * c[k]);
-                    let mut b1 = [0, 1, 2].map(|k| (1.0 - a) * c[k]);
-                    let neighbours = [(x > 0).then(|| p - 1), (x + 1 < width).then(|| p + 1), (y > 0).then(|| p - width), (y + 1 < height).then(|| p + width)];
-                    for q in neighbours.into_iter().flatten() {
-                        let w = COLOUR_REGULARISATION + (a - alpha[q]).abs();
-                        a00 += w;
-                        a11 += w;
-                        (0..3).for_each(|k| {
-                            b0[k] += w * foreground[q][k];
-                            b1[k] += w * background[q][k];
-                        });
-                    }
-                    let det = a00 * a11 - a01 * a01;
-                    let inv = 1.0 / det;
-                    let f = [0, 1, 2].map(|k| ((a11 * b0[k] - a01 * b1[k]) * inv).max(0.0));
-                    let b = [0, 1, 2].map(|k| ((a00 * b1[k] - a01 * b0[k]) * inv).max(0.0));
-                    (f, b)
-                })
-                .collect_into_vec(&mut updates);
-            for (&p, &(f, b)) in set.iter().zip(&updates) {
-                foreground[p] = f;
-                background[p] = b;
-            }
+        for (k, pixels) in pixels.iter().enumerate() {
+            let (first, second) = colours.split_at_mut(1);
+            let (own, other) = if k == 0 { (&mut first[0], &second[0]) } else { (&mut second[0], &first[0]) };
+            own.par_iter_mut().zip(pixels).with_min_len(SWEEP_PIXELS_PER_TASK).for_each(|(out, pixel)| {
+                *out = pixel.update(image, other, &foreground, &background);
+            });
+        }
+    }
+    for (set, colours) in parity.iter().zip(&colours) {
+        for (&p, &(f, b)) in set.iter().zip(colours) {
+            foreground[p] = f;
+            background[p] = b;
         }
     }
     // The sweeps spread colour along the band as well as across it: behind an in-focus edge an
@@ -465,6 +451,66 @@ fn estimate_colours(
         background[p] = b;
     }
     (foreground, background)
+}
+
+/// One unknown pixel of the colour sweeps and what stays the same from sweep to sweep: its
+/// 2x2 system's matrix (inverted) and its neighbours' weights.
+struct SweepPixel {
+    pixel: u32,
+    alpha: f32,
+    a00: f32,
+    a01: f32,
+    inv: f32,
+    a11: f32,
+    /// The neighbours left, right, up, down that are in the frame: weight, and where their
+    /// colours are (`SWEPT` set: the other parity's slot; else the pixel, whose colours are
+    /// fixed); unused taps have weight 0 and come after the used ones.
+    taps: [(f32, u32); 4],
+    count: u8,
+}
+
+/// Marks a tap of [`SweepPixel`] whose colours are swept (a slot of the other parity).
+const SWEPT: u32 = 1 << 31;
+
+impl SweepPixel {
+    fn new(p: usize, width: usize, height: usize, alpha: &[f32], unknown: &[bool], slot: &[u32]) -> Self {
+        let (x, y) = (p % width, p / width);
+        let a = alpha[p];
+        let (mut a00, a01, mut a11) = (a * a, a * (1.0 - a), (1.0 - a) * (1.0 - a));
+        let (mut taps, mut count) = ([(0.0f32, 0u32); 4], 0);
+        let neighbours = [(x > 0).then(|| p - 1), (x + 1 < width).then(|| p + 1), (y > 0).then(|| p - width), (y + 1 < height).then(|| p + width)];
+        for q in neighbours.into_iter().flatten() {
+            let w = COLOUR_REGULARISATION + (a - alpha[q]).abs();
+            a00 += w;
+            a11 += w;
+            taps[count] = (w, if unknown[q] { slot[q] | SWEPT } else { q as u32 });
+            count += 1;
+        }
+        let det = a00 * a11 - a01 * a01;
+        Self { pixel: p as u32, alpha: a, a00, a01, inv: 1.0 / det, a11, taps, count: count as u8 }
+    }
+
+    /// The pixel's F and B given its neighbours' (the same operations, in the same order, as
+    /// solving its system from scratch).
+    fn update(&self, image: &[[f32; 4]], swept: &[([f32; 3], [f32; 3])], foreground: &[[f32; 3]], background: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
+        let (a, c) = (self.alpha, image[self.pixel as usize]);
+        let mut b0 = [0, 1, 2].map(|k| a * c[k]);
+        let mut b1 = [0, 1, 2].map(|k| (1.0 - a) * c[k]);
+        for &(w, source) in &self.taps[..usize::from(self.count)] {
+            let (f, b) = if source & SWEPT != 0 {
+                swept[(source & !SWEPT) as usize]
+            } else {
+                (foreground[source as usize], background[source as usize])
+            };
+            (0..3).for_each(|k| {
+                b0[k] += w * f[k];
+                b1[k] += w * b[k];
+            });
+        }
+        let f = [0, 1, 2].map(|k| ((self.a11 * b0[k] - self.a01 * b1[k]) * self.inv).max(0.0));
+        let b = [0, 1, 2].map(|k| ((self.a00 * b1[k] - self.a01 * b0[k]) * self.inv).max(0.0));
+        (f, b)
+    }
 }
 
 /// Fewest pixels of a colour sweep handed to one task of the thread pool.
