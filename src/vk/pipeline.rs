@@ -199,6 +199,12 @@ impl ComputePipeline {
         Ok(*raw)
     }
 
+    /// Compiles the pipeline now if no dispatch has yet (several may compile on several
+    /// threads: each holds its own lock, and the pipeline cache is internally synchronized).
+    pub fn compile(&self) -> Result<()> {
+        self.raw().map(|_| ())
+    }
+
     pub fn shader(&self) -> &ShaderSource {
         &self.0.shader
     }

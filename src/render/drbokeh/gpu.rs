@@ -7,6 +7,8 @@
 //! lens, area table, push constants) and the search windows are shared with it.
 use std::sync::{Arc, Mutex};
 
+use rayon::prelude::*;
+
 use super::bounds::{search_tiles, span_radii, windows_and_ranges, SourceRanges, NO_SPAN_RADII};
 use super::{AperturePath, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
@@ -177,6 +179,7 @@ impl DrBokehGpu {
         // Work bound: every layer's square of the largest search window (span paths do less).
         let work = params.layer_count as u64 * (2 * max_window.max(0) as u64 + 1).pow(2);
         let tiling = params.tiling().with_work(work);
+        self.compile_passes(&params)?;
         run_tiled(&self.ctx, &tiling, options, footprint, |plan| self.render_tiles(&frame, &tiling, plan, options))
     }
 
@@ -206,6 +209,43 @@ impl DrBokehGpu {
         Ok((image, stats))
     }
 
+    /// The pipelines [`Self::record`] dispatches for `params`.
+    fn passes(&self, params: &Params) -> Result<Passes> {
+        // The layer pipeline, whether it sums row spans (from the block sums), and how many of
+        // the bindings it declares.
+        let path = params.lens.path(params.model);
+        let (layer, spans, layer_bindings) =
+            match (path, &self.layer_disk, &self.layer_gauge, &self.layer_ring, &self.layer_kernel) {
+                (AperturePath::Disk, Some(disk), _, _, _) => (disk.clone(), true, LAYER_SLOTS.len()),
+                (AperturePath::Ring, _, _, Some(ring), _) => (ring.clone(), true, LAYER_SLOTS.len()),
+                (AperturePath::Kernel, _, _, _, Some(kernel)) => (kernel.clone(), true, LAYER_GAUGE_SLOTS.len()),
+                (AperturePath::Gauge, _, Some(variants), _, _) => {
+                    (variants.get(&params.lens.gauge_specialization())?, true, LAYER_GAUGE_SLOTS.len())
+                }
+                _ if self.kernel == LayerKernel::Baseline => (self.layer.clone(), false, 7),
+                _ => (self.layer.clone(), false, LAYER_SLOTS.len()),
+            };
+        let sources = match self.kernel {
+            LayerKernel::Baseline => None,
+            _ => Some(self.sources.get(&[params.lens.is_vignetted() as u32])?),
+        };
+        Ok(Passes { sources, blocks: self.kernel == LayerKernel::Optimised && spans, layer, layer_bindings })
+    }
+
+    /// Compiles the pipelines a render of `params` dispatches side by side, before its first
+    /// tile records. A driver that compiles at creation (lavapipe: 5-40 ms each, four for a
+    /// disk) would otherwise compile them one after another at their first dispatch, on one
+    /// core, while the others wait.
+    fn compile_passes(&self, params: &Params) -> Result<()> {
+        let passes = self.passes(params)?;
+        let mut pipelines = vec![&passes.layer, &self.composite];
+        pipelines.extend(&passes.sources);
+        if passes.blocks {
+            pipelines.push(&self.blocks);
+        }
+        pipelines.par_iter().try_for_each(|pipeline| pipeline.compile())
+    }
+
     /// Records the layer passes and the composite of one frame tile (the backward pass records
     /// them over its receivers and reads every intermediate).
     pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
@@ -219,30 +259,15 @@ impl DrBokehGpu {
         let per_invocation = TILE as u32 / self.layer.shader().local_size[0];
         let layer_groups =
             self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
-        // The layer pipeline, whether it sums row spans (from the block sums), and how many of
-        // the bindings below it declares.
-        let gauge;
-        let path = params.lens.path(params.model);
-        let (layer_pipeline, spans, binding_count) =
-            match (path, &self.layer_disk, &self.layer_gauge, &self.layer_ring, &self.layer_kernel) {
-                (AperturePath::Disk, Some(disk), _, _, _) => (disk, true, LAYER_SLOTS.len()),
-                (AperturePath::Ring, _, _, Some(ring), _) => (ring, true, LAYER_SLOTS.len()),
-                (AperturePath::Kernel, _, _, _, Some(kernel)) => (kernel, true, LAYER_GAUGE_SLOTS.len()),
-                (AperturePath::Gauge, _, Some(variants), _, _) => {
-                    gauge = variants.get(&params.lens.gauge_specialization())?;
-                    (&gauge, true, LAYER_GAUGE_SLOTS.len())
-                }
-                _ if self.kernel == LayerKernel::Baseline => (&self.layer, false, 7),
-                _ => (&self.layer, false, LAYER_SLOTS.len()),
-            };
+        let passes = self.passes(params)?;
+        let (layer_pipeline, binding_count) = (&passes.layer, passes.layer_bindings);
         let push = params.push_tile(0, b.core, b.read);
-        if self.kernel != LayerKernel::Baseline {
+        if let Some(sources) = &passes.sources {
             let extent = [b.read.width() as u32, b.read.height() as u32, params.layer_count as u32];
             let bindings = [b.rgba.all(), b.disparity.all(), b.area_lut.all(), b.source_pa.all(), b.source_sa.all()];
-            let sources = self.sources.get(&[params.lens.is_vignetted() as u32])?;
-            batch.dispatch(&sources, &bindings, &push, sources.groups_for(extent))?;
+            batch.dispatch(sources, &bindings, &push, sources.groups_for(extent))?;
         }
-        if self.kernel == LayerKernel::Optimised && spans {
+        if passes.blocks {
             // One invocation per global 16-px block (of those the read rect touches) and row.
             let blocks = (b.read.x1 - 1) / TILE - b.read.x0 / TILE + 1;
             let extent = [blocks as u32, b.read.height() as u32, params.layer_count as u32];
@@ -271,6 +296,17 @@ impl DrBokehGpu {
         }
         batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
     }
+}
+
+/// The pipelines of one render's passes besides the composite ([`DrBokehGpu::passes`]).
+struct Passes {
+    /// The per-source prepass (the optimised kernels).
+    sources: Option<ComputePipeline>,
+    /// Whether the block sums of the disk path's interior spans run.
+    blocks: bool,
+    /// The layer pass, and how many of the bindings it declares.
+    layer: ComputePipeline,
+    layer_bindings: usize,
 }
 
 /// The device buffers of one frame tile: the uploaded `read` rect of every layer, the search
