@@ -83,22 +83,17 @@ fn coarse_corner(v: usize) -> (i64, f32) {
 /// form `floor((x + 0.5) * 0.5 - 0.5)` gives, without a `floor` call per pixel (it was a fifth
 /// of the layering's time).
 fn coarse_taps(width: usize, height: usize, weights: &[f32], x: usize, y: usize) -> ([(usize, f32); 4], usize, usize) {
-    let ((x0, tx), (y0, ty)) = (coarse_corner(x), coarse_corner(y));
+    let bilinear = full_coarse_taps(width, height, x, y);
     let (mut taps, mut count) = ([(0, 0.0); 4], 0);
-    for (dx, dy, w) in
-        [(0, 0, (1.0 - tx) * (1.0 - ty)), (1, 0, tx * (1.0 - ty)), (0, 1, (1.0 - tx) * ty), (1, 1, tx * ty)]
-    {
-        let xi = (x0 + dx).clamp(0, width as i64 - 1) as usize;
-        let yi = (y0 + dy).clamp(0, height as i64 - 1) as usize;
-        let i = yi * width + xi;
+    for (i, w) in bilinear {
         let w = w * weights[i];
         if w > 0.0 {
             taps[count] = (i, w);
             count += 1;
         }
     }
-    let fallback = (y0.max(0) as usize).min(height - 1) * width + (x0.max(0) as usize).min(width - 1);
-    (taps, count, fallback)
+    // The first tap: the clamped corner pixel.
+    (taps, count, bilinear[0].0)
 }
 
 /// Bilinear sample of a coarse level at the centre of fine pixel (x, y), using only
@@ -133,7 +128,9 @@ fn sample_full_coarse<const N: usize>(coarse: &Level<N>, x: usize, y: usize) -> 
     sum
 }
 
-/// [`coarse_taps`] where every coarse weight is 1: all four, in its order.
+/// The four bilinear taps (index, weight) of fine pixel (x, y) on the coarse level, clamped at
+/// its edges: [`coarse_taps`] before the level's weights, and all of it on a level whose weights
+/// are all 1.
 fn full_coarse_taps(width: usize, height: usize, x: usize, y: usize) -> [(usize, f32); 4] {
     let ((x0, tx), (y0, ty)) = (coarse_corner(x), coarse_corner(y));
     let (xa, xb) = (x0.clamp(0, width as i64 - 1) as usize, (x0 + 1).clamp(0, width as i64 - 1) as usize);
