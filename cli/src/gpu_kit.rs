@@ -164,9 +164,11 @@ pub fn timings(args: TimingsArgs) -> anyhow::Result<()> {
         let device = t.device_ms.map_or_else(|| "-".to_string(), |ms| format!("{ms:.2}"));
         let share = t.bandwidth_share.map_or_else(|| "-".to_string(), |s| format!("{:.1}%", 100.0 * s));
         eprintln!(
-            "{:<44} device {device:>9} ms  wall {:>9.2} ms (prepare {:.1}, record {:.1}, wait {:.1}, collect {:.1})  {:>8.1} Gtaps/s  {share:>6} of bandwidth  {} tile(s){}",
+            "{:<44} device {device:>9} ms  wall {:>9.2} ms ({}prepare {:.1}, record {:.1}, wait {:.1}, collect {:.1})  {:>8.1} Gtaps/s  {share:>6} of bandwidth  {} tile(s){}",
             t.case.name,
             t.wall_ms,
+            // A forward case's stack is scanned once, by its first render (see HostBreakdown::scan).
+            if t.host_ms.scan > 0.0 { format!("scan once {:.1}, then ", t.host_ms.scan) } else { String::new() },
             t.host_ms.prepare,
             t.host_ms.record,
             t.host_ms.wait,

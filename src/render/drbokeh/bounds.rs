@@ -32,19 +32,32 @@ pub fn tile_bounds_cpu(params: &Params, layer: &Layer) -> Vec<[f64; 2]> {
 /// preparing a frame; the tests keep that per-pixel evaluation (`scan_tile_per_pixel`) and hold
 /// this one equal to it, bit for bit.
 fn scan_tile(params: &Params, layer: &Layer, tx: usize, ty: usize) -> ([f64; 2], AbsSRange) {
-    let push = params.push(0);
+    let [all, sources] = scan_sets(layer, params.width, params.height, tx, ty, params.push(0).focus_disparity);
+    tile_bounds(params, all, sources)
+}
+
+/// The [`PixelSet`]s `[every pixel, the sources]` of a layer's search tile (tx, ty), their
+/// `nearest` measured from `focus_disparity`.
+fn scan_sets(layer: &Layer, width: usize, height: usize, tx: usize, ty: usize, focus_disparity: f32) -> [PixelSet; 2] {
     let (mut all, mut sources) = (PixelSet::EMPTY, PixelSet::EMPTY);
-    let columns = tx * TILE..((tx + 1) * TILE).min(params.width);
-    for py in ty * TILE..((ty + 1) * TILE).min(params.height) {
-        let row = py * params.width + columns.start..py * params.width + columns.end;
+    let columns = tx * TILE..((tx + 1) * TILE).min(width);
+    for py in ty * TILE..((ty + 1) * TILE).min(height) {
+        let row = py * width + columns.start..py * width + columns.end;
         for (&disparity, rgba) in layer.disparity[row.clone()].iter().zip(&layer.rgba.pixels[row]) {
-            all.add(disparity, push.focus_disparity);
+            all.add(disparity, focus_disparity);
             // Transparent pixels scatter nothing: only the others are sources.
             if rgba[3] > 0.0 {
-                sources.add(disparity, push.focus_disparity);
+                sources.add(disparity, focus_disparity);
             }
         }
     }
+    [all, sources]
+}
+
+/// A search tile's `[scatter support, gather radius]` and [`AbsSRange`] from the extremes of its
+/// pixels and of its sources, their `nearest` measured from the lens's focus.
+fn tile_bounds(params: &Params, all: PixelSet, sources: PixelSet) -> ([f64; 2], AbsSRange) {
+    let push = params.push(0);
     // The bounds, in f64 as the CPU reference computes radii.
     let gather = all.max_radius(params).map_or(0.0, |r| r + 0.5);
     let support = sources.max_radius(params).map_or(0.0, |r| match params.model {
@@ -65,6 +78,76 @@ fn scan_tile(params: &Params, layer: &Layer, tx: usize, ty: usize) -> ([f64; 2],
         all_disparity: all.disparities(),
     };
     ([support, gather], range)
+}
+
+/// The pass over a stack's pixels that a render's search bounds need, kept for renders of the
+/// same stack through other lenses: the extremes of each layer's search tiles (their pixels'
+/// and their sources' smallest and largest disparities, and which is nearest to focus). Only
+/// the nearest depends on the lens (its focus); a render focused elsewhere works it out from the
+/// extremes, exactly, wherever focus lies outside a tile's disparities, and reads again only
+/// the tiles that straddle it. On a resident stack this takes the pass over every pixel (the
+/// largest host cost of preparing a render: at 1024^2 five layers it reads 100 MB) out of all
+/// but the first render.
+///
+/// The scan is of the stack it was made from: the caller keeps the two together, unchanged.
+pub struct StackScan {
+    width: usize,
+    height: usize,
+    tiles_x: usize,
+    /// `[every pixel, the sources]` per layer and search tile, layer-major.
+    sets: Vec<[PixelSet; 2]>,
+    /// The focus disparity the sets' `nearest` were measured from.
+    focus_disparity: f32,
+}
+
+impl StackScan {
+    /// One pass over every pixel of `stack`, on every core, `nearest` measured from
+    /// `focus_disparity` (the lens of the first render).
+    pub fn new(stack: &LayerStack, focus_disparity: f32) -> Self {
+        let (tiles_x, tiles_y) = (stack.width.div_ceil(TILE), stack.height.div_ceil(TILE));
+        let per_layer = tiles_x * tiles_y;
+        let sets = (0..stack.layers.len() * per_layer)
+            .into_par_iter()
+            .map(|i| {
+                let (layer, t) = (&stack.layers[i / per_layer], i % per_layer);
+                scan_sets(layer, stack.width, stack.height, t % tiles_x, t / tiles_x, focus_disparity)
+            })
+            .collect();
+        Self { width: stack.width, height: stack.height, tiles_x, sets, focus_disparity }
+    }
+
+    /// Smallest and largest disparity of the stack, NaN left out (as
+    /// [`LayerStack::disparity_range`], without another pass over the pixels).
+    pub fn disparity_range(&self) -> (f32, f32) {
+        self.sets.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), [all, _]| (lo.min(all.lowest), hi.max(all.highest)))
+    }
+
+    /// The scan's tiles bounded for `params`: [`scan_tile`] of each, with the pixels read again
+    /// only where the lens's focus differs from the scan's and straddles the tile.
+    fn bounds(&self, params: &Params, stack: &LayerStack) -> Vec<([f64; 2], AbsSRange)> {
+        assert!(
+            (self.width, self.height, self.sets.len()) == (stack.width, stack.height, stack.layers.len() * params.tiles_x * params.tiles_y),
+            "a stack scan renders the stack it was made from"
+        );
+        let focus = params.push(0).focus_disparity;
+        let per_layer = params.tiles_x * params.tiles_y;
+        self.sets
+            .par_iter()
+            .enumerate()
+            .map(|(i, &[all, sources])| {
+                let refocused = if focus.to_bits() == self.focus_disparity.to_bits() {
+                    Some([all, sources])
+                } else {
+                    all.refocused(focus).zip(sources.refocused(focus)).map(|(all, sources)| [all, sources])
+                };
+                let [all, sources] = refocused.unwrap_or_else(|| {
+                    let t = i % per_layer;
+                    scan_sets(&stack.layers[i / per_layer], self.width, self.height, t % self.tiles_x, t / self.tiles_x, focus)
+                });
+                tile_bounds(params, all, sources)
+            })
+            .collect()
+    }
 }
 
 /// What [`scan_tile`] keeps of a set of pixels' disparities: enough to bound any monotone
@@ -120,6 +203,25 @@ impl PixelSet {
         self.any_nan |= disparity.is_nan();
         self.any_finite |= disparity.is_finite();
         self.any = true;
+    }
+
+    /// The set with its `nearest` measured from `focus_disparity` instead, where the extremes
+    /// give it exactly: `d - d_f` rounds monotonically in d, so where focus lies at or below
+    /// every (non-NaN) disparity the smallest `|d - d_f|` is the lowest's, at or above every
+    /// one the highest's. `None` where focus lies strictly between them (or is NaN): only the
+    /// pixels tell.
+    fn refocused(self, focus_disparity: f32) -> Option<Self> {
+        let nearest = if self.lowest > self.highest {
+            // No disparity that is a number: `add` measured nothing.
+            f32::INFINITY
+        } else if focus_disparity <= self.lowest {
+            (self.lowest - focus_disparity).abs()
+        } else if focus_disparity >= self.highest {
+            (self.highest - focus_disparity).abs()
+        } else {
+            return None;
+        };
+        (!focus_disparity.is_nan()).then_some(Self { nearest, ..self })
     }
 
     /// Largest f64 CoC radius `|k (d - d_f)|` over the pixels whose radius is a number; `None`
@@ -184,19 +286,29 @@ fn tile_gap(k: i64) -> f64 {
 /// the default model's layer contributes exactly nothing (no source with alpha > 0 reaches the
 /// tile, so W = 0 and the existence gate zeroes V): those tiles skip their gathers.
 pub fn tile_window_cpu(params: &Params, bounds: &[[f64; 2]]) -> Vec<i32> {
-    let (tiles_x, tiles_y) = (params.tiles_x as i64, params.tiles_y as i64);
-    // Tiles farther than this cannot be reached by any support in the stack.
-    let range = (params.max_support / TILE as f64).ceil() as i64 + 1;
+    let (tiles_x, tiles_y) = (params.tiles_x, params.tiles_y);
+    let supports: Vec<f64> = bounds.iter().map(|b| b[0]).collect();
+    // Tiles farther apart than this are not reached by the layer's largest support (gaps grow
+    // with the distance), so no tile looks farther. The loop below visits (2 range + 1)^2
+    // tiles per tile (an 8K frame's 130K tiles per layer): it only looks things up.
+    let largest = supports.iter().copied().fold(0.0, f64::max);
+    let mut range = 0;
+    while range < tiles_x.max(tiles_y) && tile_gap(range as i64 + 1) < largest {
+        range += 1;
+    }
+    // The gap to a tile `i - range` tiles away.
+    let centred_gaps: Vec<f64> = (0..=2 * range).map(|i| tile_gap(i as i64 - range as i64)).collect();
     let mut windows = vec![0i32; bounds.len()];
     windows.par_iter_mut().enumerate().for_each(|(t, window)| {
-        let (tx, ty) = (t as i64 % tiles_x, t as i64 / tiles_x);
+        let (tx, ty) = (t % tiles_x, t / tiles_x);
         let mut reach = bounds[t][1];
         let mut reached = false;
-        for uy in (ty - range).max(0)..=(ty + range).min(tiles_y - 1) {
-            for ux in (tx - range).max(0)..=(tx + range).min(tiles_x - 1) {
-                let support = bounds[(uy * tiles_x + ux) as usize][0];
-                let gap = tile_gap(ux - tx).max(tile_gap(uy - ty));
-                if gap < support {
+        let (x0, x1) = (tx.saturating_sub(range), (tx + range).min(tiles_x - 1));
+        let gaps_x = &centred_gaps[x0 + range - tx..=x1 + range - tx];
+        for uy in ty.saturating_sub(range)..=(ty + range).min(tiles_y - 1) {
+            let gap_y = centred_gaps[uy + range - ty];
+            for (&support, &gap_x) in supports[uy * tiles_x + x0..=uy * tiles_x + x1].iter().zip(gaps_x) {
+                if gap_x.max(gap_y) < support {
                     reach = reach.max(support);
                     reached = true;
                 }
@@ -209,16 +321,16 @@ pub fn tile_window_cpu(params: &Params, bounds: &[[f64; 2]]) -> Vec<i32> {
 
 /// Window half-widths of every layer, layer-major (`[layer * tiles + tile]`): the
 /// `tile_window` buffer of `drbokeh_layer.comp`, and the frame tiles' halos; with the
-/// [`SourceRanges`] of the span paths, from the same pass over the pixels, on every core.
+/// [`SourceRanges`] of the span paths, from one pass over the pixels, on every core.
 pub fn windows_and_ranges(params: &Params, stack: &LayerStack) -> (Vec<i32>, SourceRanges) {
+    scanned_windows_and_ranges(params, stack, &StackScan::new(stack, params.push(0).focus_disparity))
+}
+
+/// [`windows_and_ranges`] from a [`StackScan`] of `stack`, which reads the pixels again only
+/// where the lens is focused elsewhere than the scan's and in the middle of a tile's disparities.
+pub fn scanned_windows_and_ranges(params: &Params, stack: &LayerStack, scan: &StackScan) -> (Vec<i32>, SourceRanges) {
     let per_layer = params.tiles_x * params.tiles_y;
-    let scans: Vec<([f64; 2], AbsSRange)> = (0..stack.layers.len() * per_layer)
-        .into_par_iter()
-        .map(|i| {
-            let (layer, t) = (&stack.layers[i / per_layer], i % per_layer);
-            scan_tile(params, layer, t % params.tiles_x, t / params.tiles_x)
-        })
-        .collect();
+    let scans = scan.bounds(params, stack);
     let windows = scans
         .chunks(per_layer.max(1))
         .flat_map(|layer| tile_window_cpu(params, &layer.iter().map(|scan| scan.0).collect::<Vec<_>>()))
@@ -430,13 +542,11 @@ mod tests {
         (x >> 40) as f32 / (1u64 << 24) as f32
     }
 
-    /// Tiles of every kind the bounds must survive: one disparity, +0 and -0 together, values
-    /// on both sides of focus and exactly at it, NaN, transparent and negative alpha, and a
-    /// partial last tile; under both models, a zero and a non-zero blur.
-    #[test]
-    fn the_extremes_scan_equals_the_per_pixel_scan_bit_for_bit() {
+    /// A layer with tiles of every kind the bounds must survive: one disparity, +0 and -0
+    /// together, values on both sides of `focus` and exactly at it, NaN, transparent and
+    /// negative alpha, and a partial last tile.
+    fn layer_of_every_kind(focus: f32) -> Layer {
         let (w, h): (usize, usize) = (16 * 7 + 5, 16 * 2 + 9);
-        let focus = 0.4f32;
         let disparity_of = |i: usize, tile: usize| -> f32 {
             let u = hash(i * 3 + 1);
             match tile % 7 {
@@ -450,7 +560,7 @@ mod tests {
             }
         };
         let tile_of = |x: usize, y: usize| (y / TILE) * w.div_ceil(TILE) + x / TILE;
-        let layer = Layer {
+        Layer {
             name: "scanned".into(),
             rgba: Image::from_fn(w, h, |x, y| {
                 let u = hash((y * w + x) * 3 + 2);
@@ -458,11 +568,21 @@ mod tests {
                 [u, u, u, alpha]
             }),
             disparity: (0..w * h).map(|i| disparity_of(i, tile_of(i % w, i / w))).collect(),
-        };
-        // Params refuses NaN in the range it reads: it gets a stack without them, and the
-        // scans read the layer with them.
+        }
+    }
+
+    /// Params refuses NaN in the range it reads: it gets a stack of `layer` without them.
+    fn without_nan(layer: &Layer) -> LayerStack {
         let clean = Layer { disparity: layer.disparity.iter().map(|d| if d.is_nan() { 0.5 } else { *d }).collect(), ..layer.clone() };
-        let stack = LayerStack::new(w, h, vec![clean]).unwrap();
+        LayerStack::new(layer.rgba.width, layer.rgba.height, vec![clean]).unwrap()
+    }
+
+    /// Under both models, a zero and a non-zero blur, on [`layer_of_every_kind`].
+    #[test]
+    fn the_extremes_scan_equals_the_per_pixel_scan_bit_for_bit() {
+        let focus = 0.4f32;
+        let layer = layer_of_every_kind(focus);
+        let stack = without_nan(&layer);
         let mut compared = 0;
         for k in [0.0f32, 7.5, 40.0] {
             for model in [Model::DrBokeh, Model::Compat] {
@@ -481,5 +601,98 @@ mod tests {
             }
         }
         assert_eq!(compared, 6 * 8 * 3);
+    }
+
+    /// A scan kept from a render focused elsewhere gives every tile's bounds that a fresh
+    /// scan gives, bit for bit: focus below, above, inside and at the edges of the tiles'
+    /// disparities (those tiles read again), on both models; and the disparity range of the
+    /// stack without another pass.
+    #[test]
+    fn a_kept_scan_refocused_equals_a_fresh_scan_bit_for_bit() {
+        let layer = layer_of_every_kind(0.4);
+        let nan_free = without_nan(&layer);
+        let scan = StackScan::new(&nan_free, 0.4);
+        assert_eq!(
+            scan.disparity_range().0.to_bits() | 0x8000_0000,
+            nan_free.disparity_range().0.to_bits() | 0x8000_0000,
+            "smallest disparity (either zero)"
+        );
+        assert_eq!(scan.disparity_range().1, nan_free.disparity_range().1, "largest disparity");
+        let with_nan = LayerStack { layers: vec![layer], ..nan_free.clone() };
+        let scan = StackScan::new(&with_nan, 0.4);
+        let mut compared = 0;
+        for focus in [0.4f32, -0.7, 0.0, -0.0, 0.25, 0.4 + 1e-4, 0.7, 0.9, 1.6] {
+            for model in [Model::DrBokeh, Model::Compat] {
+                let lens = Lens { coc: CocModel::new(12.0, focus).unwrap(), aperture: Aperture::Disk };
+                let params = Params::new(&nan_free, &lens, model).unwrap();
+                let kept = scan.bounds(&params, &with_nan);
+                let fresh = StackScan::new(&with_nan, focus).bounds(&params, &with_nan);
+                for (t, (kept, fresh)) in kept.iter().zip(&fresh).enumerate() {
+                    assert_eq!(kept.0.map(f64::to_bits), fresh.0.map(f64::to_bits), "bounds of tile {t}, focus {focus}, {model:?}");
+                    let bits = |r: &AbsSRange| [r.source_min, r.source_max, r.all_max].map(f32::to_bits);
+                    assert_eq!(bits(&kept.1), bits(&fresh.1), "|s| of tile {t}, focus {focus}, {model:?}");
+                    assert_eq!(kept.1, fresh.1, "ranges of tile {t}, focus {focus}, {model:?}");
+                    let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
+                    let slow = scan_tile(&params, &with_nan.layers[0], tx, ty);
+                    assert_eq!(fresh.1, slow.1, "fresh scan of tile {t} against scan_tile");
+                    compared += 1;
+                }
+            }
+        }
+        assert_eq!(compared, 9 * 2 * 8 * 3);
+    }
+
+    /// The windows as first written: every tile looks at every tile within the stack's largest
+    /// support, through `tile_gap` each time.
+    fn tile_window_per_pair(params: &Params, bounds: &[[f64; 2]]) -> Vec<i32> {
+        let (tiles_x, tiles_y) = (params.tiles_x as i64, params.tiles_y as i64);
+        let range = (params.max_support / TILE as f64).ceil() as i64 + 1;
+        (0..bounds.len())
+            .map(|t| {
+                let (tx, ty) = (t as i64 % tiles_x, t as i64 / tiles_x);
+                let mut reach = bounds[t][1];
+                let mut reached = false;
+                for uy in (ty - range).max(0)..=(ty + range).min(tiles_y - 1) {
+                    for ux in (tx - range).max(0)..=(tx + range).min(tiles_x - 1) {
+                        let support = bounds[(uy * tiles_x + ux) as usize][0];
+                        if tile_gap(ux - tx).max(tile_gap(uy - ty)) < support {
+                            reach = reach.max(support);
+                            reached = true;
+                        }
+                    }
+                }
+                if !reached && params.model == Model::DrBokeh { EMPTY_WINDOW } else { (reach.ceil() as i32 - 1).max(0) }
+            })
+            .collect()
+    }
+
+    /// The windows equal the per-pair evaluation on tiles of scattered supports: none (0),
+    /// exactly a gap (a support of 17 does not reach the tile beside, 17.5 does), small and the
+    /// stack's largest; a frame wider than high and one with a partial last tile; both models.
+    #[test]
+    fn the_windows_equal_the_per_pair_evaluation() {
+        for (w, h, k) in [(16 * 23 + 3, 16 * 9, 40.0f32), (16 * 5, 16 * 31 + 9, 120.0), (40, 24, 3.0)] {
+            let stack = LayerStack::new(w, h, vec![Layer { name: "l".into(), rgba: Image::new(w, h), disparity: vec![0.0; w * h] }]).unwrap();
+            let focus = 0.5;
+            for model in [Model::DrBokeh, Model::Compat] {
+                let lens = Lens { coc: CocModel::new(k, focus).unwrap(), aperture: Aperture::Disk };
+                let params = Params::new(&stack, &lens, model).unwrap();
+                let largest = params.max_support;
+                let bounds: Vec<[f64; 2]> = (0..params.tiles_x * params.tiles_y)
+                    .map(|t| {
+                        let u = hash(t * 5 + 3) as f64;
+                        let support = match t % 6 {
+                            0 | 1 => 0.0,
+                            2 => 17.0,
+                            3 => 17.5,
+                            4 => largest,
+                            _ => u * largest,
+                        };
+                        [support, 0.5 + u * 3.0]
+                    })
+                    .collect();
+                assert_eq!(tile_window_cpu(&params, &bounds), tile_window_per_pair(&params, &bounds), "{w}x{h}, k {k}, {model:?}");
+            }
+        }
     }
 }

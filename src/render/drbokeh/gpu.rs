@@ -9,7 +9,7 @@ use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
 
-use super::bounds::{search_tiles, span_radii, windows_and_ranges, SourceRanges, NO_SPAN_RADII};
+use super::bounds::{scanned_windows_and_ranges, search_tiles, span_radii, SourceRanges, StackScan, NO_SPAN_RADII};
 use super::{AperturePath, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
@@ -162,8 +162,22 @@ impl DrBokehGpu {
         model: Model,
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
-        let params = Params::new(stack, lens, model)?;
-        let (windows, ranges) = windows_and_ranges(&params, stack);
+        self.render_scanned(stack, &StackScan::new(stack, lens.coc.focus_disparity), lens, model, options)
+    }
+
+    /// [`Self::render_with`] from a [`StackScan`] of `stack` kept from an earlier render (a
+    /// resident stack refocused): the pass over every pixel that bounds the searches is not
+    /// made again. The image is the same, bit for bit.
+    pub fn render_scanned(
+        &self,
+        stack: &LayerStack,
+        scan: &StackScan,
+        lens: &Lens,
+        model: Model,
+        options: &RenderOptions,
+    ) -> Result<(Image, RenderStats)> {
+        let params = Params::with_range(stack, lens, model, scan.disparity_range())?;
+        let (windows, ranges) = scanned_windows_and_ranges(&params, stack, scan);
         let max_window = windows.iter().copied().max().unwrap_or(0);
         let footprint = |tile: usize| {
             let read = (tile.min(params.width.max(params.height)) as u64 + 2 * max_window as u64).pow(2);

@@ -14,7 +14,7 @@
 //! independent of the tile size.
 use super::backward::{check_inputs, BackwardOptions};
 use super::backward_cpu::tile_reach_cpu;
-use super::bounds::{grow_windows, windows_and_ranges};
+use super::bounds::{grow_windows, scanned_windows_and_ranges, StackScan};
 use super::gpu::{halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
 use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
@@ -155,8 +155,10 @@ impl DrBokehGpuGrad {
         options: &RenderOptions,
     ) -> Result<(StackGradients, RenderStats)> {
         check_inputs(stack, lens, grad_output)?;
-        let params = Params::new(stack, lens, self.model)?;
-        let (windows, ranges) = windows_and_ranges(&params, stack);
+        // One pass over the pixels gives both the disparity range and the search bounds.
+        let scan = StackScan::new(stack, lens.coc.focus_disparity);
+        let params = Params::with_range(stack, lens, self.model, scan.disparity_range())?;
+        let (windows, ranges) = scanned_windows_and_ranges(&params, stack, &scan);
         let windows = grow_windows(windows, self.options.window_margin());
         let per_layer = params.tiles_x * params.tiles_y;
         let reach: Vec<i32> = windows.chunks(per_layer.max(1)).flat_map(|w| tile_reach_cpu(&params, w)).collect();

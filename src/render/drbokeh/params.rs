@@ -34,6 +34,12 @@ pub struct Params {
 
 impl Params {
     pub fn new(stack: &LayerStack, lens: &Lens, model: Model) -> Result<Self> {
+        Self::with_range(stack, lens, model, stack.disparity_range())
+    }
+
+    /// [`Self::new`] given the stack's disparity range (smallest, largest; NaN left out), where
+    /// the caller has it without another pass over the pixels (a [`super::bounds::StackScan`]).
+    pub fn with_range(stack: &LayerStack, lens: &Lens, model: Model, (lo, hi): (f32, f32)) -> Result<Self> {
         if stack.layers.is_empty() {
             return Err(Error::data("Dr.Bokeh needs at least one layer"));
         }
@@ -43,7 +49,6 @@ impl Params {
         if stack.width > i32::MAX as usize / 2 || stack.height > i32::MAX as usize / 2 {
             return Err(Error::data("image too large for 32-bit pixel indices"));
         }
-        let (lo, hi) = stack.disparity_range();
         if !(lo.is_finite() && hi.is_finite()) {
             return Err(Error::data("layer disparities must be finite"));
         }
