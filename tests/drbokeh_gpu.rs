@@ -365,3 +365,35 @@ fn kernel_path_matches_per_tap_evaluation_and_is_bit_identical_tiled_or_not() {
     drop((fast, per_tap));
     finish(ctx);
 }
+
+/// A job's warm-up compiles, on the context, every pipeline its render will dispatch, for the
+/// aperture it names and for the one its lens character makes (a cat's-eye: the vignetted
+/// pipelines), so that a one-shot render can compile them while its file is read. A renderer
+/// made after it finds them compiled; before it, the aperture's layer pipeline was not.
+#[test]
+fn a_jobs_warm_up_compiles_the_pipelines_its_render_dispatches() {
+    use lensblur::character::{CatsEye, Character};
+    use lensblur::input::CameraRequest;
+    use lensblur::job::{JobSpec, RenderJob};
+    use lensblur::render::Method;
+    let ctx = gpu();
+    let cases = [
+        (Aperture::Disk, None),
+        (Aperture::polygon(6, 0.0, 0.0).unwrap(), None),
+        (Aperture::ring(0.4).unwrap(), None),
+        (Aperture::polygon(6, 0.0, 0.0).unwrap(), Some(0.6)),
+    ];
+    for (aperture, cats_eye) in cases {
+        let character = Character { cats_eye: cats_eye.map(|s| CatsEye::new(s).unwrap()), ..Character::default() };
+        let camera = CameraRequest { aperture: aperture.clone(), ..CameraRequest::default() };
+        let job = RenderJob::new(JobSpec { method: Method::DrBokeh, camera, character: character.clone(), ..JobSpec::default() }).unwrap();
+        // The lens the render sees, at any CoC.
+        let lens = Lens { coc: CocModel::new(7.0, 0.3).unwrap(), aperture };
+        let (_, lens) = character.for_method(Method::DrBokeh, &lens);
+        let what = format!("{:?}, cat's-eye {cats_eye:?}", lens.aperture);
+        assert!(!DrBokehGpu::new(&ctx).unwrap().compiled_for(&lens, Model::DrBokeh).unwrap(), "{what}: compiled before the warm-up");
+        job.warm_up(&ctx).unwrap();
+        assert!(DrBokehGpu::new(&ctx).unwrap().compiled_for(&lens, Model::DrBokeh).unwrap(), "{what}: not compiled by the warm-up");
+    }
+    finish(ctx);
+}

@@ -164,7 +164,10 @@ struct Timings {
     layering: f64,
     /// Opening the Vulkan device (0 on the CPU path), while the input is read and layered.
     device_open: f64,
-    /// Preparing the method (its pipelines are compiled at their first dispatch, in `render`).
+    /// Compiling the method's pipelines on the device, after it opened and still beside the
+    /// reading and layering (0 on the CPU path).
+    warm_up: f64,
+    /// Preparing the method (the pipelines the warm-up did not compile are compiled in `render`).
     prepare: f64,
     render: f64,
     /// Closing the device and checking its teardown.
@@ -185,18 +188,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (format, job) = check_flags(&args)?;
     let spinner = progress::spinner(args.json);
     spinner.set_message(format!("reading {}", args.input.display()));
-    // The device opens while the file is read and layered (neither needs the other): on a
-    // preview-sized frame, opening it is a fifth of the whole process.
+    // The device opens, and the method's pipelines compile on it, while the file is read and
+    // layered (neither needs the other): on a preview-sized frame, opening the device is a
+    // fifth of the whole process and compiling its pipelines (lavapipe) a sixth.
     let (loaded, opened) = std::thread::scope(|scope| {
         let opening = scope.spawn(|| {
             let start = Instant::now();
-            (open_device(&job), start.elapsed())
+            let ctx = open_device(&job);
+            let device_open = start.elapsed();
+            if let Ok(Some(ctx)) = &ctx {
+                // A failure here is the render's to report, in its own words: it compiles
+                // whatever is not compiled yet.
+                let _ = job.warm_up(ctx);
+            }
+            (ctx, device_open, start.elapsed() - device_open)
         });
         let loaded = load(&job, &args.input, &CameraHints::default());
         (loaded, opening.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)))
     });
     let mut loaded = loaded?;
-    let (ctx, device_open) = opened;
+    let (ctx, device_open, warm_up) = opened;
     // The debug views are named after the layers, so they are checked once the stack is read.
     let debug_views = args.character.debug_view_paths(&loaded.stack);
     let debug_outputs: Vec<(&str, &Path)> = debug_views.iter().map(|p| ("--debug-out", p.as_path())).collect();
@@ -233,6 +244,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         read: ms(loaded.read_time),
         layering: ms(loaded.layering_time),
         device_open: ms(device_open),
+        warm_up: ms(warm_up),
         prepare: ms(prepare_time),
         render: ms(render_time),
         device_close: ms(device_close),

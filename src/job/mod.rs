@@ -272,6 +272,18 @@ impl RenderJob {
         self.spec.method
     }
 
+    /// Compiles on `ctx` the pipelines this job's render will dispatch ([`Renderer::warm_up`]),
+    /// for a caller that can do it while the input is read and layered: the pipelines follow
+    /// the method, the aperture and the lens character, all known before the file is. The
+    /// context keeps them for the render's own renderer.
+    pub fn warm_up(&self, ctx: &Context) -> Result<()> {
+        let method = self.spec.method;
+        // Any CoC: the pipelines do not depend on it.
+        let lens = Lens { coc: crate::camera::CocModel::new(1.0, 0.5)?, aperture: self.spec.camera.aperture.clone() };
+        let (_, lens) = self.spec.character.for_method(method, &lens);
+        method.prepare(Some(ctx))?.warm_up(&lens)
+    }
+
     /// Where the method runs: the Vulkan device (`LENSBLUR_DEVICE` picks one), or the CPU
     /// reference, with the reason (see [`place`]).
     pub fn place(&self) -> Result<Placement> {

@@ -79,6 +79,15 @@ impl<'a> MethodInput<'a> {
 /// its CPU reference (same formulas; slow) without one.
 pub trait Renderer: Send + Sync {
     fn render(&self, input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, settings: &MethodSettings) -> Result<Image>;
+
+    /// Compiles now the device pipelines a render through `lens`'s aperture will dispatch (its
+    /// CoC does not matter), so that a caller can do it while the input is still being read.
+    /// A driver that compiles at creation (lavapipe) otherwise compiles them at the first
+    /// render. The context keeps them: any renderer of the method on it finds them compiled.
+    /// Nothing to do for a method whose pipelines compile at its first dispatch cheaply.
+    fn warm_up(&self, _lens: &Lens) -> Result<()> {
+        Ok(())
+    }
 }
 
 impl<F> Renderer for F

@@ -205,6 +205,12 @@ impl ComputePipeline {
         self.raw().map(|_| ())
     }
 
+    /// Whether the pipeline is compiled (by [`Self::compile`] or a dispatch, through any handle
+    /// of the context's one).
+    pub fn is_compiled(&self) -> bool {
+        *self.0.raw.lock().unwrap_or_else(|poisoned| poisoned.into_inner()) != vk::Pipeline::null()
+    }
+
     pub fn shader(&self) -> &ShaderSource {
         &self.0.shader
     }

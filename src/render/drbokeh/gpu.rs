@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex};
 use rayon::prelude::*;
 
 use super::bounds::{scanned_windows_and_ranges, search_tiles, span_radii, SourceRanges, StackScan, NO_SPAN_RADII};
-use super::{AperturePath, Model, Params, TILE};
+use super::{AperturePath, LensView, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
 use crate::render::tiler::{
@@ -193,7 +193,7 @@ impl DrBokehGpu {
         // Work bound: every layer's square of the largest search window (span paths do less).
         let work = params.layer_count as u64 * (2 * max_window.max(0) as u64 + 1).pow(2);
         let tiling = params.tiling().with_work(work);
-        self.compile_passes(&params)?;
+        self.compile_passes(&params.lens, params.model)?;
         run_tiled(&self.ctx, &tiling, options, footprint, |plan| self.render_tiles(&frame, &tiling, plan, options))
     }
 
@@ -223,41 +223,47 @@ impl DrBokehGpu {
         Ok((image, stats))
     }
 
-    /// The pipelines [`Self::record`] dispatches for `params`.
-    fn passes(&self, params: &Params) -> Result<Passes> {
+    /// The pipelines [`Self::record`] dispatches for a render through `lens` under `model`.
+    fn passes(&self, lens: &LensView, model: Model) -> Result<Passes> {
         // The layer pipeline, whether it sums row spans (from the block sums), and how many of
         // the bindings it declares.
-        let path = params.lens.path(params.model);
+        let path = lens.path(model);
         let (layer, spans, layer_bindings) =
             match (path, &self.layer_disk, &self.layer_gauge, &self.layer_ring, &self.layer_kernel) {
                 (AperturePath::Disk, Some(disk), _, _, _) => (disk.clone(), true, LAYER_SLOTS.len()),
                 (AperturePath::Ring, _, _, Some(ring), _) => (ring.clone(), true, LAYER_SLOTS.len()),
                 (AperturePath::Kernel, _, _, _, Some(kernel)) => (kernel.clone(), true, LAYER_GAUGE_SLOTS.len()),
                 (AperturePath::Gauge, _, Some(variants), _, _) => {
-                    (variants.get(&params.lens.gauge_specialization())?, true, LAYER_GAUGE_SLOTS.len())
+                    (variants.get(&lens.gauge_specialization())?, true, LAYER_GAUGE_SLOTS.len())
                 }
                 _ if self.kernel == LayerKernel::Baseline => (self.layer.clone(), false, 7),
                 _ => (self.layer.clone(), false, LAYER_SLOTS.len()),
             };
         let sources = match self.kernel {
             LayerKernel::Baseline => None,
-            _ => Some(self.sources.get(&[params.lens.is_vignetted() as u32])?),
+            _ => Some(self.sources.get(&[lens.is_vignetted() as u32])?),
         };
         Ok(Passes { sources, blocks: self.kernel == LayerKernel::Optimised && spans, layer, layer_bindings })
     }
 
-    /// Compiles the pipelines a render of `params` dispatches side by side, before its first
-    /// tile records. A driver that compiles at creation (lavapipe: 5-40 ms each, four for a
-    /// disk) would otherwise compile them one after another at their first dispatch, on one
-    /// core, while the others wait.
-    fn compile_passes(&self, params: &Params) -> Result<()> {
-        let passes = self.passes(params)?;
-        let mut pipelines = vec![&passes.layer, &self.composite];
-        pipelines.extend(&passes.sources);
-        if passes.blocks {
-            pipelines.push(&self.blocks);
-        }
-        pipelines.par_iter().try_for_each(|pipeline| pipeline.compile())
+    /// Compiles the pipelines a render through `lens` under `model` dispatches, side by side
+    /// (its CoC does not matter: the aperture and the model choose them). A render calls it
+    /// before its first tile records, and a caller may call it earlier, while the input is
+    /// still read ([`crate::render::Renderer::warm_up`]). A driver that compiles at creation
+    /// (lavapipe: 5-40 ms each, four for a disk) would otherwise compile them one after another
+    /// at their first dispatch, on one core, while the others wait.
+    pub fn compile_for(&self, lens: &Lens, model: Model) -> Result<()> {
+        self.compile_passes(&LensView::new(&lens.coc, &lens.aperture), model)
+    }
+
+    /// Whether every pipeline a render through `lens` under `model` dispatches is compiled.
+    pub fn compiled_for(&self, lens: &Lens, model: Model) -> Result<bool> {
+        let passes = self.passes(&LensView::new(&lens.coc, &lens.aperture), model)?;
+        Ok(passes.pipelines(self).iter().all(|pipeline| pipeline.is_compiled()))
+    }
+
+    fn compile_passes(&self, lens: &LensView, model: Model) -> Result<()> {
+        self.passes(lens, model)?.pipelines(self).par_iter().try_for_each(|pipeline| pipeline.compile())
     }
 
     /// Records the layer passes and the composite of one frame tile (the backward pass records
@@ -273,7 +279,7 @@ impl DrBokehGpu {
         let per_invocation = TILE as u32 / self.layer.shader().local_size[0];
         let layer_groups =
             self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
-        let passes = self.passes(params)?;
+        let passes = self.passes(&params.lens, params.model)?;
         let (layer_pipeline, binding_count) = (&passes.layer, passes.layer_bindings);
         let push = params.push_tile(0, b.core, b.read);
         if let Some(sources) = &passes.sources {
@@ -322,6 +328,19 @@ struct Passes {
     layer: ComputePipeline,
     layer_bindings: usize,
 }
+
+impl Passes {
+    /// Every pipeline of the render, the composite of `gpu` included.
+    fn pipelines<'a>(&'a self, gpu: &'a DrBokehGpu) -> Vec<&'a ComputePipeline> {
+        let mut pipelines = vec![&self.layer, &gpu.composite];
+        pipelines.extend(&self.sources);
+        if self.blocks {
+            pipelines.push(&gpu.blocks);
+        }
+        pipelines
+    }
+}
+
 
 /// The device buffers of one frame tile: the uploaded `read` rect of every layer, the search
 /// windows and lens tables, and every pass's output over the `core`.

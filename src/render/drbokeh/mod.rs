@@ -77,14 +77,27 @@ pub const METHOD_COMPAT: MethodSpec = MethodSpec {
 };
 
 fn renderer(ctx: Option<&Context>, model: Model) -> crate::Result<Box<dyn Renderer>> {
-    let gpu = ctx.map(DrBokehGpu::new).transpose()?;
-    Ok(Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, _: &MethodSettings| {
+    Ok(Box::new(DrBokehRenderer { gpu: ctx.map(DrBokehGpu::new).transpose()?, model }))
+}
+
+/// The method's renderer: its device passes, or the CPU reference without a device.
+struct DrBokehRenderer {
+    gpu: Option<DrBokehGpu>,
+    model: Model,
+}
+
+impl Renderer for DrBokehRenderer {
+    fn render(&self, input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, _: &MethodSettings) -> crate::Result<crate::image::Image> {
         let stack = input.layers()?;
-        match &gpu {
-            Some(gpu) => Ok(gpu.render_with(stack, lens, model, options)?.0),
-            None => render_cpu(stack, lens, model),
+        match &self.gpu {
+            Some(gpu) => Ok(gpu.render_with(stack, lens, self.model, options)?.0),
+            None => render_cpu(stack, lens, self.model),
         }
-    }))
+    }
+
+    fn warm_up(&self, lens: &Lens) -> crate::Result<()> {
+        self.gpu.as_ref().map_or(Ok(()), |gpu| gpu.compile_for(lens, self.model))
+    }
 }
 
 fn differentiable(ctx: &Context, model: Model, slope: Slope) -> crate::Result<Box<dyn Differentiable>> {
