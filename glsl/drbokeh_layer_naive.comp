@@ -45,7 +45,7 @@ void main() {
     if (x.x < 0) {
         return;
     }
-    int ix = drbokeh_read_index(pc.layer, x);
+    int ix = drbokeh_read_index(pc.slot, x);
     int h = tile_window[pc.layer * pc.tiles_x * pc.tiles_y + (x.y / DRBOKEH_TILE) * pc.tiles_x + x.x / DRBOKEH_TILE];
     float rel_x = disparity[ix] - pc.focus_disparity;
     float s_x = pc.k_px * rel_x;
@@ -67,7 +67,7 @@ void main() {
             if (sx < 0 || sx >= pc.width) {
                 continue;
             }
-            int iy = drbokeh_read_index(pc.layer, ivec2(sx, sy));
+            int iy = drbokeh_read_index(pc.slot, ivec2(sx, sy));
             vec4 p = rgba[iy];
             float rel_y = disparity[iy] - pc.focus_disparity;
             float s_y = pc.k_px * rel_y;
@@ -99,7 +99,7 @@ void main() {
             }
         }
     }
-    int out_index = drbokeh_core_index(pc.layer, x);
+    int out_index = drbokeh_core_index(pc.slot, x);
     layer_cw[out_index] = cw;
     layer_vis[out_index] = vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
 }

@@ -397,3 +397,30 @@ fn a_jobs_warm_up_compiles_the_pipelines_its_render_dispatches() {
     }
     finish(ctx);
 }
+
+/// A forward render holds each layer's intermediates one layer at a time: a frame the tiler
+/// renders as one tile holds at most 3x the stack's float32 size on the device (issue 44's
+/// bound; holding every layer's at once took 5.4x), for a disk and a polygon. Cut into tiles
+/// (four of 128 px in one batch), the image is the same. Small tiles hold more than 3x: each
+/// uploads its halo, and the buffers of a batch's tiles are held together.
+#[test]
+fn a_forward_render_holds_at_most_three_times_the_stack_on_the_device() {
+    use lensblur::render::drbokeh::RenderOptions;
+    let ctx = gpu();
+    let renderer = DrBokehGpu::new(&ctx).unwrap();
+    let stack = scene(256, 192);
+    let stack_bytes = (stack.layers.len() * stack.width * stack.height * 20) as f64;
+    for aperture in [Aperture::Disk, Aperture::polygon(6, 0.0, 0.0).unwrap()] {
+        let lens = Lens { coc: CocModel::new(25.0, 0.5).unwrap(), aperture: aperture.clone() };
+        let (whole, untiled) = renderer.render_with(&stack, &lens, Model::DrBokeh, &RenderOptions::default()).unwrap();
+        assert_eq!(untiled.tiles, 1, "{aperture:?}: the tiler's plan");
+        let ratio = untiled.peak_device_bytes as f64 / stack_bytes;
+        assert!(ratio > 1.0 && ratio <= 3.0, "{aperture:?}: peak device memory {ratio:.2}x the stack");
+        let options = RenderOptions { tile: Some(128), ..RenderOptions::default() };
+        let (tiled, in_tiles) = renderer.render_with(&stack, &lens, Model::DrBokeh, &options).unwrap();
+        assert_eq!((in_tiles.tiles, in_tiles.tiles_per_batch), (4, 4), "{aperture:?}: the tiled plan");
+        assert_eq!(whole.pixels, tiled.pixels, "{aperture:?}: tiles change the image");
+    }
+    drop(renderer);
+    finish(ctx);
+}

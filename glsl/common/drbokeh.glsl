@@ -32,7 +32,8 @@ layout(push_constant) uniform DrBokehPush {
     float area_step;      // 44  px of radius per area-table entry
     int area_count;       // 48  entries in the area table
     float leaky_slope;    // 52  backward passes only: smallest scatter slope (0 = exact)
-    int pad1;             // 56
+    int slot;             // 56  layer's place in this dispatch's per-layer buffers: pc.layer
+                          //     where they hold every layer, 0 where they hold one
     int pad2;             // 60
     vec4 aperture;        // 64  Aperture::gpu_params
     ivec4 core;           // 80  frame tile written: x, y, width, height (outputs core-local)

@@ -591,7 +591,7 @@ void gather_span_run(ivec2 x0, int h, float t, float outer, int orientation, ino
         // Offsets from x0: centre k's row is [k + span.x, k + span.y], clipped to the image.
         int ox0 = max(span.x, -x0.x);
         int ox1 = min(span.y + RUN - 1, pc.width - 1 - x0.x);
-        int row = drbokeh_read_index(pc.layer, ivec2(x0.x, x0.y + oy));
+        int row = drbokeh_read_index(pc.slot, ivec2(x0.x, x0.y + oy));
         // Middle columns [mid0, mid1]: ox - k in the interior span for every centre k.
         int mid0 = ox1 + 1;
         int mid1 = ox1;
@@ -626,7 +626,7 @@ float visibility(float vis_sum, float vis_weight) {
 
 // Any model and aperture: the first kernel's per-tap terms over the clipped window disk.
 void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
-    int ix = drbokeh_read_index(pc.layer, x);
+    int ix = drbokeh_read_index(pc.slot, x);
     float rel_x = texelFetch(disparity, ix).x - pc.focus_disparity;
     float s_x = pc.k_px * rel_x;
     float r_x = abs(s_x);
@@ -642,7 +642,7 @@ void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
         int half_width = row_half_width(h, oy);
         int ox0 = max(-half_width, -x.x);
         int ox1 = min(half_width, pc.width - 1 - x.x);
-        int row = drbokeh_read_index(pc.layer, ivec2(x.x, x.y + oy));
+        int row = drbokeh_read_index(pc.slot, ivec2(x.x, x.y + oy));
         for (int ox = ox0; ox <= ox1; ++ox) {
             int iy = row + ox;
             vec4 p = texelFetch(rgba, iy);
@@ -704,7 +704,7 @@ void main() {
         vec4 radii = tile_radii[tile];
         float t = radii.x + 0.5;
         for (int k = 0; k < RUN; ++k) {
-            c[k] = centre_at(drbokeh_read_index(pc.layer, x0 + ivec2(min(k, last), 0)));
+            c[k] = centre_at(drbokeh_read_index(pc.slot, x0 + ivec2(min(k, last), 0)));
             occluding = occluding || c[k].occluder > 0.0;
             t = min(t, c[k].support);
         }
@@ -764,7 +764,7 @@ void main() {
     }
 #endif
     for (int k = 0; k <= last; ++k) {
-        int out_index = drbokeh_core_index(pc.layer, x0 + ivec2(k, 0));
+        int out_index = drbokeh_core_index(pc.slot, x0 + ivec2(k, 0));
         layer_cw[out_index] = cw[k];
         layer_vis[out_index] = vis[k];
     }

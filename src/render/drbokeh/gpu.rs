@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex};
 use rayon::prelude::*;
 
 use super::bounds::{scanned_windows_and_ranges, search_tiles, span_radii, SourceRanges, StackScan, NO_SPAN_RADII};
-use super::{AperturePath, LensView, Model, Params, TILE};
+use super::{AperturePath, DrBokehPush, LensView, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
 use crate::image::Image;
 use crate::render::tiler::{
@@ -20,12 +20,17 @@ use crate::render::Lens;
 use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tile_grid::Rect;
-use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, ReadBack, Slot, TexelFormat};
+use crate::vk::{Binding, Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, ReadBack, Slot, TexelFormat};
 use crate::{Error, Result};
 
-/// Bytes per read pixel of one layer: uploaded rgba + disparity, prepass P / A + (s, alpha),
-/// block prefix + suffix of (P / A, alpha).
-pub(crate) const READ_BYTES_PER_PIXEL: u64 = 20 + 24 + 40;
+/// Bytes per read pixel of one layer: uploaded rgba + disparity ([`INPUT_BYTES_PER_PIXEL`]),
+/// and its intermediates ([`WORK_BYTES_PER_PIXEL`]).
+pub(crate) const READ_BYTES_PER_PIXEL: u64 = INPUT_BYTES_PER_PIXEL + WORK_BYTES_PER_PIXEL;
+/// Bytes per read pixel of one layer's upload: rgba + disparity.
+pub(crate) const INPUT_BYTES_PER_PIXEL: u64 = 20;
+/// Bytes per read pixel of one layer's intermediates: prepass P / A + (s, alpha), block prefix
+/// + suffix of (P / A, alpha).
+pub(crate) const WORK_BYTES_PER_PIXEL: u64 = 24 + 40;
 /// Bytes per core pixel of one layer: written (C, W) + V.
 pub(crate) const CORE_BYTES_PER_PIXEL: u64 = 20;
 pub(crate) const VEC4: u64 = 16;
@@ -49,6 +54,21 @@ pub struct DrBokehGpu {
     /// Kernel images under the default model, per tap.
     layer_kernel: Option<ComputePipeline>,
     composite: ComputePipeline,
+    /// The composite folded in one layer at a time ([`Residency::LayerByLayer`]).
+    composite_layer: ComputePipeline,
+}
+
+/// How a frame tile's per-layer buffers hold the layers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Residency {
+    /// Every layer's upload and intermediates at once, layer-major, composited at the end: the
+    /// backward pass reads every layer's intermediates.
+    Stacked,
+    /// Every layer's upload in a buffer of its own, and one layer's intermediates, reused by
+    /// the layers one after another (front first), each composited as its pass completes. A
+    /// forward render's tile then holds the stack's rect once plus one layer's work, not five
+    /// times the stack: the larger the frame, the more of it fits one tile.
+    LayerByLayer,
 }
 
 /// Which layer-pass kernel renders (same results within f32 rounding).
@@ -143,6 +163,12 @@ impl DrBokehGpu {
             layer_ring,
             layer_kernel,
             composite: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_COMPOSITE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage], push)?,
+            composite_layer: ComputePipeline::with_slots(
+                ctx,
+                &shaders::DRBOKEH_COMPOSITE_LAYER,
+                &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Storage],
+                push,
+            )?,
         })
     }
 
@@ -179,13 +205,16 @@ impl DrBokehGpu {
         let params = Params::with_range(stack, lens, model, scan.disparity_range())?;
         let (windows, ranges) = scanned_windows_and_ranges(&params, stack, scan);
         let max_window = windows.iter().copied().max().unwrap_or(0);
+        // Layer by layer: the stack's rect, one layer's work, the running composite.
         let footprint = |tile: usize| {
             let read = (tile.min(params.width.max(params.height)) as u64 + 2 * max_window as u64).pow(2);
             let core = (tile as u64).pow(2);
             let layers = params.layer_count as u64;
             Footprint {
-                largest_binding: layers * read.max(core) * VEC4,
-                total: layers * (read * READ_BYTES_PER_PIXEL + core * CORE_BYTES_PER_PIXEL) + core * VEC4,
+                largest_binding: read.max(core) * VEC4,
+                total: layers * read * INPUT_BYTES_PER_PIXEL
+                    + read * WORK_BYTES_PER_PIXEL
+                    + core * (CORE_BYTES_PER_PIXEL + VEC4 + 4),
             }
         };
         let interior = self.kernel != LayerKernel::OptimisedNoInterior;
@@ -213,7 +242,7 @@ impl DrBokehGpu {
         let room = TileRoom { core: tiling.room(plan.tile, 0), read: tiling.room(plan.tile, max_halo) };
         let record = |batch: &mut CommandBatch, core: Rect| {
             let read = core.grown(halo(params, frame.windows, core), params.width, params.height);
-            let buffers = ForwardBuffers::new(ctx, batch, frame, core, read, room)?;
+            let buffers = ForwardBuffers::new(ctx, batch, frame, core, read, room, Residency::LayerByLayer)?;
             self.record(batch, params, &buffers)?;
             buffers.result.readable_in(batch)
         };
@@ -267,7 +296,7 @@ impl DrBokehGpu {
     }
 
     /// Records the layer passes and the composite of one frame tile (the backward pass records
-    /// them over its receivers and reads every intermediate).
+    /// them over its receivers, [`Residency::Stacked`], and reads every intermediate).
     pub(crate) fn record(&self, batch: &mut CommandBatch, params: &Params, b: &ForwardBuffers) -> Result<()> {
         if self.kernel == LayerKernel::Baseline && params.lens.is_vignetted() {
             // The first kernel's per-tap lens knows one shape per render.
@@ -281,24 +310,27 @@ impl DrBokehGpu {
             self.layer.groups_for([(b.core.width() as u32).div_ceil(per_invocation), b.core.height() as u32, 1]);
         let passes = self.passes(&params.lens, params.model)?;
         let (layer_pipeline, binding_count) = (&passes.layer, passes.layer_bindings);
-        let push = params.push_tile(0, b.core, b.read);
-        if let Some(sources) = &passes.sources {
-            let extent = [b.read.width() as u32, b.read.height() as u32, params.layer_count as u32];
-            let bindings = [b.rgba.all(), b.disparity.all(), b.area_lut.all(), b.source_pa.all(), b.source_sa.all()];
-            batch.dispatch(sources, &bindings, &push, sources.groups_for(extent))?;
-        }
-        if passes.blocks {
-            // One invocation per global 16-px block (of those the read rect touches) and row.
-            let blocks = (b.read.x1 - 1) / TILE - b.read.x0 / TILE + 1;
-            let extent = [blocks as u32, b.read.height() as u32, params.layer_count as u32];
-            let bindings =
-                [b.source_pa.all(), b.source_sa.all(), b.block_prefix.all(), b.block_suffix.all(), b.block_alpha.all()];
-            batch.dispatch(&self.blocks, &bindings, &push, self.blocks.groups_for(extent))?;
-        }
-        for layer in 0..params.layer_count {
+        // The prepasses over `layers` layers at once (the extent's third axis) from `inputs`.
+        let prepasses = |batch: &mut CommandBatch, inputs: [Binding; 2], push: &DrBokehPush, layers: usize| {
+            if let Some(sources) = &passes.sources {
+                let extent = [b.read.width() as u32, b.read.height() as u32, layers as u32];
+                let bindings = [inputs[0], inputs[1], b.area_lut.all(), b.source_pa.all(), b.source_sa.all()];
+                batch.dispatch(sources, &bindings, push, sources.groups_for(extent))?;
+            }
+            if passes.blocks {
+                // One invocation per global 16-px block (of those the read rect touches) and row.
+                let blocks = (b.read.x1 - 1) / TILE - b.read.x0 / TILE + 1;
+                let extent = [blocks as u32, b.read.height() as u32, layers as u32];
+                let bindings =
+                    [b.source_pa.all(), b.source_sa.all(), b.block_prefix.all(), b.block_suffix.all(), b.block_alpha.all()];
+                batch.dispatch(&self.blocks, &bindings, push, self.blocks.groups_for(extent))?;
+            }
+            Ok::<_, Error>(())
+        };
+        let layer_pass = |batch: &mut CommandBatch, inputs: [Binding; 2], push: &DrBokehPush| {
             let bindings = [
-                b.rgba.all(),
-                b.disparity.all(),
+                inputs[0],
+                inputs[1],
                 b.tile_window.all(),
                 b.area_lut.all(),
                 b.kernel.all(),
@@ -312,9 +344,32 @@ impl DrBokehGpu {
                 b.block_alpha.all(),
                 b.aperture_rows.all(),
             ];
-            batch.dispatch(layer_pipeline, &bindings[..binding_count], &params.push_tile(layer, b.core, b.read), layer_groups)?;
+            batch.dispatch(layer_pipeline, &bindings[..binding_count], push, layer_groups)
+        };
+        match (b.residency, &b.transmittance) {
+            (Residency::Stacked, _) => {
+                let inputs = [b.rgba[0].all(), b.disparity[0].all()];
+                prepasses(batch, inputs, &params.push_tile(0, b.core, b.read), params.layer_count)?;
+                for layer in 0..params.layer_count {
+                    layer_pass(batch, inputs, &params.push_tile(layer, b.core, b.read))?;
+                }
+                let push = params.push_tile(0, b.core, b.read);
+                batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
+            }
+            (Residency::LayerByLayer, Some(transmittance)) => {
+                for layer in 0..params.layer_count {
+                    // The tables are the frame's (every layer's); the tile's buffers hold this one.
+                    let push = DrBokehPush { slot: 0, ..params.push_tile(layer, b.core, b.read) };
+                    let inputs = [b.rgba[layer].all(), b.disparity[layer].all()];
+                    prepasses(batch, inputs, &push, 1)?;
+                    layer_pass(batch, inputs, &push)?;
+                    let bindings = [b.layer_cw.all(), b.layer_vis.all(), b.result.all(), transmittance.all()];
+                    batch.dispatch(&self.composite_layer, &bindings, &push, groups)?;
+                }
+                Ok(())
+            }
+            (Residency::LayerByLayer, None) => Err(Error::internal("a layer-by-layer tile without its transmittance")),
         }
-        batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
     }
 }
 
@@ -330,9 +385,9 @@ struct Passes {
 }
 
 impl Passes {
-    /// Every pipeline of the render, the composite of `gpu` included.
+    /// Every pipeline of a forward render, the composite of `gpu` included (layer by layer).
     fn pipelines<'a>(&'a self, gpu: &'a DrBokehGpu) -> Vec<&'a ComputePipeline> {
-        let mut pipelines = vec![&self.layer, &gpu.composite];
+        let mut pipelines = vec![&self.layer, &gpu.composite_layer];
         pipelines.extend(&self.sources);
         if self.blocks {
             pipelines.push(&gpu.blocks);
@@ -347,8 +402,10 @@ impl Passes {
 pub(crate) struct ForwardBuffers {
     pub core: Rect,
     pub read: Rect,
-    pub rgba: Buffer,
-    pub disparity: Buffer,
+    pub residency: Residency,
+    /// The uploaded rect: one buffer of every layer ([`Residency::Stacked`]) or one per layer.
+    pub rgba: Vec<Buffer>,
+    pub disparity: Vec<Buffer>,
     pub tile_window: Buffer,
     pub area_lut: Buffer,
     pub kernel: Buffer,
@@ -356,6 +413,8 @@ pub(crate) struct ForwardBuffers {
     pub layer_cw: Buffer,
     pub layer_vis: Buffer,
     pub result: Buffer,
+    /// Layer by layer: the running composite's transmittance per core pixel.
+    pub transmittance: Option<Buffer>,
     /// Prepass outputs over the read rect: P / A(r) per source, and (s, alpha).
     pub source_pa: Buffer,
     pub source_sa: Buffer,
@@ -382,6 +441,7 @@ impl ForwardBuffers {
         core: Rect,
         read: Rect,
         room: TileRoom,
+        residency: Residency,
     ) -> Result<Self> {
         let (stack, params) = (frame.stack, frame.params);
         let tables = frame.tables(ctx, batch)?;
@@ -389,11 +449,30 @@ impl ForwardBuffers {
             Some(ranges) => span_radii(params, ranges, frame.windows, core),
             None => vec![NO_SPAN_RADII; frame.windows.len()],
         };
-        let layers = params.layer_count as u64;
+        // Layers the intermediates hold at once.
+        let layers = match residency {
+            Residency::Stacked => params.layer_count as u64,
+            Residency::LayerByLayer => 1,
+        };
         let (core_pixels, read_pixels) = (core.area() as u64, read.area() as u64);
-        let (read_n, read_room) = (params.layer_count * read.area(), params.layer_count * room.read);
-        let rgba = stack.layers.iter().flat_map(|l| crop_rows(&l.rgba.pixels, params.width, read));
-        let disparity = stack.layers.iter().flat_map(|l| crop_rows(&l.disparity, params.width, read));
+        let (mut rgba, mut disparity) = (Vec::new(), Vec::new());
+        match residency {
+            Residency::Stacked => {
+                let (read_n, read_room) = (params.layer_count * read.area(), params.layer_count * room.read);
+                let colours = stack.layers.iter().flat_map(|l| crop_rows(&l.rgba.pixels, params.width, read));
+                let depths = stack.layers.iter().flat_map(|l| crop_rows(&l.disparity, params.width, read));
+                rgba.push(Buffer::from_slices_with_room_in(ctx, batch, "drbokeh rgba", read_n, read_room, colours)?);
+                disparity.push(Buffer::from_slices_with_room_in(ctx, batch, "drbokeh disparity", read_n, read_room, depths)?);
+            }
+            Residency::LayerByLayer => {
+                for l in &stack.layers {
+                    let colours = crop_rows(&l.rgba.pixels, params.width, read);
+                    let depths = crop_rows(&l.disparity, params.width, read);
+                    rgba.push(Buffer::from_slices_with_room_in(ctx, batch, "drbokeh rgba", read.area(), room.read, colours)?);
+                    disparity.push(Buffer::from_slices_with_room_in(ctx, batch, "drbokeh disparity", read.area(), room.read, depths)?);
+                }
+            }
+        }
         // Every pass writes its whole output before a later one reads it (the layer pass every
         // core pixel of every layer, sources and blocks every read pixel, composite every core
         // pixel; kernels that skip sources or blocks never read them): no fills.
@@ -408,16 +487,21 @@ impl ForwardBuffers {
         Ok(Self {
             core,
             read,
+            residency,
             layer_cw: over_core("drbokeh layer_cw", layers * VEC4)?,
             layer_vis: over_core("drbokeh layer_vis", layers * 4)?,
             result: over_core("drbokeh result", VEC4)?,
+            transmittance: match residency {
+                Residency::Stacked => None,
+                Residency::LayerByLayer => Some(over_core("drbokeh transmittance", 4)?),
+            },
             source_pa: over_read("drbokeh source_pa", VEC4)?,
             source_sa: over_read("drbokeh source_sa", 8)?,
             block_prefix: over_read("drbokeh block_prefix", VEC4)?,
             block_suffix: over_read("drbokeh block_suffix", VEC4)?,
             block_alpha: over_read("drbokeh block_alpha", 8)?,
-            rgba: Buffer::from_slices_with_room_in(ctx, batch, "drbokeh rgba", read_n, read_room, rgba)?,
-            disparity: Buffer::from_slices_with_room_in(ctx, batch, "drbokeh disparity", read_n, read_room, disparity)?,
+            rgba,
+            disparity,
             tile_radii: Buffer::from_iter_in(ctx, batch, "drbokeh tile_radii", tile_radii.len(), tile_radii)?,
             tile_window: tables.tile_window,
             area_lut: tables.area_lut,

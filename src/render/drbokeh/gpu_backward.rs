@@ -15,7 +15,7 @@
 use super::backward::{check_inputs, BackwardOptions};
 use super::backward_cpu::tile_reach_cpu;
 use super::bounds::{grow_windows, scanned_windows_and_ranges, StackScan};
-use super::gpu::{halo, taps, ForwardBuffers, ForwardFrame, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
+use super::gpu::{halo, taps, ForwardBuffers, ForwardFrame, Residency, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
 use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
@@ -210,7 +210,7 @@ impl DrBokehGpuGrad {
         let record = |batch: &mut CommandBatch, core: Rect| {
             let receivers = frame.receivers(core);
             let read = receivers.grown(halo(params, frame.forward.windows, receivers), params.width, params.height);
-            let fwd = ForwardBuffers::new(ctx, batch, &frame.forward, receivers, read, room.forward)?;
+            let fwd = ForwardBuffers::new(ctx, batch, &frame.forward, receivers, read, room.forward, Residency::Stacked)?;
             let bwd = self.buffers(batch, frame, core, receivers, read, room)?;
             self.forward.record(batch, params, &fwd)?;
             self.record(batch, params, &fwd, &bwd, core)?;
@@ -303,8 +303,8 @@ impl DrBokehGpuGrad {
         batch.dispatch(&self.composite, &composite, &push(0), groups)?;
         for layer in 0..params.layer_count {
             let own = [
-                f.rgba.all(),
-                f.disparity.all(),
+                f.rgba[0].all(),
+                f.disparity[0].all(),
                 f.tile_window.all(),
                 f.area_lut.all(),
                 f.kernel.all(),
@@ -315,8 +315,8 @@ impl DrBokehGpuGrad {
             ];
             batch.dispatch(own_pipeline, &own, &push(layer), groups)?;
             let source = [
-                f.rgba.all(),
-                f.disparity.all(),
+                f.rgba[0].all(),
+                f.disparity[0].all(),
                 b.receiver.all(),
                 f.area_lut.all(),
                 f.kernel.all(),
