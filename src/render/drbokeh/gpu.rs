@@ -287,12 +287,28 @@ impl DrBokehGpu {
 
     /// Whether every pipeline a render through `lens` under `model` dispatches is compiled.
     pub fn compiled_for(&self, lens: &Lens, model: Model) -> Result<bool> {
-        let passes = self.passes(&LensView::new(&lens.coc, &lens.aperture), model)?;
-        Ok(passes.pipelines(self).iter().all(|pipeline| pipeline.is_compiled()))
+        let pipelines = self.pipelines(&LensView::new(&lens.coc, &lens.aperture), model, Residency::LayerByLayer)?;
+        Ok(pipelines.iter().all(|pipeline| pipeline.is_compiled()))
     }
 
     fn compile_passes(&self, lens: &LensView, model: Model) -> Result<()> {
-        self.passes(lens, model)?.pipelines(self).par_iter().try_for_each(|pipeline| pipeline.compile())
+        compile_side_by_side(&self.pipelines(lens, model, Residency::LayerByLayer)?)
+    }
+
+    /// Every pipeline [`Self::record`] dispatches for a tile of `residency` through `lens` under
+    /// `model`, its composite included.
+    pub(crate) fn pipelines(&self, lens: &LensView, model: Model, residency: Residency) -> Result<Vec<ComputePipeline>> {
+        let passes = self.passes(lens, model)?;
+        let composite = match residency {
+            Residency::Stacked => &self.composite,
+            Residency::LayerByLayer => &self.composite_layer,
+        };
+        let mut pipelines = vec![passes.layer, composite.clone()];
+        pipelines.extend(passes.sources);
+        if passes.blocks {
+            pipelines.push(self.blocks.clone());
+        }
+        Ok(pipelines)
     }
 
     /// Records the layer passes and the composite of one frame tile (the backward pass records
@@ -373,6 +389,11 @@ impl DrBokehGpu {
     }
 }
 
+/// Compiles `pipelines` on every core at once (see [`DrBokehGpu::compile_for`]).
+pub(crate) fn compile_side_by_side(pipelines: &[ComputePipeline]) -> Result<()> {
+    pipelines.par_iter().try_for_each(|pipeline| pipeline.compile())
+}
+
 /// The pipelines of one render's passes besides the composite ([`DrBokehGpu::passes`]).
 struct Passes {
     /// The per-source prepass (the optimised kernels).
@@ -384,17 +405,6 @@ struct Passes {
     layer_bindings: usize,
 }
 
-impl Passes {
-    /// Every pipeline of a forward render, the composite of `gpu` included (layer by layer).
-    fn pipelines<'a>(&'a self, gpu: &'a DrBokehGpu) -> Vec<&'a ComputePipeline> {
-        let mut pipelines = vec![&self.layer, &gpu.composite_layer];
-        pipelines.extend(&self.sources);
-        if self.blocks {
-            pipelines.push(&gpu.blocks);
-        }
-        pipelines
-    }
-}
 
 
 /// The device buffers of one frame tile: the uploaded `read` rect of every layer, the search

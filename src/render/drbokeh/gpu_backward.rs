@@ -15,7 +15,7 @@
 use super::backward::{check_inputs, BackwardOptions};
 use super::backward_cpu::tile_reach_cpu;
 use super::bounds::{grow_windows, scanned_windows_and_ranges, StackScan};
-use super::gpu::{halo, taps, ForwardBuffers, ForwardFrame, Residency, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
+use super::gpu::{compile_side_by_side, halo, taps, ForwardBuffers, ForwardFrame, Residency, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
 use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
@@ -179,6 +179,7 @@ impl DrBokehGpuGrad {
         let side = |r: Option<&i32>| 2 * r.copied().unwrap_or(0).max(0) as u64 + 1;
         let work = params.layer_count as u64 * (side(max_window).pow(2) + side(max_reach).pow(2));
         let tiling = params.tiling().with_work(work);
+        self.compile_passes(&params)?;
         run_tiled(ctx, &tiling, options, footprint, |plan| self.backward_tiles(&frame, &tiling, plan, options))
     }
 
@@ -270,6 +271,29 @@ impl DrBokehGpuGrad {
         })
     }
 
+    /// Passes 2 and 4 for the lens's path.
+    fn adjoint_pipelines(&self, params: &Params) -> Result<[ComputePipeline; 2]> {
+        Ok(match params.lens.path(params.model) {
+            AperturePath::Disk => [self.own_disk.clone(), self.source_disk.clone()],
+            AperturePath::Gauge => {
+                let constants = params.lens.gauge_specialization();
+                [self.own_gauge.get(&constants)?, self.source_gauge.get(&constants)?]
+            }
+            AperturePath::Ring => [self.own_ring.clone(), self.source_ring.clone()],
+            AperturePath::Kernel => [self.own_kernel.clone(), self.source_kernel.clone()],
+            AperturePath::PerTap => [self.own.clone(), self.source.clone()],
+        })
+    }
+
+    /// Compiles every pipeline a tile of `params` dispatches, the forward's included, side by
+    /// side before the first tile records (as [`DrBokehGpu::compile_for`] does for a render).
+    fn compile_passes(&self, params: &Params) -> Result<()> {
+        let mut pipelines = self.forward.pipelines(&params.lens, params.model, Residency::Stacked)?;
+        pipelines.push(self.composite.clone());
+        pipelines.extend(self.adjoint_pipelines(params)?);
+        compile_side_by_side(&pipelines)
+    }
+
     /// Passes 1 and 2 over the receivers (the forward's core), pass 4 over the tile's `sources`.
     fn record(
         &self,
@@ -283,18 +307,7 @@ impl DrBokehGpuGrad {
         let leaky_slope = self.options.leaky_slope as f32;
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
-        let gauge;
-        let (own_pipeline, source_pipeline) = match params.lens.path(params.model) {
-            AperturePath::Disk => (&self.own_disk, &self.source_disk),
-            AperturePath::Gauge => {
-                let constants = params.lens.gauge_specialization();
-                gauge = (self.own_gauge.get(&constants)?, self.source_gauge.get(&constants)?);
-                (&gauge.0, &gauge.1)
-            }
-            AperturePath::Ring => (&self.own_ring, &self.source_ring),
-            AperturePath::Kernel => (&self.own_kernel, &self.source_kernel),
-            AperturePath::PerTap => (&self.own, &self.source),
-        };
+        let [own_pipeline, source_pipeline] = &self.adjoint_pipelines(params)?;
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
         let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];
         let source_groups =
