@@ -13,6 +13,7 @@ use crate::camera::{CameraHints, CocModel};
 use crate::image::Image;
 use crate::input::{InputOptions, LoadedInput, ReadInput};
 use crate::job::RenderJob;
+use crate::render::tiler::StackMemo;
 use crate::render::{InputKind, Renderer};
 use crate::vk::Context;
 use crate::Result;
@@ -37,6 +38,8 @@ struct Layered {
     /// The layering options (spacing, most layers, deep clustering) it was cut with.
     input: InputOptions,
     loaded: LoadedInput,
+    /// What the methods keep from one render of `loaded`'s stack for the next ([`StackMemo`]).
+    memo: StackMemo,
 }
 
 /// A resident renderer over one input (see the module note).
@@ -81,11 +84,11 @@ impl Session {
             let layering = Instant::now();
             let coc = camera.lens.coc;
             let loaded = self.input.loaded(&spec.input, camera, wants)?;
-            self.layered = Some(Layered { coc, wants, input: spec.input.clone(), loaded });
+            self.layered = Some(Layered { coc, wants, input: spec.input.clone(), loaded, memo: StackMemo::default() });
             stats.relayered = true;
             stats.layering_ms = ms(layering.elapsed());
         }
-        let loaded = &self.layered.as_ref().expect("set above").loaded;
+        let Layered { loaded, memo, .. } = self.layered.as_ref().expect("set above");
         if !self.renderers.contains_key(method.name()) {
             let renderer = method.prepare(self.context.as_deref())?;
             self.renderers.insert(method.name(), renderer);
@@ -93,7 +96,7 @@ impl Session {
         }
         let renderer = self.renderers[method.name()].as_ref();
         let rendering = Instant::now();
-        let rendered = job.render_with(renderer, loaded, None)?;
+        let rendered = job.render_resident(renderer, loaded, None, Some(memo))?;
         let image = job.output(&rendered.image)?.into_owned();
         stats.render_ms = ms(rendering.elapsed());
         stats.total_ms = ms(start.elapsed());

@@ -424,3 +424,36 @@ fn a_forward_render_holds_at_most_three_times_the_stack_on_the_device() {
     drop(renderer);
     finish(ctx);
 }
+
+/// A render handed a stack memo (a resident session's) keeps Dr.Bokeh's stack scan in it and
+/// refocuses from it: the images equal renders without one, bit for bit, for focus behind, in
+/// and in front of the scene's layers (the straddled tiles read again) and two apertures.
+#[test]
+fn a_stack_memo_keeps_the_scan_and_changes_no_pixel() {
+    use lensblur::render::drbokeh::bounds::StackScan;
+    use lensblur::render::drbokeh::RenderOptions;
+    use lensblur::render::tiler::StackMemo;
+    use lensblur::render::{Method, MethodInput, MethodSettings};
+    let ctx = gpu();
+    let renderer = Method::DrBokeh.prepare(Some(&ctx)).unwrap();
+    let stack = scene(80, 64);
+    let memo = StackMemo::default();
+    let (lo, hi) = stack.disparity_range();
+    for (i, focus) in [lo - 0.1, 0.5 * (lo + hi), hi + 0.1, lo].into_iter().enumerate() {
+        for aperture in [Aperture::Disk, Aperture::polygon(6, 0.0, 0.0).unwrap()] {
+            let lens = Lens { coc: CocModel::new(20.0, focus).unwrap(), aperture: aperture.clone() };
+            let render = |memo| {
+                let options = RenderOptions { stack_memo: memo, ..RenderOptions::default() };
+                renderer.render(MethodInput::Layers(&stack), &lens, &options, &MethodSettings::default()).unwrap()
+            };
+            let kept = render(Some(&memo));
+            assert!(memo.holds::<StackScan>(), "render {i}: no scan kept");
+            assert_eq!(kept.pixels, render(None).pixels, "render {i}, focus {focus}, {aperture:?}");
+        }
+    }
+    // One scan served every render: the first's.
+    let scans = std::sync::Arc::strong_count(&memo.get_or_insert_with::<StackScan>(|| unreachable!("the scan was not kept")));
+    assert_eq!(scans, 2, "the memo's and this one");
+    drop(renderer);
+    finish(ctx);
+}

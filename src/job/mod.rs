@@ -17,7 +17,7 @@ use crate::image::Image;
 use crate::input::{load, CameraRequest, InputOptions, ReadInput};
 pub use crate::input::LoadedInput;
 use crate::render::placement::{place, DevicePreference, Placement};
-use crate::render::tiler::RenderOptions;
+use crate::render::tiler::{RenderOptions, StackMemo};
 use crate::render::vdslr::Highlight;
 use crate::render::{Lens, Method, MethodSettings, Renderer, Setting};
 use crate::stack::arrays::ArrayStack;
@@ -339,6 +339,20 @@ impl RenderJob {
         loaded: &'a LoadedInput,
         progress: Option<&(dyn Fn(usize, usize) + Sync)>,
     ) -> Result<Rendered<'a>> {
+        self.render_resident(renderer, loaded, progress, None)
+    }
+
+    /// [`Self::render_with`] on an input the caller holds unchanged from render to render (a
+    /// resident session), with `memo` kept for it ([`StackMemo`]: the caller makes a new one when
+    /// it replaces the input). The method keeps in it what it may reuse, for renders that hand
+    /// it the input's own stack (not one the lens character changed).
+    pub fn render_resident<'a>(
+        &self,
+        renderer: &dyn Renderer,
+        loaded: &'a LoadedInput,
+        progress: Option<&(dyn Fn(usize, usize) + Sync)>,
+        memo: Option<&StackMemo>,
+    ) -> Result<Rendered<'a>> {
         let start = Instant::now();
         let method = self.spec.method;
         let settings = self.settings(loaded)?;
@@ -347,7 +361,11 @@ impl RenderJob {
         let (prepared, lens) = character.prepare(&loaded.stack, &loaded.camera.lens)?;
         let (look, lens) = character.for_method(method, &lens);
         let options = RenderOptions { tile: self.spec.tile, max_memory: self.spec.max_memory, progress, ..RenderOptions::default() };
-        let render = |s: &LayerStack, l: &Lens| method.render_prepared(renderer, s, l, &options, &settings);
+        let render = |s: &LayerStack, l: &Lens| {
+            // Only the held stack itself: a remapped or bloomed copy is another stack.
+            let memo = memo.filter(|_| std::ptr::eq(s, &loaded.stack));
+            method.render_prepared(renderer, s, l, &RenderOptions { stack_memo: memo, ..options }, &settings)
+        };
         let image = look.render_prepared(&render, &prepared, &lens)?;
         let focus = settings.focus(method).clone();
         Ok(Rendered { image, prepared, lens, focus, prepare_time: Duration::ZERO, render_time: start.elapsed() })

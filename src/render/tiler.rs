@@ -36,6 +36,33 @@ pub const MAX_WORK_PER_TILE: u64 = 2_000_000_000;
 /// Side of the smallest tile the out-of-memory retry goes down to, for methods aligned to 1.
 const MIN_TILE: usize = 16;
 
+/// What a method keeps from one render of a stack for the next render of the same stack, such
+/// as Dr.Bokeh's pass over the pixels that bounds its searches (a
+/// [`crate::render::drbokeh::bounds::StackScan`]). Whoever hands one to a render vouches that
+/// the stack is the one the memo was filled from, unchanged, and makes a new memo when the stack
+/// changes: a resident session does, for the stack it holds. One value at a time, of any type:
+/// a method that finds another method's value replaces it.
+#[derive(Default)]
+pub struct StackMemo(std::sync::Mutex<Option<std::sync::Arc<dyn std::any::Any + Send + Sync>>>);
+
+impl StackMemo {
+    /// The kept `T`, or `make()`'s, kept from now on.
+    pub fn get_or_insert_with<T: std::any::Any + Send + Sync>(&self, make: impl FnOnce() -> T) -> std::sync::Arc<T> {
+        let mut kept = self.0.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        if let Some(value) = kept.clone().and_then(|value| value.downcast::<T>().ok()) {
+            return value;
+        }
+        let value = std::sync::Arc::new(make());
+        *kept = Some(value.clone());
+        value
+    }
+
+    /// Whether a `T` is kept.
+    pub fn holds<T: std::any::Any>(&self) -> bool {
+        self.0.lock().unwrap_or_else(|poisoned| poisoned.into_inner()).as_ref().is_some_and(|value| value.is::<T>())
+    }
+}
+
 /// How to cut and report a render.
 #[derive(Clone, Copy, Default)]
 pub struct RenderOptions<'a> {
@@ -52,6 +79,9 @@ pub struct RenderOptions<'a> {
     pub max_memory: Option<u64>,
     /// Called after each finished tile with (tiles done, tiles in all).
     pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
+    /// What a method may keep from this render for the next one of the same stack (a
+    /// resident session's): see [`StackMemo`]. `None`: nothing is kept.
+    pub stack_memo: Option<&'a StackMemo>,
     /// Testing aid, not a user setting: device memory (bytes over what the device held when
     /// the frame began) past which a tile's allocations count as out of device memory, so the
     /// smaller-tile retry runs on any device. `None` in every real render.

@@ -93,9 +93,14 @@ struct DrBokehRenderer {
 impl Renderer for DrBokehRenderer {
     fn render(&self, input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, _: &MethodSettings) -> crate::Result<crate::image::Image> {
         let stack = input.layers()?;
-        match &self.gpu {
-            Some(gpu) => Ok(gpu.render_with(stack, lens, self.model, options)?.0),
-            None => render_cpu(stack, lens, self.model),
+        match (&self.gpu, options.stack_memo) {
+            // A resident stack: its scan is made by its first render and kept for the others.
+            (Some(gpu), Some(memo)) => {
+                let scan = memo.get_or_insert_with(|| bounds::StackScan::new(stack, lens.coc.focus_disparity));
+                Ok(gpu.render_scanned(stack, &scan, lens, self.model, options)?.0)
+            }
+            (Some(gpu), None) => Ok(gpu.render_with(stack, lens, self.model, options)?.0),
+            (None, _) => render_cpu(stack, lens, self.model),
         }
     }
 
