@@ -39,13 +39,7 @@ void main() {
     for (int l = 0; l < pc.layer_count; ++l) {
         vec4 cw = texelFetch(layer_cw, drbokeh_core_index(l, x));
         float v = texelFetch(layer_vis, drbokeh_core_index(l, x)).x;
-        if (pc.model == DRBOKEH_MODEL_DRBOKEH) {
-            v *= drbokeh_existence_gate(cw.w);
-        }
-        vec3 colour = cw.w > 0.0 ? cw.xyz / cw.w : vec3(0.0);
-        outp.xyz += transmittance * v * colour;
-        outp.w += transmittance * v;
-        transmittance *= 1.0 - v;
+        drbokeh_composite_step(outp, transmittance, cw, v);
     }
     result[drbokeh_core_index(0, x)] = outp;
 }

@@ -30,8 +30,9 @@
 //   2: tile_window  readonly  int[layer_count * tiles_x * tiles_y] whole image, bounds.rs
 //   3: area_lut     readonly  float[area_count]                    Params::area_lut_f32
 //   4: kernel       readonly  float[max(1, kernel_size^2)]         Params::kernel_f32
-//   5: layer_cw     writeonly vec4[layer_count * core pixels]      (C_l.rgb, W_l)
-//   6: layer_vis    writeonly float[layer_count * core pixels]     V_l
+//   5: layer_cw     vec4[layer_count * core pixels]      (C_l.rgb, W_l); with pc.fold the
+//                   running composite (premultiplied RGBA) of the layers so far, over the core
+//   6: layer_vis    float[layer_count * core pixels]     V_l; with pc.fold the transmittance
 //   7: source_pa    readonly  vec4[layer_count * read pixels]      P / A(r), prepass
 //   8: source_sa    readonly  vec2[layer_count * read pixels]      (s, alpha), prepass
 //   9: tile_radii   readonly  vec2[layer_count * tiles_x * tiles_y] whole image, bounds.rs

@@ -13,8 +13,9 @@
 //   2: tile_window  readonly  int[layer_count * tiles_x * tiles_y] whole image, bounds.rs
 //   3: area_lut     readonly  float[area_count]                    Params::area_lut_f32
 //   4: kernel       readonly  float[max(1, kernel_size^2)]         Params::kernel_f32
-//   5: layer_cw     writeonly vec4[layer_count * core pixels]      (C_l.rgb, W_l)
-//   6: layer_vis    writeonly float[layer_count * core pixels]     V_l
+//   5: layer_cw     vec4[layer_count * core pixels]      (C_l.rgb, W_l); with pc.fold the
+//                   running composite (premultiplied RGBA) of the layers so far, over the core
+//   6: layer_vis    float[layer_count * core pixels]     V_l; with pc.fold the transmittance
 // Push constants: DrBokehPush (all fields but max_support). The read rect holds every source
 // within the window of every pixel of the core; borders are the image's, not the tile's.
 // Dispatch: (ceil(core width / 16), ceil(core height / 16), 1), once per layer.
@@ -29,8 +30,23 @@ layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity
 layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
 layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
-layout(std430, set = 0, binding = 5) writeonly buffer LayerCw { vec4 layer_cw[]; };
-layout(std430, set = 0, binding = 6) writeonly buffer LayerVis { float layer_vis[]; };
+// (C, W) and V of the layer, or (`pc.fold`) the running composite and its transmittance.
+layout(std430, set = 0, binding = 5) buffer LayerCw { vec4 layer_cw[]; };
+layout(std430, set = 0, binding = 6) buffer LayerVis { float layer_vis[]; };
+
+// The layer pass's result at a core pixel: stored, or folded into the running composite.
+void drbokeh_layer_out(int i, vec4 cw, float v) {
+    if (pc.fold == 0) {
+        layer_cw[i] = cw;
+        layer_vis[i] = v;
+        return;
+    }
+    vec4 outp = pc.layer == 0 ? vec4(0.0) : layer_cw[i];
+    float transmittance = pc.layer == 0 ? 1.0 : layer_vis[i];
+    drbokeh_composite_step(outp, transmittance, cw, v);
+    layer_cw[i] = outp;
+    layer_vis[i] = transmittance;
+}
 
 float drbokeh_area_lut(int index) {
     return area_lut[index];
@@ -99,7 +115,5 @@ void main() {
             }
         }
     }
-    int out_index = drbokeh_core_index(pc.slot, x);
-    layer_cw[out_index] = cw;
-    layer_vis[out_index] = vis_weight > 0.0 ? vis_sum / vis_weight : 0.0;
+    drbokeh_layer_out(drbokeh_core_index(pc.slot, x), cw, vis_weight > 0.0 ? vis_sum / vis_weight : 0.0);
 }

@@ -34,7 +34,9 @@ layout(push_constant) uniform DrBokehPush {
     float leaky_slope;    // 52  backward passes only: smallest scatter slope (0 = exact)
     int slot;             // 56  layer's place in this dispatch's per-layer buffers: pc.layer
                           //     where they hold every layer, 0 where they hold one
-    int pad2;             // 60
+    int fold;             // 60  layer passes: 1 = fold (C, W, V) into the running composite
+                          //     held in bindings 5 (vec4) and 6 (transmittance), layer 0
+                          //     starting it; 0 = write them there
     vec4 aperture;        // 64  Aperture::gpu_params
     ivec4 core;           // 80  frame tile written: x, y, width, height (outputs core-local)
     ivec4 read;           // 96  uploaded rect: x, y, width, height (sources read-local)
@@ -154,6 +156,21 @@ float drbokeh_area_at(float r, ivec2 p) {
 // Drops the coverage V claims where no source of the layer reaches x (W = 0).
 float drbokeh_existence_gate(float w) {
     return smoothstep(0.0, 1.0e-3, w);
+}
+
+// One layer's step of the front-to-back composite B = sum_l V_l prod_{k<l} (1 - V_k) C_l / W_l,
+// alpha = sum_l V_l prod_{k<l} (1 - V_k): `outp` and `transmittance` hold the layers in front;
+// the default model gates V by the layer's existence (W > 0). glsl/drbokeh_composite.comp runs it
+// over every layer; a forward render layer by layer (`pc.fold`) runs it at the end of each
+// layer's pass. CPU reference: src/render/drbokeh/cpu.rs `composite_pixel`.
+void drbokeh_composite_step(inout vec4 outp, inout float transmittance, vec4 cw, float v) {
+    if (pc.model == DRBOKEH_MODEL_DRBOKEH) {
+        v *= drbokeh_existence_gate(cw.w);
+    }
+    vec3 colour = cw.w > 0.0 ? cw.xyz / cw.w : vec3(0.0);
+    outp.xyz += transmittance * v * colour;
+    outp.w += transmittance * v;
+    transmittance *= 1.0 - v;
 }
 
 // ---------------------------------------------------------------- compat model (released)

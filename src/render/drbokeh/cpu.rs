@@ -156,8 +156,9 @@ fn layer_pixel(params: &Params, layer: &Layer, x: i64, y: i64, h: i64) -> ([f64;
     (cw, visibility)
 }
 
-/// Body of `drbokeh_composite.comp` (and, one layer per dispatch, of
-/// `drbokeh_composite_layer.comp`): front-to-back blend of the layer colours `C_l / W_l`.
+/// Body of `drbokeh_composite.comp` (`drbokeh_composite_step` per layer, which a forward render
+/// layer by layer runs at the end of each layer pass): front-to-back blend of the layer
+/// colours `C_l / W_l`.
 fn composite_pixel(params: &Params, layers: &[LayerTerms], i: usize) -> [f64; 4] {
     let mut out = [0.0f64; 4];
     let mut transmittance = 1.0f64;

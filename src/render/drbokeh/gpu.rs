@@ -54,8 +54,6 @@ pub struct DrBokehGpu {
     /// Kernel images under the default model, per tap.
     layer_kernel: Option<ComputePipeline>,
     composite: ComputePipeline,
-    /// The composite folded in one layer at a time ([`Residency::LayerByLayer`]).
-    composite_layer: ComputePipeline,
 }
 
 /// How a frame tile's per-layer buffers hold the layers.
@@ -65,9 +63,10 @@ pub(crate) enum Residency {
     /// backward pass reads every layer's intermediates.
     Stacked,
     /// Every layer's upload in a buffer of its own, and one layer's intermediates, reused by
-    /// the layers one after another (front first), each composited as its pass completes. A
-    /// forward render's tile then holds the stack's rect once plus one layer's work, not five
-    /// times the stack: the larger the frame, the more of it fits one tile.
+    /// the layers one after another (front first); each layer pass folds its layer into the
+    /// running composite (`fold`), so no layer's (C, W, V) is stored. A forward render's tile
+    /// then holds the stack's rect once plus one layer's work, not five times the stack: the
+    /// larger the frame, the more of it fits one tile.
     LayerByLayer,
 }
 
@@ -163,12 +162,6 @@ impl DrBokehGpu {
             layer_ring,
             layer_kernel,
             composite: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_COMPOSITE, &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage], push)?,
-            composite_layer: ComputePipeline::with_slots(
-                ctx,
-                &shaders::DRBOKEH_COMPOSITE_LAYER,
-                &[Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Float), Slot::Storage, Slot::Storage],
-                push,
-            )?,
         })
     }
 
@@ -212,9 +205,7 @@ impl DrBokehGpu {
             let layers = params.layer_count as u64;
             Footprint {
                 largest_binding: read.max(core) * VEC4,
-                total: layers * read * INPUT_BYTES_PER_PIXEL
-                    + read * WORK_BYTES_PER_PIXEL
-                    + core * (CORE_BYTES_PER_PIXEL + VEC4 + 4),
+                total: layers * read * INPUT_BYTES_PER_PIXEL + read * WORK_BYTES_PER_PIXEL + core * (VEC4 + 4),
             }
         };
         let interior = self.kernel != LayerKernel::OptimisedNoInterior;
@@ -244,7 +235,7 @@ impl DrBokehGpu {
             let read = core.grown(halo(params, frame.windows, core), params.width, params.height);
             let buffers = ForwardBuffers::new(ctx, batch, frame, core, read, room, Residency::LayerByLayer)?;
             self.record(batch, params, &buffers)?;
-            buffers.result.readable_in(batch)
+            buffers.output().readable_in(batch)
         };
         let collect = |core: Rect, result: ReadBack| store_core(ctx, &mut image, core, &result);
         let (mut stats, cores) = run_batches(ctx, tiling, plan, options, record, collect)?;
@@ -299,11 +290,10 @@ impl DrBokehGpu {
     /// `model`, its composite included.
     pub(crate) fn pipelines(&self, lens: &LensView, model: Model, residency: Residency) -> Result<Vec<ComputePipeline>> {
         let passes = self.passes(lens, model)?;
-        let composite = match residency {
-            Residency::Stacked => &self.composite,
-            Residency::LayerByLayer => &self.composite_layer,
-        };
-        let mut pipelines = vec![passes.layer, composite.clone()];
+        let mut pipelines = vec![passes.layer];
+        if residency == Residency::Stacked {
+            pipelines.push(self.composite.clone());
+        }
         pipelines.extend(passes.sources);
         if passes.blocks {
             pipelines.push(self.blocks.clone());
@@ -362,29 +352,28 @@ impl DrBokehGpu {
             ];
             batch.dispatch(layer_pipeline, &bindings[..binding_count], push, layer_groups)
         };
-        match (b.residency, &b.transmittance) {
-            (Residency::Stacked, _) => {
+        match (b.residency, &b.result) {
+            (Residency::Stacked, Some(result)) => {
                 let inputs = [b.rgba[0].all(), b.disparity[0].all()];
                 prepasses(batch, inputs, &params.push_tile(0, b.core, b.read), params.layer_count)?;
                 for layer in 0..params.layer_count {
                     layer_pass(batch, inputs, &params.push_tile(layer, b.core, b.read))?;
                 }
                 let push = params.push_tile(0, b.core, b.read);
-                batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), b.result.all()], &push, groups)
+                batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), result.all()], &push, groups)
             }
-            (Residency::LayerByLayer, Some(transmittance)) => {
+            (Residency::Stacked, None) => Err(Error::internal("a stacked tile without its result buffer")),
+            (Residency::LayerByLayer, _) => {
                 for layer in 0..params.layer_count {
-                    // The tables are the frame's (every layer's); the tile's buffers hold this one.
-                    let push = DrBokehPush { slot: 0, ..params.push_tile(layer, b.core, b.read) };
+                    // The tables are the frame's (every layer's); the tile's buffers hold this
+                    // one, and its pass folds it into the composite in layer_cw and layer_vis.
+                    let push = DrBokehPush { slot: 0, fold: 1, ..params.push_tile(layer, b.core, b.read) };
                     let inputs = [b.rgba[layer].all(), b.disparity[layer].all()];
                     prepasses(batch, inputs, &push, 1)?;
                     layer_pass(batch, inputs, &push)?;
-                    let bindings = [b.layer_cw.all(), b.layer_vis.all(), b.result.all(), transmittance.all()];
-                    batch.dispatch(&self.composite_layer, &bindings, &push, groups)?;
                 }
                 Ok(())
             }
-            (Residency::LayerByLayer, None) => Err(Error::internal("a layer-by-layer tile without its transmittance")),
         }
     }
 }
@@ -420,11 +409,12 @@ pub(crate) struct ForwardBuffers {
     pub area_lut: Buffer,
     pub kernel: Buffer,
     pub aperture_rows: Buffer,
+    /// Every layer's (C, W) and V over the core ([`Residency::Stacked`]); layer by layer, the
+    /// running composite (the tile's image once the last layer has run) and its transmittance.
     pub layer_cw: Buffer,
     pub layer_vis: Buffer,
-    pub result: Buffer,
-    /// Layer by layer: the running composite's transmittance per core pixel.
-    pub transmittance: Option<Buffer>,
+    /// The composite of every layer ([`Residency::Stacked`] only).
+    pub result: Option<Buffer>,
     /// Prepass outputs over the read rect: P / A(r) per source, and (s, alpha).
     pub source_pa: Buffer,
     pub source_sa: Buffer,
@@ -441,6 +431,11 @@ pub(crate) struct ForwardBuffers {
 }
 
 impl ForwardBuffers {
+    /// The buffer holding the tile's image once its passes have run.
+    pub fn output(&self) -> &Buffer {
+        self.result.as_ref().unwrap_or(&self.layer_cw)
+    }
+
     /// Allocates a tile's buffers (intermediates left unfilled: every pass writes its output
     /// whole) and records the upload of its `read` rect into `batch`; the frame's tables are
     /// shared, not copied.
@@ -500,10 +495,9 @@ impl ForwardBuffers {
             residency,
             layer_cw: over_core("drbokeh layer_cw", layers * VEC4)?,
             layer_vis: over_core("drbokeh layer_vis", layers * 4)?,
-            result: over_core("drbokeh result", VEC4)?,
-            transmittance: match residency {
-                Residency::Stacked => None,
-                Residency::LayerByLayer => Some(over_core("drbokeh transmittance", 4)?),
+            result: match residency {
+                Residency::Stacked => Some(over_core("drbokeh result", VEC4)?),
+                Residency::LayerByLayer => None,
             },
             source_pa: over_read("drbokeh source_pa", VEC4)?,
             source_sa: over_read("drbokeh source_sa", 8)?,

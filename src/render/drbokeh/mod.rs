@@ -18,10 +18,10 @@
 //!    `glsl/drbokeh_layer.comp` (every other case) gather runs of two pixels per invocation.
 //!    The first straightforward kernel stays as [`LayerKernel::Baseline`] for benchmarks.
 //! 3. `composite` (GPU `glsl/drbokeh_composite.comp`): front-to-back blend of all layers. A
-//!    forward render folds each layer in as its pass completes instead
-//!    (`glsl/drbokeh_composite_layer.comp`, the same arithmetic in the same order), so a frame
-//!    tile holds one layer's intermediates, not every layer's (`gpu::Residency`); the backward
-//!    reads every layer's and keeps them all.
+//!    forward render folds each layer in at the end of its layer pass instead (`pc.fold`, the
+//!    same `drbokeh_composite_step` in the same order), so a frame tile holds one layer's
+//!    intermediates, not every layer's (`gpu::Residency`); the backward reads every layer's and
+//!    keeps them all.
 //!
 //! Large frames are rendered in frame tiles (`gpu.rs`): each uploads its core plus halo, and
 //! since every pixel reads the same sources in the same order, the output is bit-identical
@@ -202,7 +202,9 @@ pub struct DrBokehPush {
     /// every layer (the backward), 0 where they hold one (a forward render, layer by layer).
     /// The frame's tables (windows, span radii) are indexed by `layer` either way.
     pub slot: i32, // 56
-    pub pad: i32, // 60
+    /// Layer passes: 1 folds the layer's (C, W, V) into the running composite its bindings 5
+    /// and 6 hold (a forward render layer by layer), 0 writes them there.
+    pub fold: i32, // 60
     /// [`Aperture::gpu_params`]: blades (0 = disk), rotation (rad), roundness, kernel flag.
     pub aperture: [f32; 4], // 64
     /// Frame tile this dispatch writes: x, y, width, height in image pixels (the whole image

@@ -184,7 +184,7 @@ impl Params {
             area_count: self.area_count() as i32,
             leaky_slope: 0.0,
             slot: layer as i32,
-            pad: 0,
+            fold: 0,
             aperture: self.lens.aperture.map(|v| v as f32),
             core: rect(core),
             read: rect(read),
