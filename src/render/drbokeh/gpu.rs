@@ -287,7 +287,8 @@ impl DrBokehGpu {
     }
 
     /// Every pipeline [`Self::record`] dispatches for a tile of `residency` through `lens` under
-    /// `model`, its composite included.
+    /// `model` (the composite pass only where the layers are stacked: layer by layer, the layer
+    /// pass composites).
     pub(crate) fn pipelines(&self, lens: &LensView, model: Model, residency: Residency) -> Result<Vec<ComputePipeline>> {
         let passes = self.passes(lens, model)?;
         let mut pipelines = vec![passes.layer];
@@ -480,7 +481,8 @@ impl ForwardBuffers {
         }
         // Every pass writes its whole output before a later one reads it (the layer pass every
         // core pixel of every layer, sources and blocks every read pixel, composite every core
-        // pixel; kernels that skip sources or blocks never read them): no fills.
+        // pixel; layer by layer, the front layer's pass starts the running composite without
+        // reading it; kernels that skip sources or blocks never read them): no fills.
         // Per pixel of the core or of the read rect: each buffer's size and its room.
         let over_core = |name: &str, per_pixel: u64| {
             Buffer::uninitialised_with_room(ctx, name, core_pixels * per_pixel, room.core as u64 * per_pixel)
