@@ -451,6 +451,13 @@ fn a_stack_memo_keeps_the_scan_and_changes_no_pixel() {
             assert_eq!(kept.pixels, render(None).pixels, "render {i}, focus {focus}, {aperture:?}");
         }
     }
+    // A scan of another stack is refused, not rendered from.
+    let other = scene(48, 64);
+    let lens = Lens { coc: CocModel::new(20.0, lo).unwrap(), aperture: Aperture::Disk };
+    let gpu = DrBokehGpu::new(&ctx).unwrap();
+    let refused = gpu.render_scanned(&other, &StackScan::new(&stack, lo), &lens, Model::DrBokeh, &RenderOptions::default());
+    assert!(refused.is_err_and(|e| e.to_string().contains("another stack")), "a mismatched scan was rendered from");
+    drop(gpu);
     // One scan served every render: the first's.
     let scans = std::sync::Arc::strong_count(&memo.get_or_insert_with::<StackScan>(|| unreachable!("the scan was not kept")));
     assert_eq!(scans, 2, "the memo's and this one");

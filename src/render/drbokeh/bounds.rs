@@ -116,6 +116,13 @@ impl StackScan {
         Self { width: stack.width, height: stack.height, tiles_x, sets, focus_disparity }
     }
 
+    /// Whether `stack` has the size and the layer count of the stack the scan was made from
+    /// (what a render can check of the caller's promise that it is that stack, unchanged).
+    pub fn fits(&self, stack: &LayerStack) -> bool {
+        let tiles = stack.width.div_ceil(TILE) * stack.height.div_ceil(TILE);
+        (self.width, self.height, self.sets.len()) == (stack.width, stack.height, stack.layers.len() * tiles)
+    }
+
     /// Smallest and largest disparity of the stack, NaN left out (as
     /// [`LayerStack::disparity_range`], without another pass over the pixels).
     pub fn disparity_range(&self) -> (f32, f32) {
@@ -125,10 +132,7 @@ impl StackScan {
     /// The scan's tiles bounded for `params`: [`scan_tile`] of each, with the pixels read again
     /// only where the lens's focus differs from the scan's and straddles the tile.
     fn bounds(&self, params: &Params, stack: &LayerStack) -> Vec<([f64; 2], AbsSRange)> {
-        assert!(
-            (self.width, self.height, self.sets.len()) == (stack.width, stack.height, stack.layers.len() * params.tiles_x * params.tiles_y),
-            "a stack scan renders the stack it was made from"
-        );
+        assert!(self.fits(stack), "a stack scan renders the stack it was made from");
         let focus = params.push(0).focus_disparity;
         let per_layer = params.tiles_x * params.tiles_y;
         self.sets

@@ -195,6 +195,12 @@ impl DrBokehGpu {
         model: Model,
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
+        if !scan.fits(stack) {
+            return Err(Error::invalid(
+                "stack scan",
+                format!("it was made from another stack than this {}x{} one of {} layer(s): make it from the stack it renders", stack.width, stack.height, stack.layers.len()),
+            ));
+        }
         let params = Params::with_range(stack, lens, model, scan.disparity_range())?;
         let (windows, ranges) = scanned_windows_and_ranges(&params, stack, scan);
         let max_window = windows.iter().copied().max().unwrap_or(0);
