@@ -359,18 +359,19 @@ impl DrBokehGpu {
             ];
             batch.dispatch(layer_pipeline, &bindings[..binding_count], push, layer_groups)
         };
-        match (b.residency, &b.result) {
-            (Residency::Stacked, Some(result)) => {
+        match &b.result {
+            // Stacked: every layer's prepasses at once, the layer passes, then the composite.
+            Some(result) => {
                 let inputs = [b.rgba[0].all(), b.disparity[0].all()];
-                prepasses(batch, inputs, &params.push_tile(0, b.core, b.read), params.layer_count)?;
+                let push = params.push_tile(0, b.core, b.read);
+                prepasses(batch, inputs, &push, params.layer_count)?;
                 for layer in 0..params.layer_count {
                     layer_pass(batch, inputs, &params.push_tile(layer, b.core, b.read))?;
                 }
-                let push = params.push_tile(0, b.core, b.read);
                 batch.dispatch(&self.composite, &[b.layer_cw.all(), b.layer_vis.all(), result.all()], &push, groups)
             }
-            (Residency::Stacked, None) => Err(Error::internal("a stacked tile without its result buffer")),
-            (Residency::LayerByLayer, _) => {
+            // Layer by layer.
+            None => {
                 for layer in 0..params.layer_count {
                     // The tables are the frame's (every layer's); the tile's buffers hold this
                     // one, and its pass folds it into the composite in layer_cw and layer_vis.
@@ -401,14 +402,11 @@ struct Passes {
     layer_bindings: usize,
 }
 
-
-
 /// The device buffers of one frame tile: the uploaded `read` rect of every layer, the search
 /// windows and lens tables, and every pass's output over the `core`.
 pub(crate) struct ForwardBuffers {
     pub core: Rect,
     pub read: Rect,
-    pub residency: Residency,
     /// The uploaded rect: one buffer of every layer ([`Residency::Stacked`]) or one per layer.
     pub rgba: Vec<Buffer>,
     pub disparity: Vec<Buffer>,
@@ -420,7 +418,8 @@ pub(crate) struct ForwardBuffers {
     /// running composite (the tile's image once the last layer has run) and its transmittance.
     pub layer_cw: Buffer,
     pub layer_vis: Buffer,
-    /// The composite of every layer ([`Residency::Stacked`] only).
+    /// The composite of every layer where the layers are stacked; `None` layer by layer
+    /// ([`Residency`]: the tile's image is then `layer_cw`).
     pub result: Option<Buffer>,
     /// Prepass outputs over the read rect: P / A(r) per source, and (s, alpha).
     pub source_pa: Buffer,
@@ -500,7 +499,6 @@ impl ForwardBuffers {
         Ok(Self {
             core,
             read,
-            residency,
             layer_cw: over_core("drbokeh layer_cw", layers * VEC4)?,
             layer_vis: over_core("drbokeh layer_vis", layers * 4)?,
             result: match residency {
