@@ -109,7 +109,7 @@ void main() {
                 }
             } else {
                 vec2 lens = drbokeh_lens(offset, r_x, rel_x);
-                float d = drbokeh_scatter(r_x, lens.x) * lens.y;
+                float d = drbokeh_footprint(r_x, lens.x) * lens.y;
                 vis_sum += p.w * d;
                 vis_weight += d;
             }

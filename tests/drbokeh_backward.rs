@@ -341,12 +341,14 @@ fn backward_rejects_an_output_gradient_of_another_size() {
     assert!(err.to_string().contains("13x10"), "{err}");
 }
 
-/// A textured layer 0.01 disparity in front of the focus (CoC 0.06 px with K = 6): its windows
-/// hold only its own pixels, so the exact gradient w.r.t. its depth is (nearly) zero. The
-/// leaky backward grows the windows by a margin, and the leaked slope of the pairs just beyond
-/// the supports must give a clear gradient, or a fit started near focus would never move.
+/// A textured layer 0.01 disparity in front of the focus (CoC 0.06 px with K = 6). Before
+/// sources under a pixel were given the lens's blur (`math::coverage_radius`), its windows held
+/// only its own pixels and the exact gradient w.r.t. its depth was ~1e-9: only the leaky
+/// backward, whose margin reaches past the supports, moved a fit started near focus. Now the
+/// 0.06 px source reaches its neighbours a little, as the lens does, and both gradients must
+/// be clear; the leak adds to the exact one, it never removes it.
 #[test]
-fn leaky_gradient_reaches_nearly_in_focus_layers() {
+fn gradients_reach_nearly_in_focus_layers() {
     let (w, h) = (12, 10);
     let texture = Image::from_fn(w, h, |x, y| {
         let v = 0.2 + 0.6 * hash(x * 31 + y * 7) as f32;
@@ -361,9 +363,9 @@ fn leaky_gradient_reaches_nearly_in_focus_layers() {
         grads.layers[0].disparity.iter().map(|v| v.abs() as f64).sum::<f64>()
     };
     let (exact, leaky) = (norm(BackwardOptions::exact()), norm(BackwardOptions::leaky()));
-    // Exact: only the self pair, whose weight cancels in C/W (measured ~1e-9).
-    assert!(exact < 1e-6, "exact gradient {exact}");
-    assert!(leaky > 1e-2, "leaky gradient {leaky} must reach the nearly in-focus layer");
+    eprintln!("exact {exact}, leaky {leaky}");
+    assert!(exact > 1e-2, "exact gradient {exact} must reach the nearly in-focus layer");
+    assert!(leaky >= exact * 0.99, "leaky gradient {leaky} below the exact {exact}");
 }
 
 /// A vignetted aperture (one-pass `--cats-eye` of a disk, a straight-bladed polygon or the

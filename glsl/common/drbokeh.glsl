@@ -71,13 +71,39 @@ int drbokeh_read_index(int l, ivec2 p) {
 
 // ---------------------------------------------------------------- default model
 
-// Hermite-rimmed disk coverage: exactly 0 for g >= r + 1/2, 1/2 at the centre when r = 0.
+// math::coverage_radius: the radius of the disk a source of CoC radius r scatters, lifted under
+// 0.7 px so that its lattice weights blur as much as the lens (variance r^2 / 4 per axis);
+// never below r, increasing. Every rim tap of the layer pass evaluates it, so it is written
+// without branches: v = max(u + softness, 0) with u = LIFT_AT_ZERO - LIFT_SLOPE r; the lift is
+// v^2 / (4 softness) up to v = 2 softness, then u (math::lift's three pieces).
+const float DRBOKEH_LIFT_AT_ZERO = 0.5;
+const float DRBOKEH_LIFT_SLOPE = 0.77;
+const float DRBOKEH_LIFT_SOFTNESS = 0.03;
+
+float drbokeh_lift_v(float r) {
+    return max(DRBOKEH_LIFT_AT_ZERO + DRBOKEH_LIFT_SOFTNESS - DRBOKEH_LIFT_SLOPE * r, 0.0);
+}
+
+float drbokeh_coverage_radius(float r) {
+    float v = drbokeh_lift_v(r);
+    return r + (v <= 2.0 * DRBOKEH_LIFT_SOFTNESS ? v * v * (0.25 / DRBOKEH_LIFT_SOFTNESS) : v - DRBOKEH_LIFT_SOFTNESS);
+}
+
+// Hermite-rimmed coverage of the disk of drbokeh_coverage_radius(r): exactly 0 for
+// g >= drbokeh_support(r); a source with r = 0 reaches only its own pixel.
 float drbokeh_scatter(float r, float g) {
+    return smoothstep(0.0, 1.0, drbokeh_coverage_radius(r) + 0.5 - g);
+}
+
+// The receiver's footprint in V: the Hermite ramp at its own radius, not lifted
+// (math::footprint says why).
+float drbokeh_footprint(float r, float g) {
     return smoothstep(0.0, 1.0, r + 0.5 - g);
 }
 
+// Reach of both drbokeh_scatter and drbokeh_footprint.
 float drbokeh_support(float r) {
-    return r + 0.5;
+    return drbokeh_coverage_radius(r) + 0.5;
 }
 
 // In-layer occlusion in CoC pixels: an (almost) in-focus, present x blocks a y behind it.

@@ -80,8 +80,8 @@ vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2) {
             float g = length(vec2(float(-ox), float(-oy)));
 #endif
             float alpha = texelFetch(rgba, drbokeh_read_index(pc.layer, ivec2(sx, sy))).w;
-            float d = drbokeh_scatter(dst.r, g);
-            float d_d = drbokeh_leaky(drbokeh_d_scatter(dst.r, g));
+            float d = drbokeh_footprint(dst.r, g);
+            float d_d = drbokeh_leaky(drbokeh_d_footprint(dst.r, g));
 #ifdef DRBOKEH_BACKWARD_RING
             // drbokeh_vis_weight's S K and d(S K)/dr_x.
             vec2 ring = drbokeh_ring_weight_d(g, dst.r);

@@ -248,12 +248,12 @@ void main() {
                 }
                 if (own_share != 0.0 && o2 < vis_limit2) {
 #ifdef DRBOKEH_BACKWARD_RING
-                    d_p[k].w += own_share * (drbokeh_scatter(dst.r, g_receiver) * drbokeh_ring_weight_d(g_receiver, dst.r).x);
+                    d_p[k].w += own_share * (drbokeh_footprint(dst.r, g_receiver) * drbokeh_ring_weight_d(g_receiver, dst.r).x);
 #elif defined(DRBOKEH_BACKWARD_KERNEL)
                     vec2 p_receiver = aperture_coords(offset, dst.rel);
-                    d_p[k].w += own_share * (drbokeh_scatter(dst.r, g_receiver) * drbokeh_kernel_weight_d(p_receiver, dst.r).x);
+                    d_p[k].w += own_share * (drbokeh_footprint(dst.r, g_receiver) * drbokeh_kernel_weight_d(p_receiver, dst.r).x);
 #else
-                    d_p[k].w += own_share * drbokeh_scatter(dst.r, g_receiver);
+                    d_p[k].w += own_share * drbokeh_footprint(dst.r, g_receiver);
 #endif
                 }
             }

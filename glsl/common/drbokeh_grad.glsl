@@ -14,6 +14,12 @@ float drbokeh_d_smoothstep(float e0, float e1, float x) {
 }
 
 float drbokeh_d_scatter(float r, float g) {
+    float v = drbokeh_lift_v(r);
+    float d_lift = v <= 2.0 * DRBOKEH_LIFT_SOFTNESS ? v * (0.5 / DRBOKEH_LIFT_SOFTNESS) : 1.0;
+    return drbokeh_d_smoothstep(0.0, 1.0, drbokeh_coverage_radius(r) + 0.5 - g) * (1.0 - DRBOKEH_LIFT_SLOPE * d_lift);
+}
+
+float drbokeh_d_footprint(float r, float g) {
     return drbokeh_d_smoothstep(0.0, 1.0, r + 0.5 - g);
 }
 
@@ -214,11 +220,12 @@ int drbokeh_clipped_half_width(int h, int oy, float limit2) {
     return m;
 }
 
-// Default-model visibility weight D = S(r_x, g) K of offset x - y, and dD/dr_x.
+// Default-model visibility weight D = F(r_x, g) K of offset x - y (F the receiver's footprint),
+// and dD/dr_x.
 vec2 drbokeh_vis_weight(vec2 offset, DrBokehPx dst) {
     vec3 lens = drbokeh_lens_d(offset, dst.r, dst.rel);
-    float s = drbokeh_scatter(dst.r, lens.x);
-    return vec2(s * lens.y, drbokeh_leaky(drbokeh_d_scatter(dst.r, lens.x)) * lens.y + s * lens.z);
+    float s = drbokeh_footprint(dst.r, lens.x);
+    return vec2(s * lens.y, drbokeh_leaky(drbokeh_d_footprint(dst.r, lens.x)) * lens.y + s * lens.z);
 }
 
 #endif

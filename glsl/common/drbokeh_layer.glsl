@@ -168,13 +168,14 @@ float kernel_sample_for_centre(Centre centre, int o, int oy) {
 
 // One tap of the span path: source (pa = P / A, sa = (s, alpha)) at gauge g_source as the
 // source sees the aperture and g_centre as the centre does (one Euclidean gauge on the disk
-// path). The source's coverage is that of a CoC `source_scale` times its own, the centre's
-// reaches `centre_support`, times the weights k_source and k_centre (1 for gauge shapes; see
-// the ring's obstruction pass). `inside` = the offset lies in the centre's row span (taps
-// outside add exact zeros). `occlusion` is a constant at each call: the occlusion-free loop
-// does not evaluate it.
-void span_tap(inout Centre c, vec4 pa, vec2 sa, float g_source, float g_centre, float source_scale, float centre_support, float k_source, float k_centre, bool inside, bool is_self, bool occlusion) {
-    float s = smoothstep(0.0, 1.0, abs(sa.x) * source_scale + 0.5 - g_source) * k_source;
+// path). The source covers the disk of `source_radius` (drbokeh_scatter's coverage radius,
+// or in the ring's obstruction pass inner times its CoC, computed once per source by the
+// caller); the centre's reaches `centre_support`, times the weights k_source and k_centre (1
+// for gauge shapes; see the ring's obstruction pass). `inside` = the offset lies in the
+// centre's row span (taps outside add exact zeros). `occlusion` is a constant at each call:
+// the occlusion-free loop does not evaluate it.
+void span_tap(inout Centre c, vec4 pa, vec2 sa, float g_source, float g_centre, float source_radius, float centre_support, float k_source, float k_centre, bool inside, bool is_self, bool occlusion) {
+    float s = smoothstep(0.0, 1.0, source_radius + 0.5 - g_source) * k_source;
     if (occlusion && c.occluder > 0.0 && !is_self) {
         s *= 1.0 - c.occluder * (1.0 - smoothstep(-0.5, 0.0, sa.x - c.s));
     }
@@ -409,6 +410,7 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
     for (int ox = from; ox <= to; ++ox) {
         vec4 pa = texelFetch(source_pa, row + ox);
         vec2 sa = texelFetch(source_sa, row + ox).xy;
+        float lifted = drbokeh_coverage_radius(abs(sa.x));
 #ifdef DRBOKEH_LAYER_GAUGE
         g[0] = offset_gauges(ox, oy);
 #else
@@ -426,17 +428,17 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
             // Sources nearer than focus (s > 0) see the mirrored aperture.
             float g_source = sa.x > 0.0 ? g[k].x : g[k].y;
             float g_centre = c[k].s > 0.0 ? g[k].x : g[k].y;
-            span_tap(c[k], pa, sa, g_source, g_centre, 1.0, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
+            span_tap(c[k], pa, sa, g_source, g_centre, lifted, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
 #elif defined(DRBOKEH_LAYER_RING)
             if (hole) {
                 // -blend(r) S(r, g) S(inner r, g), for the source and the centre.
                 float r = abs(sa.x);
                 float k_source = -smoothstep(APERTURE_KERNEL_FADE_START_PX, APERTURE_KERNEL_FADE_END_PX, r)
-                    * smoothstep(0.0, 1.0, r + 0.5 - g[k]);
+                    * smoothstep(0.0, 1.0, lifted + 0.5 - g[k]);
                 float k_centre = -c[k].ring_blend * smoothstep(0.0, 1.0, c[k].support - g[k]);
-                span_tap(c[k], pa, sa, g[k], g[k], pc.aperture.z, c[k].hole_support, k_source, k_centre, inside, o == 0 && oy == 0, occlusion);
+                span_tap(c[k], pa, sa, g[k], g[k], r * pc.aperture.z, c[k].hole_support, k_source, k_centre, inside, o == 0 && oy == 0, occlusion);
             } else {
-                span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
+                span_tap(c[k], pa, sa, g[k], g[k], lifted, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
             }
 #elif defined(DRBOKEH_LAYER_KERNEL)
             // drbokeh_lens's kernel weight (aperture_kernel_weight) for the source and for the
@@ -452,9 +454,9 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
             float q_source = one_sample ? q_centre : kernel_runs_sample((sa.x > 0.0 ? p : -p) / (r + 0.5));
             float k_source = 1.0 + (q_source - 1.0) * blend;
             float k_centre = 1.0 + (q_centre - 1.0) * c[k].kernel_blend;
-            span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, k_source, k_centre, inside, o == 0 && oy == 0, occlusion);
+            span_tap(c[k], pa, sa, g[k], g[k], lifted, c[k].support, k_source, k_centre, inside, o == 0 && oy == 0, occlusion);
 #else
-            span_tap(c[k], pa, sa, g[k], g[k], 1.0, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
+            span_tap(c[k], pa, sa, g[k], g[k], lifted, c[k].support, 1.0, 1.0, inside, o == 0 && oy == 0, occlusion);
 #endif
         }
         for (int k = RUN - 1; k > 0; --k) {
@@ -465,6 +467,7 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
         }
     }
 }
+
 
 // Sum of (P / A, alpha) over global columns [a, b] of one read row (`base` + x = read index of
 // global column x), from the global 16-px blocks of drbokeh_layer_blocks.comp: within one
@@ -683,7 +686,7 @@ void gather_general(ivec2 x, int h, out vec4 cw, out float vis) {
                 }
             } else {
                 vec2 lens = drbokeh_lens(offset, r_x, rel_x);
-                float d = drbokeh_scatter(r_x, lens.x) * lens.y;
+                float d = drbokeh_footprint(r_x, lens.x) * lens.y;
                 vis_sum += p.w * d;
                 vis_weight += d;
             }

@@ -180,11 +180,12 @@ pub(crate) fn pair_grad(params: &Params, leak: f64, dx: f64, dy: f64, src: &Px, 
     }
 }
 
-/// Default-model visibility weight `D = S(r_x, g) K` of source y at receiver x, and dD/dr_x.
+/// Default-model visibility weight `D = F(r_x, g) K` of source y at receiver x (F the
+/// receiver's footprint), and dD/dr_x.
 pub(crate) fn vis_weight(params: &Params, leak: f64, dx: f64, dy: f64, dst: &Px) -> (f64, f64) {
     let (g, k, dk) = params.lens.lens_d(dx, dy, dst.r, dst.rel);
-    let s = math::scatter(dst.r, g);
-    (s * k, math::leaky(math::d_scatter(dst.r, g), leak) * k + s * dk)
+    let s = math::footprint(dst.r, g);
+    (s * k, math::leaky(math::d_footprint(dst.r, g), leak) * k + s * dk)
 }
 
 impl LensView {

@@ -357,7 +357,7 @@ pub fn grow_windows(mut windows: Vec<i32>, margin: i32) -> Vec<i32> {
 ///   alpha > 0 in the tile's window (square, so a superset of the disk), `f32::MAX` where
 ///   there is none; 0 disables the interior. Only a smaller bound is safe (it shrinks the
 ///   cheap interior), so the margin is generous.
-/// - outer: an upper bound of every such source's support `|s| + 1/2` and of the tile's own
+/// - outer: an upper bound of every such source's support `coverage_radius(|s|) + 1/2` and of the tile's own
 ///   pixels' `|s| + 1/2` (V's reach): taps at least this far add exact zeros, so the shader
 ///   trims its rows to it. Only a larger bound is safe; `f32::MAX` disables the trim.
 /// - orientation: 1 when every such source and every pixel of the tile is nearer than focus
@@ -405,7 +405,14 @@ pub fn span_radii(params: &Params, ranges: &SourceRanges, windows: &[i32], core:
             }
             let m = range.source_min;
             let interior = if m.is_finite() { (m - (1e-3 + 1e-5 * m)).max(0.0) } else { f32::MAX };
-            let reach = range.source_max.max(own_reach) + 0.5;
+            // A source reaches as far as its coverage radius (lifted under a pixel), V as far
+            // as the centre's own radius.
+            let source_reach = if range.source_max.is_finite() {
+                math::coverage_radius(f64::from(range.source_max)) as f32
+            } else {
+                range.source_max
+            };
+            let reach = source_reach.max(own_reach) + 0.5;
             let outer = if reach.is_finite() { reach + (1e-3 + 1e-5 * reach) } else { f32::MAX };
             let orientation = match (near, far) {
                 (true, false) => 1.0,

@@ -139,7 +139,7 @@ fn layer_pixel(params: &Params, layer: &Layer, x: i64, y: i64, h: i64) -> ([f64;
             match params.model {
                 Model::DrBokeh => {
                     let (g, k) = lens.lens(dx, dy, r_x, rel_x);
-                    let d = math::scatter(r_x, g) * k;
+                    let d = math::footprint(r_x, g) * k;
                     vis_sum += alpha_y * d;
                     vis_weight += d;
                 }

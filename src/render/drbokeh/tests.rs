@@ -78,12 +78,57 @@ fn push_constants_match_the_glsl_layout() {
     assert_eq!(std::mem::offset_of!(DrBokehPush, read), 96);
 }
 
+/// Per-axis variance of the lattice weights `math::scatter(r, |offset|)` (a disk aperture).
+fn lattice_variance(r: f64) -> f64 {
+    let half = math::support(r).ceil() as i64;
+    let (mut sum, mut moment) = (0.0, 0.0);
+    for oy in -half..=half {
+        for ox in -half..=half {
+            let w = math::scatter(r, ((ox * ox + oy * oy) as f64).sqrt());
+            sum += w;
+            moment += w * (ox * ox) as f64;
+        }
+    }
+    moment / sum
+}
+
+/// A source's lattice weights blur like the lens's disk, `r^2 / 4` per axis, where the pixel
+/// grid can show it (under 0.7 px the coverage radius is lifted for that); an in-focus source
+/// stays on its own pixel; the lift is continuous, increasing and never below `r`, and
+/// `d_coverage_radius` is its derivative.
+#[test]
+fn sub_pixel_sources_blur_like_the_lens_disk() {
+    assert_eq!(lattice_variance(0.0), 0.0, "an in-focus source reaches a neighbour");
+    assert_eq!(math::scatter(0.0, 1.0), 0.0);
+    for r in [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.65] {
+        let (got, want) = (lattice_variance(r), r * r / 4.0);
+        // Measured: within 0.0041 px^2 (the Hermite rim alone gives 0 up to 0.5 px, 0.050
+        // against 0.090 at 0.6 px).
+        assert!((got - want).abs() < 0.005, "r = {r}: variance {got}, the lens's {want}");
+    }
+    // From 0.7 px the rim is the Hermite one at r itself.
+    for r in [0.7, 0.71, 1.0, 2.5, 9.0] {
+        assert_eq!(math::coverage_radius(r), r);
+    }
+    let mut last = math::coverage_radius(0.0);
+    for i in 1..=2000 {
+        let r = i as f64 * 1e-3;
+        let c = math::coverage_radius(r);
+        assert!(c >= r && c > last, "r = {r}: coverage radius {c} after {last}");
+        let h = 1e-6;
+        let numeric = (math::coverage_radius(r + h) - math::coverage_radius(r - h)) / (2.0 * h);
+        assert!((numeric - math::d_coverage_radius(r)).abs() < 1e-4, "r = {r}: {numeric} vs {}", math::d_coverage_radius(r));
+        last = c;
+    }
+}
+
 #[test]
 fn area_table_is_the_exact_footprint_energy() {
     let (stack, lens) = scene();
     let params = Params::new(&stack, &lens, Model::DrBokeh).unwrap();
-    // r = 0 reaches only its own pixel, where the Hermite rim is exactly 1/2.
-    assert_eq!(params.area(0.0), 0.5);
+    // r = 0 reaches only its own pixel (coverage radius 1/2: the neighbours sit on the rim's
+    // outer end), which it covers whole.
+    assert_eq!(params.area(0.0), 1.0);
     // Large radii approach the continuous integral pi (r^2 + 1/20) (lattice error ~ r^-1/2).
     for r in [6.0, 11.5, 15.9375] {
         let ratio = params.area(r) / (std::f64::consts::PI * (r * r + 0.05));
@@ -199,10 +244,10 @@ fn vignetted_area_is_the_own_shapes_footprint_energy() {
         }
         // Measured at r = 12: 0.9% (pentagon), 1.0% (ellipse). Smaller CoCs are lattice-limited
         // (VIGNETTE_AREA_DIRECTIONS): up to 7.4% and 17% at 2.3 px here, where the vignetted
-        // disk's 17 levels of |a| err by 12% the same way; r = 0 is exact (1/2).
+        // disk's 17 levels of |a| err by 12% the same way; r = 0 is exact (1).
         eprintln!("{base:?}: worst relative area error {worst:?} (small, large CoCs)");
         assert!(worst[1] < 0.015, "{base:?}: area off the own shape's by {worst:?} (small, large CoCs)");
-        assert_eq!(params.area_at(0.0, 0, 0), 0.5);
+        assert_eq!(params.area_at(0.0, 0, 0), 1.0);
     }
 }
 
