@@ -30,23 +30,7 @@ layout(std430, set = 0, binding = 1) readonly buffer Disparity { float disparity
 layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
 layout(std430, set = 0, binding = 3) readonly buffer AreaLut { float area_lut[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Kernel { float kernel_weights[]; };
-// (C, W) and V of the layer, or (`pc.fold`) the running composite and its transmittance.
-layout(std430, set = 0, binding = 5) buffer LayerCw { vec4 layer_cw[]; };
-layout(std430, set = 0, binding = 6) buffer LayerVis { float layer_vis[]; };
-
-// The layer pass's result at a core pixel: stored, or folded into the running composite.
-void drbokeh_layer_out(int i, vec4 cw, float v) {
-    if (pc.fold == 0) {
-        layer_cw[i] = cw;
-        layer_vis[i] = v;
-        return;
-    }
-    vec4 outp = pc.layer == 0 ? vec4(0.0) : layer_cw[i];
-    float transmittance = pc.layer == 0 ? 1.0 : layer_vis[i];
-    drbokeh_composite_step(outp, transmittance, cw, v);
-    layer_cw[i] = outp;
-    layer_vis[i] = transmittance;
-}
+#include "drbokeh_layer_out.glsl"
 
 float drbokeh_area_lut(int index) {
     return area_lut[index];

@@ -73,20 +73,24 @@ int drbokeh_read_index(int l, ivec2 p) {
 
 // math::coverage_radius: the radius of the disk a source of CoC radius r scatters, lifted under
 // 0.7 px so that its lattice weights blur as much as the lens (variance r^2 / 4 per axis);
-// never below r, increasing. Every rim tap of the layer pass evaluates it, so it is written
-// without branches: v = max(u + softness, 0) with u = LIFT_AT_ZERO - LIFT_SLOPE r; the lift is
-// v^2 / (4 softness) up to v = 2 softness, then u (math::lift's three pieces).
+// never below r, increasing. The layer pass evaluates it for every source of its rim taps, so
+// it is written without branches: v = max(u + softness, 0) with u = LIFT_AT_ZERO - LIFT_SLOPE r;
+// the lift is v^2 / (4 softness) up to v = 2 softness, then u (math::lift's three pieces).
 const float DRBOKEH_LIFT_AT_ZERO = 0.5;
 const float DRBOKEH_LIFT_SLOPE = 0.77;
 const float DRBOKEH_LIFT_SOFTNESS = 0.03;
 
-float drbokeh_lift_v(float r) {
-    return max(DRBOKEH_LIFT_AT_ZERO + DRBOKEH_LIFT_SOFTNESS - DRBOKEH_LIFT_SLOPE * r, 0.0);
+// The coverage radius (x) and its slope in r (y); callers of the radius alone leave y unused.
+vec2 drbokeh_coverage_radius_d(float r) {
+    float v = max(DRBOKEH_LIFT_AT_ZERO + DRBOKEH_LIFT_SOFTNESS - DRBOKEH_LIFT_SLOPE * r, 0.0);
+    bool parabola = v <= 2.0 * DRBOKEH_LIFT_SOFTNESS;
+    float lift = parabola ? v * v * (0.25 / DRBOKEH_LIFT_SOFTNESS) : v - DRBOKEH_LIFT_SOFTNESS;
+    float d_lift = parabola ? v * (0.5 / DRBOKEH_LIFT_SOFTNESS) : 1.0;
+    return vec2(r + lift, 1.0 - DRBOKEH_LIFT_SLOPE * d_lift);
 }
 
 float drbokeh_coverage_radius(float r) {
-    float v = drbokeh_lift_v(r);
-    return r + (v <= 2.0 * DRBOKEH_LIFT_SOFTNESS ? v * v * (0.25 / DRBOKEH_LIFT_SOFTNESS) : v - DRBOKEH_LIFT_SOFTNESS);
+    return drbokeh_coverage_radius_d(r).x;
 }
 
 // Hermite-rimmed coverage of the disk of drbokeh_coverage_radius(r): exactly 0 for
@@ -101,9 +105,14 @@ float drbokeh_footprint(float r, float g) {
     return smoothstep(0.0, 1.0, r + 0.5 - g);
 }
 
-// Reach of both drbokeh_scatter and drbokeh_footprint.
+// Reach of drbokeh_scatter (a source's), and so of drbokeh_footprint too.
 float drbokeh_support(float r) {
     return drbokeh_coverage_radius(r) + 0.5;
+}
+
+// Reach of drbokeh_footprint alone (a receiver's in V): its own radius, not the coverage one.
+float drbokeh_footprint_support(float r) {
+    return r + 0.5;
 }
 
 // In-layer occlusion in CoC pixels: an (almost) in-focus, present x blocks a y behind it.

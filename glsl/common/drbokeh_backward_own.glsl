@@ -130,7 +130,7 @@ void main() {
     // visit only that disk; a leak keeps dD/dr_x over the whole square window.
     int pair_half = compat || drbokeh_occludes(dst) ? h : -1;
     vec3 d_own = receiver_pair_terms(x, pair_half, dst, texelFetch(adj_cw, ix));
-    float limit2 = !compat && pc.leaky_slope <= 0.0 ? drbokeh_zero_beyond2(drbokeh_support(dst.r)) : 1.0e30;
+    float limit2 = !compat && pc.leaky_slope <= 0.0 ? drbokeh_zero_beyond2(drbokeh_footprint_support(dst.r)) : 1.0e30;
     vec4 vis = receiver_visibility_sums(x, h, dst, limit2);
     float d_vis = texelFetch(adj_vis, ix).x;
     float vis_norm = 0.0;

@@ -107,7 +107,7 @@ void main() {
                 d_rel += a * pg.rel_y;
             }
             // V(x)'s share is 0 beyond x's own support r_x + 1/2.
-            if (own_share != 0.0 && (compat || o2 < drbokeh_zero_beyond2(drbokeh_support(dst.r)))) {
+            if (own_share != 0.0 && (compat || o2 < drbokeh_zero_beyond2(drbokeh_footprint_support(dst.r)))) {
                 d_p.w += own_share * vis_share(offset, dst);
             }
         }
@@ -198,7 +198,7 @@ void main() {
             DrBokehPx dst = DrBokehPx(rcv.x, s_x, abs(s_x), rcv.y);
             vec4 adj = texelFetch(adj_cw, ix);
             float own_share = rcv.z;
-            float vis_limit2 = drbokeh_zero_beyond2(drbokeh_support(dst.r));
+            float vis_limit2 = drbokeh_zero_beyond2(drbokeh_footprint_support(dst.r));
             // A receiver out of focus or transparent cannot occlude: O = 1 and dO/ds_y = 0
             // exactly, so only lane groups with an occluding receiver evaluate them.
             bool occluding = drbokeh_occludes(dst) && dst.alpha != 0.0;

@@ -14,9 +14,8 @@ float drbokeh_d_smoothstep(float e0, float e1, float x) {
 }
 
 float drbokeh_d_scatter(float r, float g) {
-    float v = drbokeh_lift_v(r);
-    float d_lift = v <= 2.0 * DRBOKEH_LIFT_SOFTNESS ? v * (0.5 / DRBOKEH_LIFT_SOFTNESS) : 1.0;
-    return drbokeh_d_smoothstep(0.0, 1.0, drbokeh_coverage_radius(r) + 0.5 - g) * (1.0 - DRBOKEH_LIFT_SLOPE * d_lift);
+    vec2 coverage = drbokeh_coverage_radius_d(r);
+    return drbokeh_d_smoothstep(0.0, 1.0, coverage.x + 0.5 - g) * coverage.y;
 }
 
 float drbokeh_d_footprint(float r, float g) {

@@ -37,23 +37,7 @@ layout(local_size_x = 8, local_size_y = 16, local_size_z = 1) in;
 
 #include "drbokeh_inputs.glsl"
 layout(std430, set = 0, binding = 2) readonly buffer TileWindow { int tile_window[]; };
-// (C, W) and V of the layer, or (`pc.fold`) the running composite and its transmittance.
-layout(std430, set = 0, binding = 5) buffer LayerCw { vec4 layer_cw[]; };
-layout(std430, set = 0, binding = 6) buffer LayerVis { float layer_vis[]; };
-
-// The layer pass's result at a core pixel: stored, or folded into the running composite.
-void drbokeh_layer_out(int i, vec4 cw, float v) {
-    if (pc.fold == 0) {
-        layer_cw[i] = cw;
-        layer_vis[i] = v;
-        return;
-    }
-    vec4 outp = pc.layer == 0 ? vec4(0.0) : layer_cw[i];
-    float transmittance = pc.layer == 0 ? 1.0 : layer_vis[i];
-    drbokeh_composite_step(outp, transmittance, cw, v);
-    layer_cw[i] = outp;
-    layer_vis[i] = transmittance;
-}
+#include "drbokeh_layer_out.glsl"
 // source_pa = P / A (vec4), source_sa = (s, alpha): texel buffers too.
 layout(set = 0, binding = 7) uniform samplerBuffer source_pa;
 layout(set = 0, binding = 8) uniform samplerBuffer source_sa;
@@ -467,7 +451,6 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
         }
     }
 }
-
 
 // Sum of (P / A, alpha) over global columns [a, b] of one read row (`base` + x = read index of
 // global column x), from the global 16-px blocks of drbokeh_layer_blocks.comp: within one

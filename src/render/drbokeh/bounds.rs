@@ -357,9 +357,9 @@ pub fn grow_windows(mut windows: Vec<i32>, margin: i32) -> Vec<i32> {
 ///   alpha > 0 in the tile's window (square, so a superset of the disk), `f32::MAX` where
 ///   there is none; 0 disables the interior. Only a smaller bound is safe (it shrinks the
 ///   cheap interior), so the margin is generous.
-/// - outer: an upper bound of every such source's support `coverage_radius(|s|) + 1/2` and of the tile's own
-///   pixels' `|s| + 1/2` (V's reach): taps at least this far add exact zeros, so the shader
-///   trims its rows to it. Only a larger bound is safe; `f32::MAX` disables the trim.
+/// - outer: an upper bound of every such source's support `coverage_radius(|s|) + 1/2` and of
+///   the tile's own pixels' `|s| + 1/2` (V's reach): taps at least this far add exact zeros,
+///   so the shader trims its rows to it. Only a larger bound is safe; `f32::MAX` disables the trim.
 /// - orientation: 1 when every such source and every pixel of the tile is nearer than focus
 ///   (f32 `s > 0`), -1 when every one is not, 0 when both occur. The gauge path then bounds
 ///   its rows by the aperture alone (1) or its mirror alone (-1), not by both.
