@@ -71,14 +71,27 @@ int drbokeh_read_index(int l, ivec2 p) {
 
 // ---------------------------------------------------------------- default model
 
-// math::coverage_radius: the radius of the disk a source of CoC radius r scatters, lifted under
-// 0.7 px so that its lattice weights blur as much as the lens (variance r^2 / 4 per axis);
-// never below r, increasing. The layer pass evaluates it for every source of its rim taps, so
-// it is written without branches: v = max(u + softness, 0) with u = LIFT_AT_ZERO - LIFT_SLOPE r;
-// the lift is v^2 / (4 softness) up to v = 2 softness, then u (math::lift's three pieces).
+// math::coverage_radius: the radius of the disk a source of CoC radius r scatters, chosen so that
+// its lattice weights blur as much as the lens (variance r^2 / 4 per axis): lifted under 0.7
+// px, dipped below r over 0.7-2.65 px (math::DIPS), r itself beyond; increasing. The layer pass
+// evaluates it for every source of its rim taps, so it is written without branches: for the
+// lift, v = max(u + softness, 0) with u = LIFT_AT_ZERO - LIFT_SLOPE r, the lift being
+// v^2 / (4 softness) up to v = 2 softness, then u (math::lift's three pieces); each dip is a
+// product of two clamped Hermite ramps.
 const float DRBOKEH_LIFT_AT_ZERO = 0.5;
 const float DRBOKEH_LIFT_SLOPE = 0.77;
 const float DRBOKEH_LIFT_SOFTNESS = 0.03;
+// Per dip: (rise from, rise width, fall from, fall width); heights apart.
+const vec4 DRBOKEH_DIP_0 = vec4(0.605, 0.415, 1.393, 0.245);
+const vec4 DRBOKEH_DIP_1 = vec4(1.778, 0.477, 2.331, 0.317);
+const vec2 DRBOKEH_DIP_HEIGHTS = vec2(0.181, 0.121);
+
+// The clamped ramp parameters t of a point r: (rise 0, fall 0, rise 1, fall 1).
+vec4 drbokeh_dip_ramps(float r) {
+    vec4 from = vec4(DRBOKEH_DIP_0.xz, DRBOKEH_DIP_1.xz);
+    vec4 width = vec4(DRBOKEH_DIP_0.yw, DRBOKEH_DIP_1.yw);
+    return clamp((vec4(r) - from) / width, 0.0, 1.0);
+}
 
 // The coverage radius (x) and its slope in r (y); callers of the radius alone leave y unused.
 vec2 drbokeh_coverage_radius_d(float r) {
@@ -86,7 +99,12 @@ vec2 drbokeh_coverage_radius_d(float r) {
     bool parabola = v <= 2.0 * DRBOKEH_LIFT_SOFTNESS;
     float lift = parabola ? v * v * (0.25 / DRBOKEH_LIFT_SOFTNESS) : v - DRBOKEH_LIFT_SOFTNESS;
     float d_lift = parabola ? v * (0.5 / DRBOKEH_LIFT_SOFTNESS) : 1.0;
-    return vec2(r + lift, 1.0 - DRBOKEH_LIFT_SLOPE * d_lift);
+    vec4 t = drbokeh_dip_ramps(r);
+    vec4 ramp = t * t * (3.0 - 2.0 * t);
+    vec4 d_ramp = 6.0 * t * (1.0 - t) / vec4(DRBOKEH_DIP_0.yw, DRBOKEH_DIP_1.yw);
+    vec2 dip = DRBOKEH_DIP_HEIGHTS * ramp.xz * (1.0 - ramp.yw);
+    vec2 d_dip = DRBOKEH_DIP_HEIGHTS * (d_ramp.xz * (1.0 - ramp.yw) - ramp.xz * d_ramp.yw);
+    return vec2(r + lift - dip.x - dip.y, 1.0 - DRBOKEH_LIFT_SLOPE * d_lift - d_dip.x - d_dip.y);
 }
 
 float drbokeh_coverage_radius(float r) {
@@ -105,9 +123,10 @@ float drbokeh_footprint(float r, float g) {
     return smoothstep(0.0, 1.0, r + 0.5 - g);
 }
 
-// Reach of drbokeh_scatter (a source's), and so of drbokeh_footprint too.
+// Reach of a pixel of CoC radius r: of drbokeh_scatter (a source's) and of drbokeh_footprint
+// (a receiver's), the larger (math::support).
 float drbokeh_support(float r) {
-    return drbokeh_coverage_radius(r) + 0.5;
+    return max(drbokeh_coverage_radius(r), r) + 0.5;
 }
 
 // Reach of drbokeh_footprint alone (a receiver's in V): its own radius, not the coverage one.

@@ -36,8 +36,50 @@ fn lift(u: f64) -> (f64, f64) {
     }
 }
 
-/// The radius whose Hermite-rimmed disk a source of CoC radius `r` scatters: `r` itself from
-/// 0.7 px up, larger below, so that the disk's lattice weights blur as much as the lens does.
+/// A dip of [`coverage_radius`] below `r`: `height` times a Hermite rise over
+/// `[rise_from, rise_from + rise_width]` times a Hermite fall over `[fall_from, fall_from +
+/// fall_width]` (so C1, and exactly 0 outside `[rise_from, fall_from + fall_width]`).
+struct Dip {
+    rise_from: f64,
+    rise_width: f64,
+    fall_from: f64,
+    fall_width: f64,
+    height: f64,
+}
+
+/// The two dips where the Hermite rim at `r` blurs more than the lens: up to 40% too much
+/// variance over 0.7-1.6 px and up to 12% over 1.8-2.6 px (the rim crossing the lattice's
+/// first rings). Fitted to the lattice variance `r^2 / 4` (least squares of the relative error
+/// over 0.55-2.75 px; the curve that matches it exactly wobbles with the rings, between
+/// `r - 0.2` and `r + 0.02`). Past 2.65 px, within 4% of the lens, the rim is left at `r`.
+const DIPS: [Dip; 2] = [
+    Dip { rise_from: 0.605, rise_width: 0.415, fall_from: 1.393, fall_width: 0.245, height: 0.181 },
+    Dip { rise_from: 1.778, rise_width: 0.477, fall_from: 2.331, fall_width: 0.317, height: 0.121 },
+];
+
+/// Where the last dip ends: [`coverage_radius`] is `r` itself from here on.
+pub const COVERAGE_EXACT_FROM_PX: f64 = 2.648;
+
+/// The Hermite ramp `smoothstep(0, 1, (x - from) / width)` and its derivative in `x`.
+#[inline]
+fn ramp(from: f64, width: f64, x: f64) -> (f64, f64) {
+    let t = ((x - from) / width).clamp(0.0, 1.0);
+    (t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t) / width)
+}
+
+/// The sum of the [`DIPS`] at `r`, and its derivative.
+#[inline]
+fn dips(r: f64) -> (f64, f64) {
+    DIPS.iter().fold((0.0, 0.0), |(sum, slope), dip| {
+        let (rise, d_rise) = ramp(dip.rise_from, dip.rise_width, r);
+        let (fall, d_fall) = ramp(dip.fall_from, dip.fall_width, r);
+        (sum + dip.height * rise * (1.0 - fall), slope + dip.height * (d_rise * (1.0 - fall) - rise * d_fall))
+    })
+}
+
+/// The radius whose Hermite-rimmed disk a source of CoC radius `r` scatters, chosen so that
+/// the disk's lattice weights blur as much as the lens does: larger than `r` under 0.7 px,
+/// smaller over 0.7-2.65 px, `r` itself from 2.65 px on.
 ///
 /// Why: a thin lens spreads a point over a disk of radius `r`, whose variance along each axis
 /// is `r^2 / 4`. The 1-px Hermite rim of radius `r` reaches no neighbour at all below
@@ -45,21 +87,23 @@ fn lift(u: f64) -> (f64, f64) {
 /// its own pixel's), so a background blurred 0.5-0.65 px behind an in-focus fence came out
 /// as sharp as the pinhole input, below the plain gather (the Cycles dev split's dev-96; the
 /// test split's in-focus fences, issue 46). Lifted to `r + 0.5 - 0.77 r`, the lattice
-/// variance follows `r^2 / 4` within 0.005 px^2 up to 0.65 px (the exact solution is 0.5,
-/// 0.542, 0.588, 0.642 at r = 0, 0.2, 0.4, 0.6). From 0.7 px on the rim is left as it was:
-/// the light discs want its Hermite edge, which a linear rim for every radius cost up to
-/// 1.5 dB. At `r = 0` the radius is 1/2, which still reaches only the source's own pixel, so
-/// an in-focus pixel stays exact. Never below `r` (the layer shader's interior sums rely on
-/// it) and increasing (slope >= 0.23), so every bound taken at the largest radius holds.
+/// variance follows `r^2 / 4` within 0.005 px^2 up to 0.6 px (the exact solution is 0.5,
+/// 0.542, 0.588, 0.642 at r = 0, 0.2, 0.4, 0.6). Over 0.7-2.65 px the rim at `r` blurs up to
+/// 40% too much (0.351 against 0.250 px^2 at 1 px): every small light disc came out wide.
+/// The [`DIPS`] take that back, within 4% of the lens's variance from 0.7 px on. At `r = 0`
+/// the radius is 1/2, which still reaches only the source's own pixel, so an in-focus pixel
+/// stays exact. Increasing (slope >= 0.19), so bounds taken at the smallest or the largest
+/// radius hold; but below `r` over the dips, so a pixel's reach is [`support`], the larger of
+/// this disk's and its own footprint's.
 #[inline]
 pub fn coverage_radius(r: f64) -> f64 {
-    r + lift(LIFT_AT_ZERO - LIFT_SLOPE * r).0
+    r + lift(LIFT_AT_ZERO - LIFT_SLOPE * r).0 - dips(r).0
 }
 
 /// d/dr of [`coverage_radius`].
 #[inline]
 pub fn d_coverage_radius(r: f64) -> f64 {
-    1.0 - LIFT_SLOPE * lift(LIFT_AT_ZERO - LIFT_SLOPE * r).1
+    1.0 - LIFT_SLOPE * lift(LIFT_AT_ZERO - LIFT_SLOPE * r).1 - dips(r).1
 }
 
 /// Soft coverage of a pixel at gauge distance `g` by a source of CoC radius `r`: a 1-px Hermite
@@ -80,10 +124,11 @@ pub fn footprint(r: f64, g: f64) -> f64 {
     smoothstep(0.0, 1.0, r + 0.5 - g)
 }
 
-/// Farthest gauge distance at which [`scatter`] (and so [`footprint`]) is non-zero.
+/// Farthest gauge distance at which a pixel of CoC radius `r` weighs anything: as a source
+/// ([`scatter`], its coverage radius) or as a receiver ([`footprint`], its own radius).
 #[inline]
 pub fn support(r: f64) -> f64 {
-    coverage_radius(r) + 0.5
+    coverage_radius(r).max(r) + 0.5
 }
 
 /// In-layer occlusion O(y, x) in CoC pixels. `x` blocks `y` when `x` is (almost) in focus,
