@@ -144,20 +144,33 @@ float drbokeh_occlusion(float s_y, float s_x, float r_x, float alpha_x, bool is_
     return 1.0 - alpha_x * in_focus * behind;
 }
 
-// Area normalisation: exact lattice sums tabulated on the host, linear between entries,
-// then the r^2 + 1/20 growth of the continuous integral.
-// `level`: which of a vignetted lens's tables (0 otherwise).
-float drbokeh_area_in(float r, int level) {
+// Area normalisation: exact lattice sums tabulated on the host, a Catmull-Rom spline through
+// the entries (math::area_from_lut says why), then the r^2 + 1/20 growth of the continuous
+// integral. `level`: which of a vignetted lens's tables (0 otherwise).
+// The four entries around r's segment of table `level` (the ends extended in a straight line),
+// and r's place t in it: (p0, p1, p2, p3), t.
+vec4 drbokeh_area_segment(float r, int level, out float t) {
     int base = level * pc.area_count;
+    int last = pc.area_count - 1;
+    float f = r / pc.area_step;
+    int i = min(int(floor(f)), last - 1);
+    t = f - float(i);
+    float p1 = drbokeh_area_lut(base + i);
+    float p2 = drbokeh_area_lut(base + i + 1);
+    float p0 = i > 0 ? drbokeh_area_lut(base + i - 1) : 2.0 * p1 - p2;
+    float p3 = i + 2 <= last ? drbokeh_area_lut(base + i + 2) : 2.0 * p2 - p1;
+    return vec4(p0, p1, p2, p3);
+}
+
+float drbokeh_area_in(float r, int level) {
     int last = pc.area_count - 1;
     float r_last = float(last) * pc.area_step;
     if (r >= r_last) {
-        return drbokeh_area_lut(base + last) * (r * r + 0.05) / (r_last * r_last + 0.05);
+        return drbokeh_area_lut(level * pc.area_count + last) * (r * r + 0.05) / (r_last * r_last + 0.05);
     }
-    float f = r / pc.area_step;
-    int i = min(int(floor(f)), last - 1);
-    float t = f - float(i);
-    return drbokeh_area_lut(base + i) * (1.0 - t) + drbokeh_area_lut(base + i + 1) * t;
+    float t;
+    vec4 p = drbokeh_area_segment(r, level, t);
+    return p.y + 0.5 * t * (p.z - p.x + t * (2.0 * p.x - 5.0 * p.y + 4.0 * p.z - p.w + t * (3.0 * (p.y - p.z) + p.w - p.x)));
 }
 
 float drbokeh_area(float r) {

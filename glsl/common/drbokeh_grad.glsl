@@ -28,8 +28,10 @@ float drbokeh_d_area(float r) {
     if (r >= r_last) {
         return drbokeh_area_lut(last) * 2.0 * r / (r_last * r_last + 0.05);
     }
-    int i = min(int(floor(r / pc.area_step)), last - 1);
-    return (drbokeh_area_lut(i + 1) - drbokeh_area_lut(i)) / pc.area_step;
+    float t;
+    vec4 p = drbokeh_area_segment(r, 0, t);
+    float d_t = 0.5 * (p.z - p.x) + t * (2.0 * p.x - 5.0 * p.y + 4.0 * p.z - p.w) + 1.5 * t * t * (3.0 * (p.y - p.z) + p.w - p.x);
+    return d_t / pc.area_step;
 }
 
 float drbokeh_d_existence_gate(float w) {
