@@ -86,22 +86,17 @@ const vec4 DRBOKEH_DIP_0 = vec4(0.605, 0.415, 1.393, 0.245);
 const vec4 DRBOKEH_DIP_1 = vec4(1.778, 0.477, 2.331, 0.317);
 const vec2 DRBOKEH_DIP_HEIGHTS = vec2(0.181, 0.121);
 
-// The clamped ramp parameters t of a point r: (rise 0, fall 0, rise 1, fall 1).
-vec4 drbokeh_dip_ramps(float r) {
-    vec4 from = vec4(DRBOKEH_DIP_0.xz, DRBOKEH_DIP_1.xz);
-    vec4 width = vec4(DRBOKEH_DIP_0.yw, DRBOKEH_DIP_1.yw);
-    return clamp((vec4(r) - from) / width, 0.0, 1.0);
-}
-
 // The coverage radius (x) and its slope in r (y); callers of the radius alone leave y unused.
 vec2 drbokeh_coverage_radius_d(float r) {
     float v = max(DRBOKEH_LIFT_AT_ZERO + DRBOKEH_LIFT_SOFTNESS - DRBOKEH_LIFT_SLOPE * r, 0.0);
     bool parabola = v <= 2.0 * DRBOKEH_LIFT_SOFTNESS;
     float lift = parabola ? v * v * (0.25 / DRBOKEH_LIFT_SOFTNESS) : v - DRBOKEH_LIFT_SOFTNESS;
     float d_lift = parabola ? v * (0.5 / DRBOKEH_LIFT_SOFTNESS) : 1.0;
-    vec4 t = drbokeh_dip_ramps(r);
+    // The dips' four ramps: (rise 0, fall 0, rise 1, fall 1).
+    vec4 width = vec4(DRBOKEH_DIP_0.yw, DRBOKEH_DIP_1.yw);
+    vec4 t = clamp((vec4(r) - vec4(DRBOKEH_DIP_0.xz, DRBOKEH_DIP_1.xz)) / width, 0.0, 1.0);
     vec4 ramp = t * t * (3.0 - 2.0 * t);
-    vec4 d_ramp = 6.0 * t * (1.0 - t) / vec4(DRBOKEH_DIP_0.yw, DRBOKEH_DIP_1.yw);
+    vec4 d_ramp = 6.0 * t * (1.0 - t) / width;
     vec2 dip = DRBOKEH_DIP_HEIGHTS * ramp.xz * (1.0 - ramp.yw);
     vec2 d_dip = DRBOKEH_DIP_HEIGHTS * (d_ramp.xz * (1.0 - ramp.yw) - ramp.xz * d_ramp.yw);
     return vec2(r + lift - dip.x - dip.y, 1.0 - DRBOKEH_LIFT_SLOPE * d_lift - d_dip.x - d_dip.y);

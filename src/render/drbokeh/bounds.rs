@@ -354,8 +354,8 @@ pub fn grow_windows(mut windows: Vec<i32>, margin: i32) -> Vec<i32> {
 /// Bounds of the span paths' taps per layer and search tile of the frame tile `core` (the
 /// `tile_radii` vec4 buffer of `drbokeh_layer_{disk,gauge}.comp`, indexed like `windows`):
 /// - interior: a lower bound of the f32 `|s|` and of the coverage radius the shader computes
-///   for every source with alpha > 0 in the tile's window (square, so a superset of the disk), `f32::MAX` where
-///   there is none; 0 disables the interior. Only a smaller bound is safe (it shrinks the
+///   for every source with alpha > 0 in the tile's window (square, so a superset of the
+///   disk), `f32::MAX` where there is none; 0 disables the interior. Only a smaller bound is safe (it shrinks the
 ///   cheap interior), so the margin is generous.
 /// - outer: an upper bound of every such source's support `coverage_radius(|s|) + 1/2` and of
 ///   the tile's own pixels' `|s| + 1/2` (V's reach): taps at least this far add exact zeros,
@@ -406,8 +406,12 @@ pub fn span_radii(params: &Params, ranges: &SourceRanges, windows: &[i32], core:
             // Every source covers at least the smaller of its own radius and its coverage
             // radius (below it over the dips), both increasing in |s|.
             let m = range.source_min;
-            let m = if m.is_finite() { m.min(math::coverage_radius(f64::from(m)) as f32) } else { m };
-            let interior = if m.is_finite() { (m - (1e-3 + 1e-5 * m)).max(0.0) } else { f32::MAX };
+            let interior = if m.is_finite() {
+                let covered = m.min(math::coverage_radius(f64::from(m)) as f32);
+                (covered - (1e-3 + 1e-5 * covered)).max(0.0)
+            } else {
+                f32::MAX
+            };
             // A source reaches as far as its coverage radius, V as far as the centre's own
             // radius.
             let source_reach = if range.source_max.is_finite() {

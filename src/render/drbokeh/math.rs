@@ -57,8 +57,8 @@ const DIPS: [Dip; 2] = [
     Dip { rise_from: 1.778, rise_width: 0.477, fall_from: 2.331, fall_width: 0.317, height: 0.121 },
 ];
 
-/// Where the last dip ends: [`coverage_radius`] is `r` itself from here on.
-pub const COVERAGE_EXACT_FROM_PX: f64 = 2.648;
+/// Where the last dip ends (2.648 px): [`coverage_radius`] is `r` itself from here on.
+pub const COVERAGE_EXACT_FROM_PX: f64 = DIPS[DIPS.len() - 1].fall_from + DIPS[DIPS.len() - 1].fall_width;
 
 /// The Hermite ramp `smoothstep(0, 1, (x - from) / width)` and its derivative in `x`.
 #[inline]
