@@ -38,12 +38,12 @@ fn raytrace_writes_the_pinhole_image_true_layers_defocus_and_camera() {
 }
 
 #[test]
-fn bench_prints_the_table_writes_json_and_sheet_and_runs_without_vulkan() {
+fn bench_prints_the_table_writes_json_sheet_and_renders_and_runs_without_vulkan() {
     let dir = common::temp_dir("cli-bench", "bench");
-    let (cache, json, sheet) = (dir.join("cache"), dir.join("bench.json"), dir.join("sheet.png"));
+    let (cache, json, sheet, renders) = (dir.join("cache"), dir.join("bench.json"), dir.join("sheet.png"), dir.join("renders"));
     let common = ["bench", "quality", "--quick", "--scenes", "small-coc", "--cache", path(&cache)];
     let mut args = common.to_vec();
-    args.extend(["--methods", "oracle,drbokeh,gather", "--json", path(&json), "--sheet", path(&sheet)]);
+    args.extend(["--methods", "oracle,drbokeh,gather", "--json", path(&json), "--sheet", path(&sheet), "--renders", path(&renders)]);
     let (table, _) = run_ok(&args, &[]);
     for row in ["oracle ", "drbokeh ", "gather ", "PSNR dB", "mean over 1 scene(s) (small-coc)"] {
         assert!(table.contains(row), "'{row}' missing from the table:\n{table}");
@@ -61,6 +61,15 @@ fn bench_prints_the_table_writes_json_and_sheet_and_runs_without_vulkan() {
     assert!(drbokeh > oracle - 2.0 && oracle > 35.0, "drbokeh {drbokeh} dB vs oracle {oracle} dB");
     let sheet = image::open(&sheet).expect("the sheet is a PNG");
     assert!(sheet.width() > 4 * 128 && sheet.height() > 2 * 96, "sheet {}x{}", sheet.width(), sheet.height());
+    // Every render as float EXR beside the truth and the input; the drbokeh render read back
+    // scores what the table says (the report rounds to 1e-9, the EXR holds the f32 pixels).
+    let read = |name: &str| lensblur::stack::read_rgba(&renders.join("small-coc").join(format!("{name}.exr")), None, u64::MAX).unwrap_or_else(|e| panic!("{name}.exr: {e}"));
+    let [truth, pinhole, drbokeh_render] = ["truth", "pinhole", "drbokeh"].map(read);
+    for name in ["oracle", "gather"] {
+        assert_eq!((read(name).width, read(name).height), (pinhole.width, pinhole.height), "{name}.exr size");
+    }
+    let reread = lensblur::metrics::compare(&drbokeh_render, &truth).expect("same sizes").psnr;
+    assert!((reread - drbokeh).abs() < 1e-3, "drbokeh.exr scores {reread} dB, the table {drbokeh} dB");
 
     // Without Vulkan (the ground truth now comes from the cache): the CPU methods only.
     let (table, warning) = run_ok(&common, &common::NO_VULKAN);

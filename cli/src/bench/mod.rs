@@ -85,6 +85,10 @@ pub struct TruthArgs {
     /// Write a labelled contact sheet of all renders and error maps as PNG.
     #[arg(long, value_name = "FILE.png")]
     pub sheet: Option<PathBuf>,
+    /// Write every render as float EXR, `DIR/SCENE/METHOD.exr`, beside the scene's
+    /// `truth.exr` and `pinhole.exr`, for a closer look than the contact sheet gives.
+    #[arg(long, value_name = "DIR")]
+    pub renders: Option<PathBuf>,
 }
 
 impl TruthArgs {
@@ -112,8 +116,27 @@ impl TruthArgs {
             write_png(&contact_sheet(truths, report)?, path)?;
             eprintln!("wrote {} (error scale: 0 to {HEAT_MAX} in display values)", path.display());
         }
+        if let Some(dir) = &self.renders {
+            write_renders(dir, truths, report)?;
+            eprintln!("wrote the renders under {}", dir.display());
+        }
         Ok(())
     }
+}
+
+/// `DIR/SCENE/{truth,pinhole,METHOD}.exr`, linear float RGBA as the methods returned them.
+fn write_renders(dir: &std::path::Path, truths: &[GroundTruth], report: &BenchReport) -> anyhow::Result<()> {
+    let options = lensblur::stack::WriteOptions { sample_type: lensblur::stack::SampleType::Float, ..Default::default() };
+    for ((scene, renders), truth) in report.scenes.iter().zip(&report.renders).zip(truths) {
+        let folder = dir.join(scene);
+        std::fs::create_dir_all(&folder).with_context(|| format!("creating {}", folder.display()))?;
+        let named = [("truth", &truth.defocused), ("pinhole", &truth.pinhole)].into_iter();
+        let methods = report.methods.iter().map(|m| m.name.as_str()).zip(renders);
+        for (name, image) in named.chain(methods) {
+            lensblur::stack::write_image(&folder.join(format!("{name}.exr")), image, &options)?;
+        }
+    }
+    Ok(())
 }
 
 fn bar(prefix: &str, unit: &str) -> anyhow::Result<ProgressBar> {
