@@ -485,12 +485,14 @@ fn a_lamp_behind_an_in_focus_wire_leaves_the_wire_layer_even_where_it_lights_the
     let (front, back) = (&stack.layers[0].rgba, &stack.layers[1].rgba);
     // The lamp's light the back layer shows past the wire, (1 - alpha) times its colour, of
     // all the lamp's light (its pixels over 1): 0.3% when the sharp layer kept it all, 17%
-    // now. Not more: the matte's foreground estimate over the lamp absorbs the light too
-    // (it is solved to explain each pixel's colour), and the front keeps what it explains.
+    // with the light held to the wire's colour, 7% since the wire's thin-line prior is trusted
+    // (its pixels above and below the lamp pull the matte towards the wire). Not more: the
+    // matte's foreground estimate over the lamp absorbs the light too (it is solved to
+    // explain each pixel's colour), and the front keeps what it explains.
     let lamp: Vec<(usize, usize)> = (12..20).flat_map(|y| (12..20).map(move |x| (x, y))).filter(|&(x, y)| image.get(x, y)[0] > 1.0).collect();
     let shown: f32 = lamp.iter().map(|&(x, y)| (1.0 - front.get(x, y)[3]) * back.get(x, y)[0]).sum();
     let total: f32 = lamp.iter().map(|&(x, y)| image.get(x, y)[0]).sum();
-    assert!(shown > 0.1 * total, "the back layer shows {shown} of the lamp's {total}");
+    assert!(shown > 0.05 * total, "the back layer shows {shown} of the lamp's {total}");
     let err = max_diff(&composite(&stack), &image);
     assert!(err < 3e-3, "composite differs from the input by {err}");
 }
