@@ -28,7 +28,7 @@
 //!    way from where it is seen (1 own, 0 farther), so a layer continues under a wire only
 //!    where it is seen on both sides, not across the sky behind it.
 use rayon::prelude::*;
-use super::fill::{compress, expand, mirror_sources, push_pull};
+use super::fill::{compress, expand, is_hdr, mirror_sources, push_pull, run_from};
 use super::matting::{solve_matte, Matte, MatteOptions};
 use super::spill_depth::{assign_spill_depth, upper_median};
 use super::{Layer, LayerStack};
@@ -338,10 +338,6 @@ fn band_pairs(
     out
 }
 
-fn is_hdr(c: [f32; 4]) -> bool {
-    c[0].max(c[1]).max(c[2]) > 1.0
-}
-
 /// Mean colour (range-compressed) of non-band pixels of layer `l` around (x, y), searching
 /// wider if needed, then among its band pixels.
 fn local_colour(
@@ -539,29 +535,30 @@ fn compact_light_behind(image: &Image, label: &[usize], p: usize, front: usize, 
 /// back (dev-90 of issue 46: 30.36 -> 31.74 dB with this test). A lamp seen through a fence is
 /// a blob, 2-8 px across at 256^2 (ratios 2 to 5 scored the same on the dev split).
 fn elongated_light(image: &Image, p: usize) -> bool {
-    let (w, h) = (image.width as i64, image.height as i64);
-    let lit = |x: i64, y: i64| x >= 0 && y >= 0 && x < w && y < h && is_hdr(image.pixels[(y * w + x) as usize]);
-    // HDR pixels from (x, y) on, one way along (dx, dy), not counting (x, y).
-    let reach = |x: i64, y: i64, dx: i64, dy: i64| (1..=ELONGATED_RUN_MAX).take_while(|&s| lit(x + s * dx, y + s * dy)).count() as i64;
-    let (x, y) = ((p % image.width) as i64, (p / image.width) as i64);
+    let (w, h) = (image.width, image.height);
+    let run = |q: usize, (dx, dy): (i64, i64)| {
+        let lit = |r: usize| is_hdr(image.pixels[r]);
+        (run_from(w, h, q, (-dx, -dy), ELONGATED_RUN_MAX, lit), run_from(w, h, q, (dx, dy), ELONGATED_RUN_MAX, lit))
+    };
     // Each direction with its perpendicular: rows and columns, and the two diagonals. The run
     // across is taken at the middle of the run along, so that from a lamp's rim, where a run
     // towards its centre is long and the rim itself short, the run across is the lamp's width.
-    [((1, 0), (0, 1)), ((0, 1), (1, 0)), ((1, 1), (1, -1)), ((1, -1), (1, 1))].into_iter().any(|((dx, dy), (ax, ay))| {
-        let (back, ahead) = (reach(x, y, -dx, -dy), reach(x, y, dx, dy));
+    [((1, 0), (0, 1)), ((0, 1), (1, 0)), ((1, 1), (1, -1)), ((1, -1), (1, 1))].into_iter().any(|(along_step, across_step)| {
+        let (back, ahead) = run(p, along_step);
         let along = back + ahead + 1;
-        let (mx, my) = (x + (ahead - back) / 2 * dx, y + (ahead - back) / 2 * dy);
-        let across = reach(mx, my, ax, ay) + reach(mx, my, -ax, -ay) + 1;
-        along >= ELONGATED_MIN_PX && along >= ELONGATED_RATIO * across
+        let shift = (ahead as i64 - back as i64) / 2;
+        let middle = (p as i64 + shift * (along_step.1 * w as i64 + along_step.0)) as usize;
+        let (left, right) = run(middle, across_step);
+        along >= ELONGATED_MIN_PX && along >= ELONGATED_RATIO * (left + right + 1)
     })
 }
 
 /// Shortest run of HDR pixels [`elongated_light`] calls a line.
-const ELONGATED_MIN_PX: i64 = 6;
+const ELONGATED_MIN_PX: usize = 6;
 /// How much longer than its width a line of light is, for [`elongated_light`].
-const ELONGATED_RATIO: i64 = 3;
+const ELONGATED_RATIO: usize = 3;
 /// How far [`elongated_light`] follows a run each way (a line is found long before).
-const ELONGATED_RUN_MAX: i64 = 16;
+const ELONGATED_RUN_MAX: usize = 16;
 
 /// How far the brightest farther pixel must stand out for [`compact_light_behind`].
 const COMPACT_LIGHT_RATIO: f32 = 2.0;

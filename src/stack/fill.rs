@@ -18,6 +18,24 @@ pub(crate) fn compress(c: [f32; 4]) -> [f32; 4] {
     [c[0] * s, c[1] * s, c[2] * s, c[3]]
 }
 
+/// Whether a colour is brighter than display white in any channel: a light, for the rules of
+/// the auto-layering and the matte that treat lights apart.
+pub(crate) fn is_hdr(c: [f32; 4]) -> bool {
+    c[0].max(c[1]).max(c[2]) > 1.0
+}
+
+/// How many pixels in a row from pixel `p` on (not counting it), one way along `step`, `lit`
+/// accepts, up to `max`: one side of a run through `p` (the image's edge ends it).
+pub(crate) fn run_from(width: usize, height: usize, p: usize, step: (i64, i64), max: usize, lit: impl Fn(usize) -> bool) -> usize {
+    let (x, y) = ((p % width) as i64, (p / width) as i64);
+    (1..=max as i64)
+        .take_while(|&k| {
+            let (qx, qy) = (x + k * step.0, y + k * step.1);
+            qx >= 0 && qy >= 0 && qx < width as i64 && qy < height as i64 && lit(qy as usize * width + qx as usize)
+        })
+        .count()
+}
+
 /// The inverse of [`compress`].
 pub(crate) fn expand(c: [f32; 4]) -> [f32; 4] {
     let s = 1.0 / (1.0 - c[0].max(c[1]).max(c[2]).clamp(0.0, 0.999));

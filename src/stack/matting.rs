@@ -21,7 +21,7 @@
 //! wires keeps its energy in B.
 use rayon::prelude::*;
 
-use super::fill::{compress, expand, push_pull};
+use super::fill::{compress, expand, is_hdr, push_pull, run_from};
 
 /// Parameters of [`solve_matte`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -296,33 +296,25 @@ pub const THIN_RUN_PX: usize = 2;
 /// Whether front pixel `p` lies on a structure at most [`THIN_RUN_PX`] wide: its run of front
 /// pixels along its row or its column is that short.
 fn is_thin(front: &[bool], width: usize, height: usize, p: usize) -> bool {
-    let (x, y) = (p % width, p / width);
-    let run = |dx: isize, dy: isize| -> usize {
-        let reach = |sign: isize| {
-            (1..=THIN_RUN_PX as isize)
-                .take_while(|&k| {
-                    let (qx, qy) = (x as isize + sign * k * dx, y as isize + sign * k * dy);
-                    qx >= 0 && qy >= 0 && (qx as usize) < width && (qy as usize) < height && front[qy as usize * width + qx as usize]
-                })
-                .count()
-        };
-        1 + reach(-1) + reach(1)
+    let run = |dx: i64, dy: i64| {
+        let lit = |q: usize| front[q];
+        1 + run_from(width, height, p, (-dx, -dy), THIN_RUN_PX, lit) + run_from(width, height, p, (dx, dy), THIN_RUN_PX, lit)
     };
     run(1, 0).min(run(0, 1)) <= THIN_RUN_PX
 }
 
-/// Whether front pixel `p` is on a thin line, not the tip of a wider shape: it is thin
-/// ([`is_thin`]) and so are at least two front pixels of its 3x3 neighbourhood (along the
-/// line, either way). The top pixels of a disc are as narrow as a wire, but the pixels below
-/// them are wide.
-fn on_thin_line(front: &[bool], width: usize, height: usize, p: usize) -> bool {
-    if !is_thin(front, width, height, p) {
+/// Whether pixel `p` is on a thin line, not the tip of a wider shape, given `thin`, each
+/// front pixel's [`is_thin`]: it is thin and so are at least two pixels of its 3x3
+/// neighbourhood (along the line, either way). The top pixels of a disc are as narrow as a
+/// wire, but the pixels below them are wide.
+fn on_thin_line(thin: &[bool], width: usize, height: usize, p: usize) -> bool {
+    if !thin[p] {
         return false;
     }
     let (x, y) = (p % width, p / width);
     let rows = y.saturating_sub(1)..=(y + 1).min(height - 1);
     let neighbours = rows.flat_map(|qy| (x.saturating_sub(1)..=(x + 1).min(width - 1)).map(move |qx| qy * width + qx));
-    neighbours.filter(|&q| q != p && front[q] && is_thin(front, width, height, q)).count() >= 2
+    neighbours.filter(|&q| q != p && thin[q]).count() >= 2
 }
 
 /// Solves one binary matte of `image` (linear RGBA, straight, alpha 1) where `front` marks the
@@ -343,14 +335,15 @@ pub fn solve_matte(image: &[[f32; 4]], width: usize, height: usize, front: &[boo
     let guide: Vec<[f64; 3]> = image.par_iter().map(|&c| [0, 1, 2].map(|k| guide_value(f64::from(c[k].max(0.0) * scale)))).collect();
     let windows = windows(&guide, width, height, &unknown_list, f64::from(options.epsilon));
     let prior: Vec<f64> = front.iter().map(|&f| if f { 1.0 } else { 0.0 }).collect();
-    // Pixels next to the edge (distance 1: the edge runs between them) trust Z least.
+    // Pixels next to the edge (distance 1: the edge runs between them) trust Z least, but
+    // those of a thin line (once per pixel: each is read by its neighbours' line test too).
+    let thin: Vec<bool> = (0..n).into_par_iter().map(|p| front[p] && is_thin(front, width, height, p)).collect();
     let confidence: Vec<f64> = unknown_list
         .par_iter()
         .map(|&p| {
             let d = distance[p].saturating_sub(1) as f64;
             let base = f64::from(options.edge_confidence) + f64::from(options.confidence_growth) * d * d;
-            let c = image[p];
-            if front[p] && c[0].max(c[1]).max(c[2]) <= 1.0 && on_thin_line(front, width, height, p) {
+            if !is_hdr(image[p]) && on_thin_line(&thin, width, height, p) {
                 base.max(f64::from(options.thin_confidence))
             } else {
                 base
@@ -685,11 +678,12 @@ mod tests {
             .collect();
         // Along them, at the frame's edge too where the line goes on beside it (a line's last pixel
         // has one neighbour on it, and is left to the colours, as a tip).
+        let thin: Vec<bool> = (0..w * h).map(|p| front[p] && is_thin(&front, w, h, p)).collect();
         for (x, y) in [(4, 10), (4, 1), (24, 4), (30, 30), (40, 31), (47, 30)] {
-            assert!(on_thin_line(&front, w, h, y * w + x), "({x}, {y}) is on a line");
+            assert!(on_thin_line(&thin, w, h, y * w + x), "({x}, {y}) is on a line");
         }
         for p in (0..w * h).filter(|&p| disc(p % w, p / w)) {
-            assert!(!on_thin_line(&front, w, h, p), "disc pixel ({}, {}) taken for a line", p % w, p / w);
+            assert!(!on_thin_line(&thin, w, h, p), "disc pixel ({}, {}) taken for a line", p % w, p / w);
         }
     }
 
