@@ -226,8 +226,9 @@ fn auto_layered_drbokeh_is_nowhere_much_worse_than_the_plain_gather() {
 
 #[test]
 fn auto_layered_drbokeh_keeps_its_psnr_floors_on_the_single_image_scenes() {
-    // Measured (lavapipe, `bench single-image --quick`): drbokeh-auto 26.60 / 31.51 / 40.36 dB
-    // with issue 46's candidate 12 (the thin-line prior; candidate 11 26.93 / 31.75 / 37.22);
+    // Measured (lavapipe, `bench single-image --quick`): drbokeh-auto 26.61 / 31.49 / 40.21 dB
+    // with issue 46's candidate 13 (hidden regions continue the colour beside them), 26.60 /
+    // 31.51 / 40.36 with candidate 12 (the thin-line prior; candidate 11 26.93 / 31.75 / 37.22);
     // 26.24 / 31.73 / 37.25 with issue 46's solved matting; 25.60 / 31.15 / 38.16 with the sampled matting before it
     // (thin-near's blurred wires lost 0.9 dB); before issue 22's light-aware matting,
     // back-colour clamp and light continuation 24.15 / 31.44 / 37.77. Floors: 0.3 dB under the

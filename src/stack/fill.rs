@@ -240,6 +240,57 @@ pub fn nearest_known(width: usize, height: usize, known: &[bool]) -> Vec<Option<
     seed
 }
 
+/// Weighted sums of `values` over any axis-aligned rectangle in constant time: two integral
+/// images (f64, so a large frame's sums keep their precision).
+pub struct BoxSums<const N: usize> {
+    width: usize,
+    height: usize,
+    sum: Vec<[f64; N]>,
+    total: Vec<f64>,
+}
+
+impl<const N: usize> BoxSums<N> {
+    /// Integral images of `weights` (negative read as 0) and of `weights * values`.
+    pub fn new(width: usize, height: usize, values: &[[f32; N]], weights: &[f32]) -> Self {
+        assert_eq!(values.len(), width * height);
+        assert_eq!(weights.len(), width * height);
+        let stride = width + 1;
+        let mut sum = vec![[0.0f64; N]; stride * (height + 1)];
+        let mut total = vec![0.0f64; stride * (height + 1)];
+        // Each row's running sums on every core, then the rows added down the frame (row y + 1
+        // of the tables holds the sums over rows 0..=y; row 0 and column 0 stay 0).
+        sum.par_chunks_mut(stride).zip(total.par_chunks_mut(stride)).skip(1).enumerate().for_each(|(y, (sum, total))| {
+            let (mut row, mut row_total) = ([0.0f64; N], 0.0f64);
+            for x in 0..width {
+                let (p, w) = (y * width + x, f64::from(weights[y * width + x].max(0.0)));
+                if w > 0.0 {
+                    row_total += w;
+                    (0..N).for_each(|k| row[k] += w * f64::from(values[p][k]));
+                }
+                (sum[x + 1], total[x + 1]) = (row, row_total);
+            }
+        });
+        for y in 1..=height {
+            let (above, here) = sum.split_at_mut(y * stride);
+            here[..stride].iter_mut().zip(&above[(y - 1) * stride..]).for_each(|(s, a)| (0..N).for_each(|k| s[k] += a[k]));
+            let (above, here) = total.split_at_mut(y * stride);
+            here[..stride].iter_mut().zip(&above[(y - 1) * stride..]).for_each(|(t, a)| *t += a);
+        }
+        Self { width, height, sum, total }
+    }
+
+    /// The weighted mean over the (2 `radius` + 1)^2 square around pixel `p`, clipped to the
+    /// frame; `None` where the square holds no weight.
+    pub fn mean_around(&self, p: usize, radius: usize) -> Option<[f32; N]> {
+        let (x, y, stride) = (p % self.width, p / self.width, self.width + 1);
+        let (x0, x1) = (x.saturating_sub(radius), (x + radius + 1).min(self.width));
+        let (y0, y1) = (y.saturating_sub(radius), (y + radius + 1).min(self.height));
+        let corners = [(y1 * stride + x1, 1.0), (y0 * stride + x1, -1.0), (y1 * stride + x0, -1.0), (y0 * stride + x0, 1.0)];
+        let w: f64 = corners.iter().map(|&(i, s)| s * self.total[i]).sum();
+        (w > 1e-9).then(|| std::array::from_fn(|k| (corners.iter().map(|&(i, s)| s * self.sum[i][k]).sum::<f64>() / w) as f32))
+    }
+}
+
 /// For each pixel with `hole` set within `reach` pixels of a `known` one: the known pixel
 /// mirrored across the hole's edge (`2 q - p`, `q` its nearest known pixel), or `q` itself
 /// where the mirror point is not known. Only `known` pixels are ever named.
@@ -429,6 +480,31 @@ mod tests {
             // Sequential propagation misses the exact nearest seed by under a pixel.
             assert!(known[q] && d(p, q) <= exact + 1.0, "pixel {p}: {} vs exact {exact}", d(p, q));
         }
+    }
+
+    #[test]
+    fn box_sums_give_the_weighted_mean_of_each_square() {
+        // Against the sum written out, with zero, partial and negative (read as 0) weights, the
+        // frame's edges inside the square, and a square that holds no weight.
+        let (w, h, r) = (13, 9, 2usize);
+        let weights: Vec<f32> = (0..w * h).map(|i| if i % w >= 10 { 0.0 } else { [0.0, 1.0, 0.3, -1.0, 2.0][(i * 7) % 5] }).collect();
+        let values: Vec<[f32; 2]> = (0..w * h).map(|i| [((i * 37) % 11) as f32 - 4.0, (i % w) as f32 * 0.5]).collect();
+        let sums = BoxSums::new(w, h, &values, &weights);
+        let means: Vec<Option<[f32; 2]>> = (0..w * h).map(|p| sums.mean_around(p, r)).collect();
+        for p in 0..w * h {
+            let (x, y) = ((p % w) as i64, (p / w) as i64);
+            let (mut sum, mut total) = ([0.0f64; 2], 0.0f64);
+            for q in (0..w * h).filter(|&q| ((q % w) as i64 - x).abs() <= r as i64 && ((q / w) as i64 - y).abs() <= r as i64) {
+                let wq = f64::from(weights[q].max(0.0));
+                total += wq;
+                (0..2).for_each(|k| sum[k] += wq * f64::from(values[q][k]));
+            }
+            match means[p] {
+                None => assert_eq!(total, 0.0, "pixel {p} has weight around it"),
+                Some(m) => (0..2).for_each(|k| assert!((f64::from(m[k]) - sum[k] / total).abs() < 1e-5, "pixel {p}: {m:?} vs {}", sum[k] / total)),
+            }
+        }
+        assert!((0..h).all(|y| means[y * w + 12].is_none()), "columns 10-12 carry no weight: the last is 3 px from any");
     }
 
     #[test]
