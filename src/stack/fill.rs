@@ -291,10 +291,10 @@ impl<const N: usize> BoxSums<N> {
     }
 }
 
-/// For each pixel with `hole` set within `reach` pixels of a `known` one: the known pixel
-/// mirrored across the hole's edge (`2 q - p`, `q` its nearest known pixel), or `q` itself
-/// where the mirror point is not known. Only `known` pixels are ever named.
-pub fn mirror_sources(width: usize, height: usize, known: &[bool], hole: &[bool], reach: f32) -> Vec<Option<usize>> {
+/// For each pixel `p` with `hole` set within `reach(p, q)` pixels of its nearest `known` pixel
+/// `q`: the known pixel mirrored across the hole's edge (`2 q - p`), or `q` itself where the
+/// mirror point is not known. Only `known` pixels are ever named.
+pub fn mirror_sources(width: usize, height: usize, known: &[bool], hole: &[bool], reach: impl Fn(usize, usize) -> f32) -> Vec<Option<usize>> {
     assert_eq!(hole.len(), width * height);
     if !known.iter().any(|&k| k) {
         return vec![None; known.len()];
@@ -304,6 +304,7 @@ pub fn mirror_sources(width: usize, height: usize, known: &[bool], hole: &[bool]
         .map(|p| {
             let q = nearest[p].filter(|_| hole[p] && !known[p])?;
             let (px, py, qx, qy) = ((p % width) as i64, (p / width) as i64, (q % width) as i64, (q / width) as i64);
+            let reach = reach(p, q);
             if (((px - qx).pow(2) + (py - qy).pow(2)) as f32) > reach * reach {
                 return None;
             }
@@ -514,7 +515,7 @@ mod tests {
         let (w, h) = (12, 5);
         let known: Vec<bool> = (0..w * h).map(|i| i % w < 6).collect();
         let hole: Vec<bool> = known.iter().map(|k| !k).collect();
-        let sources = mirror_sources(w, h, &known, &hole, 4.0);
+        let sources = mirror_sources(w, h, &known, &hole, |_, _| 4.0);
         for (i, s) in sources.iter().enumerate() {
             let x = i % w;
             match x {
