@@ -35,6 +35,14 @@ pub struct Args {
     /// How many scenes of --split (each family appears every 6 scenes).
     #[arg(long, value_name = "N", default_value_t = 24, requires = "split")]
     split_size: usize,
+    /// Index of the first scene of --split; with --split-step 6, scenes of one family (the
+    /// family is the index modulo 6: 2 for silhouettes), e.g. `--split dev --split-start 122
+    /// --split-step 6 --split-size 20`, the silhouettes dev-122 to dev-236.
+    #[arg(long, value_name = "N", default_value_t = 0, requires = "split")]
+    split_start: usize,
+    /// Step between the indices of --split's scenes.
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..), requires = "split")]
+    split_step: u16,
     /// Only render the scenes into the cache (no method runs, nothing scored): a test split can
     /// be rendered while tuning on the dev split without being looked at.
     #[arg(long)]
@@ -71,7 +79,7 @@ fn truths(args: &Args) -> anyhow::Result<Vec<GroundTruth>> {
     let truth = &args.truth;
     // --scenes may name scenes of both sets; a set none of whose scenes is named is left out.
     let (cycles_names, traced_names): (Vec<String>, Vec<String>) = match &args.split {
-        Some(split) => (split_scenes(split, args.split_size), Vec::new()),
+        Some(split) => (split_scenes(split, args.split_start, usize::from(args.split_step), args.split_size), Vec::new()),
         None => truth.scenes.iter().cloned().partition(|n| is_cycles_scene(n)),
     };
     let mut truths = Vec::new();

@@ -51,9 +51,10 @@ pub fn split_of(name: &str) -> Option<&'static str> {
     (!index.is_empty() && index.bytes().all(|b| b.is_ascii_digit())).then_some(known)
 }
 
-/// The first `count` scenes of `split`.
-pub fn split_scenes(split: &str, count: usize) -> Vec<String> {
-    (0..count).map(|i| format!("{split}-{i}")).collect()
+/// `count` scenes of `split`: indices `start`, `start + step`, ... (the script draws the family
+/// by index modulo 6, so a step of 6 keeps to one family).
+pub fn split_scenes(split: &str, start: usize, step: usize, count: usize) -> Vec<String> {
+    (0..count).map(|i| format!("{split}-{}", start + i * step.max(1))).collect()
 }
 
 /// Resolution and samples of one rendering of the set.
@@ -256,7 +257,14 @@ mod tests {
         for not in ["dev-", "dev-x", "train-3", "test", "fence-near-hdr"] {
             assert_eq!(split_of(not), None, "{not}");
         }
-        assert_eq!(split_scenes("test", 3), ["test-0", "test-1", "test-2"]);
+        assert_eq!(split_scenes("test", 0, 1, 3), ["test-0", "test-1", "test-2"]);
+        assert_eq!(split_scenes("dev", 122, 6, 3), ["dev-122", "dev-128", "dev-134"]);
+        // The family is the index modulo the script's six families (`--split-step 6` keeps to
+        // one; `--split-start`'s help names index 2 for silhouettes).
+        assert!(SCRIPT.contains("FAMILIES[int(index) % len(FAMILIES)]"));
+        let table = SCRIPT.split("FAMILIES = [").nth(1).and_then(|s| s.split("\n]").next()).expect("the script's FAMILIES table");
+        let families: Vec<&str> = table.lines().filter_map(|l| l.trim().strip_prefix("(\"")?.split('"').next()).collect();
+        assert_eq!(families, ["fence-in-focus", "fence-blurred", "silhouette", "foliage", "strands", "planes"]);
         assert!(is_cycles_scene("grid-near") && is_cycles_scene("dev-7") && !is_cycles_scene("dev-7b"));
         // The script knows the same splits.
         assert!(SCRIPT.contains(r#"SPLITS = ("dev", "test")"#));
