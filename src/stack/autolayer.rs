@@ -1128,7 +1128,10 @@ fn near_colours(w: usize, h: usize, rgba: &[[f32; 4]], colour_weight: &[f32], hi
             let q = q.filter(|&q| hidden[p] && !is_hdr(rgba[q]))?;
             let (dx, dy) = ((p % w) as f32 - (q % w) as f32, (p / w) as f32 - (q / w) as f32);
             let t = ((dx * dx + dy * dy).sqrt() / NEAR_FILL_REACH_PX - 1.0).clamp(0.0, 1.0);
-            (t < 1.0).then(|| Some((expand(sums.mean_around(q, NEAR_FILL_MEAN_PX)?), t))).flatten()
+            if t >= 1.0 {
+                return None;
+            }
+            Some((expand(sums.mean_around(q, NEAR_FILL_MEAN_PX)?), t))
         })
         .collect()
 }
