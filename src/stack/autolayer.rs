@@ -1057,6 +1057,9 @@ fn build_layer(k: usize, image: &Image, disparity: &[f32], signed: &[f32], label
     let guide = |d: f32| (-2.0 * (d - d_far) / (d_near - d_far).max(1e-6)).exp();
     let mut rgba = vec![[0.0f32; 4]; n];
     let mut colour_weight = vec![0.0f32; n];
+    // How much of each pixel's colour is the layer's own, before the depth guide: what the
+    // hidden region's nearest colours are judged by (`near_colours`).
+    let mut seen = vec![0.0f32; n];
     let mut hidden = vec![false; n];
     // Coverage where it is seen (own 1, partial alpha, farther 0), to be extended under the
     // nearer layers: a layer continues under a thin near structure only where it is seen on
@@ -1068,6 +1071,7 @@ fn build_layer(k: usize, image: &Image, disparity: &[f32], signed: &[f32], label
             Cell::Own(c, trust) => {
                 rgba[p] = c;
                 colour_weight[p] = trust * guide(disparity[p]);
+                seen[p] = trust;
                 coverage[p] = [1.0];
             }
             Cell::Partial(c) => {
@@ -1089,7 +1093,7 @@ fn build_layer(k: usize, image: &Image, disparity: &[f32], signed: &[f32], label
     // round, not cut (issue 22, failure 1).
     let own_lights: Vec<bool> = (0..n).map(|p| colour_weight[p] > 0.0 && is_hdr(rgba[p])).collect();
     let lights = mirror_sources(w, h, &own_lights, &hidden, |p, q| light_reach(signed[p], signed[q]));
-    let near = near_colours(w, h, &rgba, &colour_weight, &hidden);
+    let near = near_colours(w, h, &rgba, &seen, &hidden);
     for p in (0..n).filter(|&p| hidden[p]) {
         let colour = match (lights[p], near[p]) {
             (Some(q), _) => rgba[q],
@@ -1129,20 +1133,25 @@ const NEAR_FILL_REACH_PX: f32 = 12.0;
 /// dB, a mean over 2 px -0.13, 4 px -0.04, 6 px +0.02).
 const NEAR_FILL_MEAN_PX: usize = 6;
 
-/// Fewest colour weight of a layer's pixel to count as confident for [`near_colours`] (its
-/// own pixels, and band pixels at least half of whose colour is the layer's).
+/// Fewest share of a pixel's colour that is the layer's own for it to count as confident for
+/// [`near_colours`]: its own pixels, and band pixels at least half of whose colour is the
+/// layer's. Not weighted by the depth guide of the push-pull, which prefers a layer's farthest
+/// surface: with it, a dark surface at the near end of a layer (weight e^-2) was never
+/// confident, and the hidden region beside it took the mean of a sunlit plane 9 px away, which
+/// glowed through a silhouette's blurred edge (dev-956 of issue 46: 35.81 -> 36.40 dB, gather
+/// 36.19).
 const NEAR_FILL_CONFIDENT: f32 = 0.5;
 
 /// Per pixel, the colour a layer shows nearest and how much of the push-pull fill to blend in
 /// (0 within [`NEAR_FILL_REACH_PX`] of the nearest confident pixel, 1 at twice that); `None`
 /// farther away, or where the nearest pixel is HDR (a light continues only by mirror,
 /// [`LIGHT_REACH_PX`]: extruded, it would streak).
-fn near_colours(w: usize, h: usize, rgba: &[[f32; 4]], colour_weight: &[f32], hidden: &[bool]) -> Vec<Option<([f32; 4], f32)>> {
+fn near_colours(w: usize, h: usize, rgba: &[[f32; 4]], seen: &[f32], hidden: &[bool]) -> Vec<Option<([f32; 4], f32)>> {
     if !hidden.contains(&true) {
         return vec![None; w * h];
     }
-    let confident: Vec<bool> = colour_weight.par_iter().map(|&c| c >= NEAR_FILL_CONFIDENT).collect();
-    let weights: Vec<f32> = colour_weight.par_iter().zip(&confident).map(|(&c, &k)| if k { c } else { 0.0 }).collect();
+    let confident: Vec<bool> = seen.par_iter().map(|&c| c >= NEAR_FILL_CONFIDENT).collect();
+    let weights: Vec<f32> = seen.par_iter().zip(&confident).map(|(&c, &k)| if k { c } else { 0.0 }).collect();
     let straight: Vec<[f32; 4]> = rgba.par_iter().zip(&confident).map(|(c, &k)| if k { compress(c.map(|v| v / c[3].max(1e-6))) } else { [0.0; 4] }).collect();
     let sums = BoxSums::new(w, h, &straight, &weights);
     nearest_known(w, h, &confident)
@@ -1252,6 +1261,36 @@ mod tests {
             // 3 px in, the wall's colour (x = 31) within 10%; 11 px in, still nearer the wall's
             // than the sky's; from the right (x = 48) 5 px in.
             assert!(c[0] / c[3] < wall * if x == 35 { 1.1 } else { 2.0 }, "x = {x}: {:?}, the wall is {wall}", c);
+        }
+    }
+
+    /// dev-956 of issue 46 in small: one far layer holds a sunlit plane (0.9, the layer's
+    /// farthest depth) and, beside it and a little nearer, a dark wall (0.01); a silhouette
+    /// below hides both. Under the silhouette, next to the wall, the far layer must continue
+    /// the wall, not the plane 7 px aside: the depth guide of the fill weighs the wall e^-2,
+    /// and as a test of confidence that left only the plane.
+    #[test]
+    fn a_hidden_region_continues_the_nearer_surface_of_its_layer_beside_it() {
+        let image = Image::from_fn(64, 64, |x, y| match (x, y) {
+            (_, 32..) => [0.2, 0.2, 0.2, 1.0],
+            (0..=23, _) => [0.9, 0.9, 0.9, 1.0],
+            _ => [0.01, 0.01, 0.01, 1.0],
+        });
+        let disparity: Vec<f32> = (0..64 * 64)
+            .map(|p| match (p % 64, p / 64) {
+                (_, 32..) => 0.7,
+                (0..=23, _) => 0.5,
+                _ => 0.505,
+            })
+            .collect();
+        let coc = CocModel::new(40.0, 1.0).expect("valid lens");
+        let stack = split_into_layers(&image, &disparity, &coc, &AutoLayerOptions::default());
+        assert_eq!(stack.layers.len(), 2, "the silhouette, and the plane with the wall");
+        let far = &stack.layers[1].rgba;
+        for (x, y) in [(30, 36), (34, 38), (40, 36)] {
+            let c = far.get(x, y);
+            assert!(c[3] > 0.99, "({x}, {y}): the far layer is continued under the silhouette (alpha {})", c[3]);
+            assert!(c[0] / c[3] < 0.05, "({x}, {y}): {:?}, the wall beside is 0.01, the plane 0.9", c);
         }
     }
 
