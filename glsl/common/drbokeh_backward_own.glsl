@@ -11,6 +11,9 @@
 #define LENSBLUR_DRBOKEH_BACKWARD_OWN_GLSL
 
 #include "drbokeh_grad.glsl"
+#ifdef DRBOKEH_BACKWARD_SPANS
+#include "spans.glsl"
+#endif
 #ifdef DRBOKEH_BACKWARD_GAUGE
 #include "gauge.glsl"
 #endif
@@ -25,6 +28,15 @@ layout(set = 0, binding = 5) uniform samplerBuffer adj_cw;
 layout(set = 0, binding = 6) uniform samplerBuffer adj_vis;
 layout(std430, set = 0, binding = 7) writeonly buffer Own { vec4 own[]; };
 layout(std430, set = 0, binding = 8) writeonly buffer Receiver { vec4 receiver[]; };
+#ifdef DRBOKEH_BACKWARD_SPANS
+// The forward's alpha block sums in this batch (glsl/drbokeh_layer_blocks.comp, every layer):
+// V's interior rows are span sums (receiver_visibility_sums).
+layout(set = 0, binding = 9) uniform samplerBuffer block_alpha;
+#define DRBOKEH_ALPHA_AT(i) texelFetch(rgba, i).w
+#define DRBOKEH_ALPHA_PREFIX(i) texelFetch(block_alpha, i).x
+#define DRBOKEH_ALPHA_SUFFIX(i) texelFetch(block_alpha, i).y
+DRBOKEH_DEFINE_SPAN_SUM(float, span_sum_alpha, DRBOKEH_ALPHA_AT, DRBOKEH_ALPHA_PREFIX, DRBOKEH_ALPHA_SUFFIX)
+#endif
 
 // Pass 2's pair terms of receiver x over its window: every one is a multiple of the scatter
 // S(r_y, g) and of O's partials (any leak only enters through dS/dr_y, which pass 4 owns), so
@@ -55,8 +67,11 @@ vec3 receiver_pair_terms(ivec2 x, int h, DrBokehPx dst, vec4 adj) {
 }
 
 // V(x)'s sums over the window rows clipped to offsets below sqrt(limit2): sum D, sum alpha D,
-// sum D', sum alpha D' (D' = dD/dr_x), or the compat box count in .x.
-vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2) {
+// sum D', sum alpha D' (D' = dD/dr_x), or the compat box count in .x. Spans path: where
+// `interior` - g >= 1 (interior <= the receiver's support r + 1/2, with a margin above f32
+// rounding), D is exactly 1 and D' exactly 0 (no leak), so those columns of a row add (1, alpha,
+// 0, 0) each: their count and one span sum of alpha. The rim's taps are evaluated one by one.
+vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2, float interior) {
     int box_half = drbokeh_visibility_box_compat(dst.r);
     vec4 vis = vec4(0.0);
     for (int oy = -h; oy <= h; ++oy) {
@@ -65,7 +80,24 @@ vec4 receiver_visibility_sums(ivec2 x, int h, DrBokehPx dst, float limit2) {
             continue;
         }
         int half_width = drbokeh_clipped_half_width(h, oy, limit2);
+        // Columns |ox| <= m are interior (none with m = -1).
+        int m = -1;
+#ifdef DRBOKEH_BACKWARD_SPANS
+        if (interior > 0.0) {
+            m = interior_half_width_disk(interior, float(oy * oy), half_width);
+            int a = max(x.x - m, 0);
+            int b = min(x.x + m, pc.width - 1);
+            if (a <= b) {
+                int base = drbokeh_read_index(pc.layer, ivec2(a, sy)) - a;
+                vis += vec4(float(b - a + 1), span_sum_alpha(base, a, b), 0.0, 0.0);
+            }
+        }
+#endif
         for (int ox = -half_width; ox <= half_width; ++ox) {
+            if (m >= 0 && ox == -m) {
+                ox = m; // past the interior columns, summed above
+                continue;
+            }
             int sx = x.x + ox;
             if (sx < 0 || sx >= pc.width) {
                 continue;
@@ -131,7 +163,14 @@ void main() {
     int pair_half = compat || drbokeh_occludes(dst) ? h : -1;
     vec3 d_own = receiver_pair_terms(x, pair_half, dst, texelFetch(adj_cw, ix));
     float limit2 = !compat && pc.leaky_slope <= 0.0 ? drbokeh_zero_beyond2(drbokeh_footprint_support(dst.r)) : 1.0e30;
-    vec4 vis = receiver_visibility_sums(x, h, dst, limit2);
+    float interior = 0.0;
+#ifdef DRBOKEH_BACKWARD_SPANS
+    if (pc.leaky_slope <= 0.0) {
+        interior = drbokeh_footprint_support(dst.r);
+        interior -= interior * (1.0 / 65536.0);
+    }
+#endif
+    vec4 vis = receiver_visibility_sums(x, h, dst, limit2, interior);
     float d_vis = texelFetch(adj_vis, ix).x;
     float vis_norm = 0.0;
     if (vis.x > 0.0) {

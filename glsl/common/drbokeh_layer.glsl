@@ -23,6 +23,7 @@
 #endif
 
 #include "drbokeh.glsl"
+#include "spans.glsl"
 
 // Pixels per invocation, horizontally adjacent (a divisor of the 16 px tile): each source
 // load serves RUN centres. The host derives RUN from local_size_x (16 / local_size_x).
@@ -184,20 +185,6 @@ int outer_half_width_disk(float outer, int h, int oy) {
     // Inside the window's disk (outer < h + 1): the window row needs no test of its own.
     float room = outer * outer - float(oy * oy);
     return room <= 0.0 ? -1 : int(sqrt(room));
-}
-
-// An m in [-1, half_width] with t - g(m, oy) >= 1, g computed exactly as the gauges of
-// gather_span_run: every column |o| <= m of the row is then interior (g grows with |o|). The
-// largest such m or one less: the estimate is off by a rounding at most, and only a too large
-// one is settled with the exact test (a column short costs one full tap, and m stays a
-// function of t and oy alone, so of global positions).
-int interior_half_width_disk(float t, float oy2, int half_width) {
-    float room = max((t - 1.0) * (t - 1.0) - oy2, 0.0);
-    int m = int(min(sqrt(room), float(half_width)));
-    while (m >= 0 && t - sqrt(float(m * m) + oy2) < 1.0) {
-        m -= 1;
-    }
-    return m;
 }
 
 // Offsets o (source column - centre column) of window row oy: outside .x..y the taps add exact
@@ -453,38 +440,20 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
 }
 
 // Sum of (P / A, alpha) over global columns [a, b] of one read row (`base` + x = read index of
-// global column x), from the global 16-px blocks of drbokeh_layer_blocks.comp: within one
-// block the columns left to right; else the suffix of a's block from a, the totals of the
-// whole blocks between (left to right), then the prefix of b's block up to b. Which values
-// enter depends on a and b only, and each is a function of global positions: the same bits
-// for every read rect. Only block parts inside [a, b] (so inside the read rect) are read.
+// global column x), from the global 16-px blocks of drbokeh_layer_blocks.comp
+// (DRBOKEH_DEFINE_SPAN_SUM says in which order).
+#define DRBOKEH_PA_AT(i) texelFetch(source_pa, i)
+#define DRBOKEH_PA_PREFIX(i) texelFetch(block_prefix, i)
+#define DRBOKEH_PA_SUFFIX(i) texelFetch(block_suffix, i)
+#define DRBOKEH_ALPHA_AT(i) texelFetch(source_sa, i).y
+#define DRBOKEH_ALPHA_PREFIX(i) texelFetch(block_alpha, i).x
+#define DRBOKEH_ALPHA_SUFFIX(i) texelFetch(block_alpha, i).y
+DRBOKEH_DEFINE_SPAN_SUM(vec4, span_sum_pa, DRBOKEH_PA_AT, DRBOKEH_PA_PREFIX, DRBOKEH_PA_SUFFIX)
+DRBOKEH_DEFINE_SPAN_SUM(float, span_sum_alpha, DRBOKEH_ALPHA_AT, DRBOKEH_ALPHA_PREFIX, DRBOKEH_ALPHA_SUFFIX)
+
 void span_sum(int base, int a, int b, out vec4 pa, out float alpha) {
-    int block_a = a / DRBOKEH_TILE;
-    int block_b = b / DRBOKEH_TILE;
-    if (block_a == block_b) {
-        if (a == block_a * DRBOKEH_TILE) {
-            // The block's prefix is this very left-to-right sum.
-            pa = texelFetch(block_prefix, base + b);
-            alpha = texelFetch(block_alpha, base + b).x;
-            return;
-        }
-        pa = vec4(0.0);
-        alpha = 0.0;
-        for (int x = a; x <= b; ++x) {
-            pa += texelFetch(source_pa, base + x);
-            alpha += texelFetch(source_sa, base + x).y;
-        }
-        return;
-    }
-    pa = texelFetch(block_suffix, base + a);
-    alpha = texelFetch(block_alpha, base + a).y;
-    for (int block = block_a + 1; block < block_b; ++block) {
-        int first = base + block * DRBOKEH_TILE;
-        pa += texelFetch(block_suffix, first);
-        alpha += texelFetch(block_alpha, first).y;
-    }
-    pa += texelFetch(block_prefix, base + b);
-    alpha += texelFetch(block_alpha, base + b).x;
+    pa = span_sum_pa(base, a, b);
+    alpha = span_sum_alpha(base, a, b);
 }
 
 // Adds the span sum of offsets-from-x0 columns [from, to] of one read row to every centre: each

@@ -50,6 +50,21 @@ pub enum Slot {
     Texels(TexelFormat),
 }
 
+impl Slot {
+    /// `base` followed by `last` (`M` = `N` + 1): the bindings of a pipeline that reads one
+    /// buffer more than another, in a `const`.
+    pub const fn append<const N: usize, const M: usize>(base: [Slot; N], last: Slot) -> [Slot; M] {
+        assert!(M == N + 1, "one slot more");
+        let mut slots = [last; M];
+        let mut i = 0;
+        while i < N {
+            slots[i] = base[i];
+            i += 1;
+        }
+        slots
+    }
+}
+
 /// The texel formats a [`Slot::Texels`] binding may have (every Vulkan device supports them
 /// for uniform texel buffers).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -111,16 +111,7 @@ const LAYER_SLOTS: [Slot; 13] = {
 
 /// Bindings of `drbokeh_layer_gauge.comp` and `drbokeh_layer_kernel.comp`: the layer pass's
 /// and the aperture's row table (the kernel image's runs, [`kernel_run_table`]).
-const LAYER_GAUGE_SLOTS: [Slot; 14] = {
-    let mut slots = [Slot::Storage; 14];
-    let mut i = 0;
-    while i < LAYER_SLOTS.len() {
-        slots[i] = LAYER_SLOTS[i];
-        i += 1;
-    }
-    slots[13] = Slot::Texels(TexelFormat::Vec4);
-    slots
-};
+const LAYER_GAUGE_SLOTS: [Slot; 14] = Slot::append(LAYER_SLOTS, Slot::Texels(TexelFormat::Vec4));
 
 /// Bindings of `drbokeh_layer_sources.comp` (inputs as texels) and of
 /// `drbokeh_layer_blocks.comp` (the prepass's outputs as texels).
@@ -270,6 +261,12 @@ impl DrBokehGpu {
             _ => Some(self.sources.get(&[lens.is_vignetted() as u32])?),
         };
         Ok(Passes { sources, blocks: self.kernel == LayerKernel::Optimised && spans, layer, layer_bindings })
+    }
+
+    /// Whether a tile's record through `lens` under `model` fills the block sums
+    /// (`ForwardBuffers::block_prefix`, `block_suffix`, `block_alpha`).
+    pub(crate) fn sums_blocks(&self, lens: &LensView, model: Model) -> Result<bool> {
+        Ok(self.passes(lens, model)?.blocks)
     }
 
     /// Compiles the pipelines a render through `lens` under `model` dispatches, side by side

@@ -25,7 +25,7 @@ use crate::shaders;
 use crate::stack::LayerStack;
 use crate::tile_grid::Rect;
 use crate::vk::{Buffer, CommandBatch, ComputePipeline, Context, PipelineVariants, ReadBack, Slot, TexelFormat};
-use crate::Result;
+use crate::{Error, Result};
 
 /// The Dr.Bokeh forward and backward pipelines on one device, for one model and options.
 pub struct DrBokehGpuGrad {
@@ -84,6 +84,9 @@ const OWN_SLOTS: [Slot; 9] = {
     use TexelFormat::{Float, Vec4};
     [Texels(Vec4), Texels(Float), Storage, Texels(Float), Texels(Float), Texels(Vec4), Texels(Float), Storage, Storage]
 };
+/// [`OWN_SLOTS`] and the forward's alpha block sums (`drbokeh_backward_own_disk.comp`: the
+/// disk's interior rows of V are span sums).
+const OWN_SPAN_SLOTS: [Slot; 10] = Slot::append(OWN_SLOTS, Slot::Texels(TexelFormat::Vec2));
 const SOURCE_SLOTS: [Slot; 11] = {
     use Slot::{Storage, Texels};
     use TexelFormat::{Float, Vec4};
@@ -110,7 +113,7 @@ impl DrBokehGpuGrad {
             composite: ComputePipeline::new(ctx, &shaders::DRBOKEH_BACKWARD_COMPOSITE, 5, push)?,
             own: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN, &OWN_SLOTS, push)?,
             source: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE, &SOURCE_SLOTS, push)?,
-            own_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_DISK, &OWN_SLOTS, push)?,
+            own_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_DISK, &OWN_SPAN_SLOTS, push)?,
             source_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_DISK, &SOURCE_SLOTS, push)?,
             own_gauge: PipelineVariants::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN_GAUGE, &OWN_SLOTS, push)?,
             source_gauge: PipelineVariants::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_GAUGE, &SOURCE_SLOTS, push)?,
@@ -308,6 +311,15 @@ impl DrBokehGpuGrad {
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
         let [own_pipeline, source_pipeline] = &self.adjoint_pipelines(params)?;
+        // The disk path's receiver pass reads the forward's alpha block sums of this batch.
+        let own_bindings = if params.lens.path(params.model) == AperturePath::Disk {
+            if !self.forward.sums_blocks(&params.lens, params.model)? {
+                return Err(Error::internal("the backward's disk path needs the forward's block sums"));
+            }
+            OWN_SPAN_SLOTS.len()
+        } else {
+            OWN_SLOTS.len()
+        };
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
         let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];
         let source_groups =
@@ -325,8 +337,9 @@ impl DrBokehGpuGrad {
                 b.adj_vis.all(),
                 b.own.all(),
                 b.receiver.all(),
+                f.block_alpha.all(),
             ];
-            batch.dispatch(own_pipeline, &own, &push(layer), groups)?;
+            batch.dispatch(own_pipeline, &own[..own_bindings], &push(layer), groups)?;
             let source = [
                 f.rgba[0].all(),
                 f.disparity[0].all(),
