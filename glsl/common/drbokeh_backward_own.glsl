@@ -33,9 +33,7 @@ layout(std430, set = 0, binding = 8) writeonly buffer Receiver { vec4 receiver[]
 // V's interior rows are span sums (receiver_visibility_sums).
 layout(set = 0, binding = 9) uniform samplerBuffer block_alpha;
 #define DRBOKEH_ALPHA_AT(i) texelFetch(rgba, i).w
-#define DRBOKEH_ALPHA_PREFIX(i) texelFetch(block_alpha, i).x
-#define DRBOKEH_ALPHA_SUFFIX(i) texelFetch(block_alpha, i).y
-DRBOKEH_DEFINE_SPAN_SUM(float, span_sum_alpha, DRBOKEH_ALPHA_AT, DRBOKEH_ALPHA_PREFIX, DRBOKEH_ALPHA_SUFFIX)
+DRBOKEH_DEFINE_SPAN_SUM(float, span_sum_alpha, DRBOKEH_ALPHA_AT, DRBOKEH_BLOCK_SCALAR_PREFIX, DRBOKEH_BLOCK_SCALAR_SUFFIX)
 #endif
 
 // Pass 2's pair terms of receiver x over its window: every one is a multiple of the scatter

@@ -18,6 +18,15 @@
 #ifdef DRBOKEH_BACKWARD_GAUGE
 #include "gauge.glsl"
 #endif
+#ifdef DRBOKEH_BACKWARD_SPANS
+// [[unroll]] (GL_EXT_control_flow_attributes, enabled by the .comp): a loop over the RUN
+// sources that indexes their sums must unroll, or the sums become arrays in memory at every
+// tap (lavapipe: the pass took twice as long).
+#ifdef DRBOKEH_BACKWARD_GAUGE
+#error "interior spans skip receiver columns; the gauge path shifts its gauges column by column"
+#endif
+#include "spans.glsl"
+#endif
 
 
 #ifdef DRBOKEH_BACKWARD_DISK
@@ -40,6 +49,16 @@ layout(std430, set = 0, binding = 7) writeonly buffer GradRgba { vec4 grad_rgba[
 layout(std430, set = 0, binding = 8) writeonly buffer GradDisparity { float grad_disparity[]; };
 layout(std430, set = 0, binding = 9) writeonly buffer KPartial { float k_partial[]; };
 layout(std430, set = 0, binding = 10) readonly buffer TileReach { int tile_reach[]; };
+#ifdef DRBOKEH_BACKWARD_SPANS
+layout(set = 0, binding = 11) uniform samplerBuffer block_prefix;
+layout(set = 0, binding = 12) uniform samplerBuffer block_suffix;
+layout(set = 0, binding = 13) uniform samplerBuffer block_alpha;
+layout(std430, set = 0, binding = 14) readonly buffer ReceiverRadius { float receiver_radius[]; };
+#define DRBOKEH_ADJ_AT(i) texelFetch(adj_cw, i)
+#define DRBOKEH_SHARE_AT(i) texelFetch(receiver, i).z
+DRBOKEH_DEFINE_SPAN_SUM(vec4, span_sum_adjoint, DRBOKEH_ADJ_AT, DRBOKEH_BLOCK_PREFIX, DRBOKEH_BLOCK_SUFFIX)
+DRBOKEH_DEFINE_SPAN_SUM(float, span_sum_share, DRBOKEH_SHARE_AT, DRBOKEH_BLOCK_SCALAR_PREFIX, DRBOKEH_BLOCK_SCALAR_SUFFIX)
+#endif
 
 // dV(x)/dalpha_y times sum D (own.w holds dL/dV / sum D).
 float vis_share(vec2 offset, DrBokehPx dst) {
@@ -162,6 +181,26 @@ void main() {
         d_p[k] = vec4(0.0, 0.0, 0.0, own_y.x);
         d_s[k] = own_y.y; // d_rel stays own_y.z: the default model has no rel_y term
     }
+#ifdef DRBOKEH_BACKWARD_SPANS
+    // Interior: receivers at gauge g with t[k] - g >= 1, where t[k] is below both source k's
+    // support (its coverage radius + 1/2) and every receiver's own (its radius + 1/2, from
+    // the tile's smallest receiver radius), with margins above f32 rounding. There S = 1,
+    // dS/dr = 0 (no leak) and D = 1; and as every receiver's radius is >= 3/2 there, none is
+    // in focus, so O = 1 and dO = 0: each adds its adjoints alone, d_p += adj / A,
+    // d_s += dot(adj, P) (-A' / A^2) sign, d_p.w += dL/dV / sum D. A row's interior is one span
+    // sum of each (pass 3' block sums) instead of a tap per receiver.
+    float t[RUN];
+    {
+        float smallest = receiver_radius[tile_base + (y0.y / DRBOKEH_TILE) * pc.tiles_x + y0.x / DRBOKEH_TILE];
+        float t_receiver = smallest + 0.5;
+        t_receiver -= t_receiver * (1.0 / 65536.0);
+        [[unroll]] for (int k = 0; k < RUN; ++k) {
+            float t_source = drbokeh_coverage_radius(src[k].r) + 0.5;
+            t_source -= t_source * (1.0 / 65536.0);
+            t[k] = exact && smallest >= 1.5 ? min(t_source, t_receiver) : 0.0;
+        }
+    }
+#endif
     for (int oy = -reach; oy <= reach; ++oy) {
         int ry = y0.y + oy;
         if (ry < 0 || ry >= pc.height) {
@@ -172,6 +211,32 @@ void main() {
         // image: source k sees the offset (o - k, oy).
         int o0 = max(-half_width, -y0.x);
         int o1 = min(half_width + RUN - 1, pc.width - 1 - y0.x);
+        // Receivers [skip0, skip1] lie in the interior of every source of the run: each adds
+        // its adjoints alone to each source, as one span sum, and the taps below skip them.
+        int skip0 = o1 + 1;
+        int skip1 = o1;
+#ifdef DRBOKEH_BACKWARD_SPANS
+        skip0 = o0;
+        [[unroll]] for (int k = 0; k < RUN; ++k) {
+            int m = t[k] > 1.0 ? interior_half_width_disk(t[k], float(oy * oy), half_width) : -1;
+            skip0 = max(skip0, k - m);
+            skip1 = min(skip1, k + m);
+        }
+        if (skip0 <= skip1) {
+            int a = y0.x + skip0;
+            int b = y0.x + skip1;
+            int base = drbokeh_read_index(pc.layer, ivec2(a, ry)) - a;
+            vec4 adj = span_sum_adjoint(base, a, b);
+            float share = span_sum_share(base, a, b);
+            [[unroll]] for (int k = 0; k < RUN; ++k) {
+                if (p[k].w > 0.0) {
+                    d_p[k] += adj * (1.0 / area[k]);
+                    d_s[k] += dot(adj, p[k]) * (-d_area[k] / area[k] / area[k] * sign_y[k]);
+                }
+                d_p[k].w += share;
+            }
+        }
+#endif
 #ifdef DRBOKEH_BACKWARD_GAUGE
         // gauges[k] = gauge_pair of x - y for source k at the current column: (G, mirrored G).
         vec2 gauges[RUN];
@@ -179,7 +244,15 @@ void main() {
             gauges[k] = gauge_pair(vec2(float(o0 - k), float(oy)));
         }
 #endif
-        for (int o = o0; o <= o1; ++o) {
+        // The receivers left of the skipped ones, then those right of them.
+        if (skip0 > skip1) {
+            skip0 = o1 + 1;
+            skip1 = o1;
+        }
+        for (int part = 0; part < 2; ++part) {
+        int from = part == 0 ? o0 : max(o0, skip1 + 1);
+        int to = part == 0 ? min(o1, skip0 - 1) : o1;
+        for (int o = from; o <= to; ++o) {
 #ifdef DRBOKEH_BACKWARD_GAUGE
             if (o > o0) {
                 for (int k = RUN - 1; k > 0; --k) {
@@ -257,6 +330,7 @@ void main() {
 #endif
                 }
             }
+        }
         }
     }
     for (int k = 0; k <= last; ++k) {

@@ -443,13 +443,9 @@ void full_taps(inout Centre c[RUN], int row, int from, int to, ivec2 span, int o
 // global column x), from the global 16-px blocks of drbokeh_layer_blocks.comp
 // (DRBOKEH_DEFINE_SPAN_SUM says in which order).
 #define DRBOKEH_PA_AT(i) texelFetch(source_pa, i)
-#define DRBOKEH_PA_PREFIX(i) texelFetch(block_prefix, i)
-#define DRBOKEH_PA_SUFFIX(i) texelFetch(block_suffix, i)
 #define DRBOKEH_ALPHA_AT(i) texelFetch(source_sa, i).y
-#define DRBOKEH_ALPHA_PREFIX(i) texelFetch(block_alpha, i).x
-#define DRBOKEH_ALPHA_SUFFIX(i) texelFetch(block_alpha, i).y
-DRBOKEH_DEFINE_SPAN_SUM(vec4, span_sum_pa, DRBOKEH_PA_AT, DRBOKEH_PA_PREFIX, DRBOKEH_PA_SUFFIX)
-DRBOKEH_DEFINE_SPAN_SUM(float, span_sum_alpha, DRBOKEH_ALPHA_AT, DRBOKEH_ALPHA_PREFIX, DRBOKEH_ALPHA_SUFFIX)
+DRBOKEH_DEFINE_SPAN_SUM(vec4, span_sum_pa, DRBOKEH_PA_AT, DRBOKEH_BLOCK_PREFIX, DRBOKEH_BLOCK_SUFFIX)
+DRBOKEH_DEFINE_SPAN_SUM(float, span_sum_alpha, DRBOKEH_ALPHA_AT, DRBOKEH_BLOCK_SCALAR_PREFIX, DRBOKEH_BLOCK_SCALAR_SUFFIX)
 
 void span_sum(int base, int a, int b, out vec4 pa, out float alpha) {
     pa = span_sum_pa(base, a, b);

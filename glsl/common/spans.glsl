@@ -49,4 +49,13 @@ int interior_half_width_disk(float t, float oy2, int half_width) {
         return sum + PREFIX(base + b);                                   \
     }
 
+
+// PREFIX and SUFFIX of the block sums' layout (glsl/common/drbokeh_blocks.glsl): a vec4 in
+// block_prefix / block_suffix, a float in block_alpha (prefix, suffix), wherever a shader
+// binds them under those names.
+#define DRBOKEH_BLOCK_PREFIX(i) texelFetch(block_prefix, i)
+#define DRBOKEH_BLOCK_SUFFIX(i) texelFetch(block_suffix, i)
+#define DRBOKEH_BLOCK_SCALAR_PREFIX(i) texelFetch(block_alpha, i).x
+#define DRBOKEH_BLOCK_SCALAR_SUFFIX(i) texelFetch(block_alpha, i).y
+
 #endif

@@ -51,14 +51,14 @@ pub enum Slot {
 }
 
 impl Slot {
-    /// `base` followed by `last` (`M` = `N` + 1): the bindings of a pipeline that reads one
-    /// buffer more than another, in a `const`.
-    pub const fn append<const N: usize, const M: usize>(base: [Slot; N], last: Slot) -> [Slot; M] {
-        assert!(M == N + 1, "one slot more");
-        let mut slots = [last; M];
+    /// `base` followed by `more` (`M` = `N` + `K`): the bindings of a pipeline that reads a
+    /// few buffers more than another, in a `const`.
+    pub const fn concat<const N: usize, const K: usize, const M: usize>(base: [Slot; N], more: [Slot; K]) -> [Slot; M] {
+        assert!(M == N + K, "M is N + K");
+        let mut slots = [Slot::Storage; M];
         let mut i = 0;
-        while i < N {
-            slots[i] = base[i];
+        while i < M {
+            slots[i] = if i < N { base[i] } else { more[i - N] };
             i += 1;
         }
         slots

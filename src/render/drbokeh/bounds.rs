@@ -70,6 +70,7 @@ fn tile_bounds(params: &Params, all: PixelSet, sources: PixelSet) -> ([f64; 2], 
         source_min: source_s.map_or(f32::INFINITY, |s| s.min),
         source_max: source_s.map_or(f32::NEG_INFINITY, |s| s.max),
         all_max: all_s.map_or(f32::NEG_INFINITY, |s| s.max),
+        all_min: all_s.map_or(f32::INFINITY, |s| s.min),
         source_near: source_s.is_some_and(|s| s.near),
         source_far: source_s.is_some_and(|s| s.far),
         all_near: all_s.is_some_and(|s| s.near),
@@ -273,6 +274,36 @@ impl PixelSet {
     }
 }
 
+/// Along one axis of `side` px, the search tiles holding a pixel within `margin` px of tile
+/// `tile`'s pixels.
+fn tiles_within(tile: usize, side: usize, margin: usize) -> std::ops::RangeInclusive<usize> {
+    let first = (tile * TILE).saturating_sub(margin) / TILE;
+    let last = (((tile + 1) * TILE).min(side) - 1 + margin).min(side - 1) / TILE;
+    first..=last
+}
+
+/// Per layer and search tile, the smallest f32 `|s|` (as the shaders compute it) of a pixel
+/// within `reach + 1` px of the tile, `reach` being the tile's (`tile_reach_cpu`): every
+/// receiver the backward's pass 4 visits from a source of the tile
+/// (`glsl/drbokeh_backward_source_disk.comp`'s `receiver_radius`).
+pub fn receiver_radii(params: &Params, ranges: &SourceRanges, reach: &[i32]) -> Vec<f32> {
+    let per_layer = params.tiles_x * params.tiles_y;
+    (0..reach.len())
+        .map(|i| {
+            let (l, t) = (i / per_layer.max(1), i % per_layer.max(1));
+            let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
+            let margin = reach[i].max(0) as usize + 1;
+            let mut smallest = f32::INFINITY;
+            for uy in tiles_within(ty, params.height, margin) {
+                for ux in tiles_within(tx, params.width, margin) {
+                    smallest = smallest.min(ranges.0[l * per_layer + uy * params.tiles_x + ux].all_min);
+                }
+            }
+            smallest
+        })
+        .collect()
+}
+
 /// Window of a tile that no source reaches: the gather loops `-h..=h` run zero times.
 pub const EMPTY_WINDOW: i32 = -1;
 
@@ -379,17 +410,12 @@ pub fn span_radii(params: &Params, ranges: &SourceRanges, windows: &[i32], core:
                 continue;
             }
             let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
-            let cover = |tile: usize, side: usize| {
-                let first = (tile * TILE).saturating_sub(h as usize) / TILE;
-                let last = (((tile + 1) * TILE).min(side) - 1 + h as usize).min(side - 1) / TILE;
-                first..=last
-            };
             let mut range = tile_ranges[t];
             let own_reach = range.all_max;
             let (mut near, mut far) = (range.all_near, range.all_far);
             let mut one_disparity = range.all_disparity;
-            for uy in cover(ty, params.height) {
-                for ux in cover(tx, params.width) {
+            for uy in tiles_within(ty, params.height, h as usize) {
+                for ux in tiles_within(tx, params.width, h as usize) {
                     let u = uy * params.tiles_x + ux;
                     let other = tile_ranges[u];
                     range.source_min = range.source_min.min(other.source_min);
@@ -451,6 +477,8 @@ struct AbsSRange {
     source_max: f32,
     /// Largest over every pixel (V gathers at each; infinity if one is not finite).
     all_max: f32,
+    /// Smallest over every pixel (0 if one is not finite, infinity if the tile has none).
+    all_min: f32,
     /// Whether a source with alpha > 0 is nearer than focus (f32 `s > 0`) / is not.
     source_near: bool,
     source_far: bool,
@@ -510,6 +538,7 @@ mod tests {
             source_min: f32::INFINITY,
             source_max: f32::NEG_INFINITY,
             all_max: f32::NEG_INFINITY,
+            all_min: f32::INFINITY,
             source_near: false,
             source_far: false,
             all_near: false,
@@ -536,6 +565,7 @@ mod tests {
                 let finite = s.is_finite();
                 let near = signed > 0.0;
                 range.all_max = range.all_max.max(if finite { s } else { f32::INFINITY });
+                range.all_min = range.all_min.min(if finite { s } else { 0.0 });
                 range.all_near |= near;
                 range.all_far |= !near;
                 range.all_disparity = range.all_disparity.with(disparity);
@@ -610,7 +640,7 @@ mod tests {
                     for tx in 0..params.tiles_x {
                         let (fast, slow) = (scan_tile(&params, &layer, tx, ty), scan_tile_per_pixel(&params, &layer, tx, ty));
                         assert_eq!(fast.0.map(f64::to_bits), slow.0.map(f64::to_bits), "bounds of tile ({tx}, {ty}), k {k}, {model:?}");
-                        let bits = |r: &AbsSRange| [r.source_min, r.source_max, r.all_max].map(f32::to_bits);
+                        let bits = |r: &AbsSRange| [r.source_min, r.source_max, r.all_max, r.all_min].map(f32::to_bits);
                         assert_eq!(bits(&fast.1), bits(&slow.1), "|s| of tile ({tx}, {ty}), k {k}, {model:?}");
                         assert_eq!(fast.1, slow.1, "ranges of tile ({tx}, {ty}), k {k}, {model:?}");
                         compared += 1;
@@ -647,7 +677,7 @@ mod tests {
                 let fresh = StackScan::new(&with_nan, focus).bounds(&params, &with_nan);
                 for (t, (kept, fresh)) in kept.iter().zip(&fresh).enumerate() {
                     assert_eq!(kept.0.map(f64::to_bits), fresh.0.map(f64::to_bits), "bounds of tile {t}, focus {focus}, {model:?}");
-                    let bits = |r: &AbsSRange| [r.source_min, r.source_max, r.all_max].map(f32::to_bits);
+                    let bits = |r: &AbsSRange| [r.source_min, r.source_max, r.all_max, r.all_min].map(f32::to_bits);
                     assert_eq!(bits(&kept.1), bits(&fresh.1), "|s| of tile {t}, focus {focus}, {model:?}");
                     assert_eq!(kept.1, fresh.1, "ranges of tile {t}, focus {focus}, {model:?}");
                     let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
@@ -712,5 +742,39 @@ mod tests {
                 assert_eq!(tile_window_cpu(&params, &bounds), tile_window_per_pair(&params, &bounds), "{w}x{h}, k {k}, {model:?}");
             }
         }
+    }
+
+    /// Pass 4's interior rests on `receiver_radii`: no pixel within a tile's reach + 1 px has
+    /// a smaller f32 |s| (as the shaders compute it) than its tile's entry.
+    #[test]
+    fn receiver_radii_bound_every_receiver_within_reach() {
+        let focus = 0.4f32;
+        let stack = without_nan(&layer_of_every_kind(focus));
+        let layer = &stack.layers[0];
+        let lens = Lens { coc: CocModel::new(7.5, focus).unwrap(), aperture: Aperture::Disk };
+        let params = Params::new(&stack, &lens, Model::DrBokeh).unwrap();
+        let (windows, ranges) = windows_and_ranges(&params, &stack);
+        let reach = crate::render::drbokeh::backward_cpu::tile_reach_cpu(&params, &windows);
+        let radii = receiver_radii(&params, &ranges, &reach);
+        let push = params.push(0);
+        let (mut checked, mut reached) = (0, 0);
+        for (t, (&smallest, &tile_reach)) in radii.iter().zip(&reach).enumerate() {
+            let (tx, ty) = (t % params.tiles_x, t / params.tiles_x);
+            let margin = tile_reach.max(0) as usize + 1;
+            let (x0, y0) = ((tx * TILE).saturating_sub(margin), (ty * TILE).saturating_sub(margin));
+            let x1 = ((tx + 1) * TILE - 1 + margin).min(params.width - 1);
+            let y1 = ((ty + 1) * TILE - 1 + margin).min(params.height - 1);
+            let mut least = f32::INFINITY;
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let s = push.k_px * (layer.disparity[y * params.width + x] - push.focus_disparity);
+                    least = least.min(if s.is_finite() { s.abs() } else { 0.0 });
+                    checked += 1;
+                }
+            }
+            assert!(smallest <= least, "tile {t}: {smallest} above a receiver's {least}");
+            reached += usize::from(smallest == least);
+        }
+        assert!(checked > 0 && reached > 0, "{checked} receivers, {reached} tiles' bounds attained");
     }
 }

@@ -111,7 +111,7 @@ const LAYER_SLOTS: [Slot; 13] = {
 
 /// Bindings of `drbokeh_layer_gauge.comp` and `drbokeh_layer_kernel.comp`: the layer pass's
 /// and the aperture's row table (the kernel image's runs, [`kernel_run_table`]).
-const LAYER_GAUGE_SLOTS: [Slot; 14] = Slot::append(LAYER_SLOTS, Slot::Texels(TexelFormat::Vec4));
+const LAYER_GAUGE_SLOTS: [Slot; 14] = Slot::concat(LAYER_SLOTS, [Slot::Texels(TexelFormat::Vec4)]);
 
 /// Bindings of `drbokeh_layer_sources.comp` (inputs as texels) and of
 /// `drbokeh_layer_blocks.comp` (the prepass's outputs as texels).

@@ -14,7 +14,7 @@
 //! independent of the tile size.
 use super::backward::{check_inputs, BackwardOptions};
 use super::backward_cpu::tile_reach_cpu;
-use super::bounds::{grow_windows, scanned_windows_and_ranges, StackScan};
+use super::bounds::{grow_windows, receiver_radii, scanned_windows_and_ranges, StackScan};
 use super::gpu::{compile_side_by_side, halo, taps, ForwardBuffers, ForwardFrame, Residency, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
 use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
@@ -50,6 +50,8 @@ pub struct DrBokehGpuGrad {
     /// shapes and models (lavapipe would run them under lane masks at every tap).
     own_kernel: ComputePipeline,
     source_kernel: ComputePipeline,
+    /// Pass 3' of the disk path: block sums of the receivers' adjoints for pass 4's interior.
+    blocks: ComputePipeline,
     pub model: Model,
     pub options: BackwardOptions,
 }
@@ -62,8 +64,9 @@ struct BackwardBuffers {
     own: Buffer,
     /// Pass 2's per-receiver (rel, alpha, dL/dV / sum D, window) for pass 4: one load a tap.
     receiver: Buffer,
-    /// The frame's tile reach (shared by every tile).
+    /// The frame's tile reach and smallest receiver radius within it (shared by every tile).
     tile_reach: Buffer,
+    receiver_radius: Buffer,
     grad_rgba: Buffer,
     grad_disparity: Buffer,
     k_partial: Buffer,
@@ -86,7 +89,16 @@ const OWN_SLOTS: [Slot; 9] = {
 };
 /// [`OWN_SLOTS`] and the forward's alpha block sums (`drbokeh_backward_own_disk.comp`: the
 /// disk's interior rows of V are span sums).
-const OWN_SPAN_SLOTS: [Slot; 10] = Slot::append(OWN_SLOTS, Slot::Texels(TexelFormat::Vec2));
+const OWN_SPAN_SLOTS: [Slot; 10] = Slot::concat(OWN_SLOTS, [Slot::Texels(TexelFormat::Vec2)]);
+/// [`SOURCE_SLOTS`] and pass 3''s block sums and the tiles' smallest receiver radii
+/// (`drbokeh_backward_source_disk.comp`: its interior rows are span sums).
+const SOURCE_SPAN_SLOTS: [Slot; 15] = Slot::concat(
+    SOURCE_SLOTS,
+    [Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Vec2), Slot::Storage],
+);
+/// Bindings of pass 3' (`drbokeh_backward_blocks.comp`).
+const BLOCKS_SLOTS: [Slot; 5] =
+    [Slot::Texels(TexelFormat::Vec4), Slot::Texels(TexelFormat::Vec4), Slot::Storage, Slot::Storage, Slot::Storage];
 const SOURCE_SLOTS: [Slot; 11] = {
     use Slot::{Storage, Texels};
     use TexelFormat::{Float, Vec4};
@@ -114,7 +126,7 @@ impl DrBokehGpuGrad {
             own: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN, &OWN_SLOTS, push)?,
             source: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE, &SOURCE_SLOTS, push)?,
             own_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_DISK, &OWN_SPAN_SLOTS, push)?,
-            source_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_DISK, &SOURCE_SLOTS, push)?,
+            source_disk: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_DISK, &SOURCE_SPAN_SLOTS, push)?,
             own_gauge: PipelineVariants::new(ctx, &shaders::DRBOKEH_BACKWARD_OWN_GAUGE, &OWN_SLOTS, push)?,
             source_gauge: PipelineVariants::new(ctx, &shaders::DRBOKEH_BACKWARD_SOURCE_GAUGE, &SOURCE_SLOTS, push)?,
             own_ring: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_OWN_RING, &OWN_SLOTS, push)?,
@@ -126,6 +138,7 @@ impl DrBokehGpuGrad {
                 &SOURCE_SLOTS,
                 push,
             )?,
+            blocks: ComputePipeline::with_slots(ctx, &shaders::DRBOKEH_BACKWARD_BLOCKS, &BLOCKS_SLOTS, push)?,
             model,
             options,
         })
@@ -165,11 +178,13 @@ impl DrBokehGpuGrad {
         let windows = grow_windows(windows, self.options.window_margin());
         let per_layer = params.tiles_x * params.tiles_y;
         let reach: Vec<i32> = windows.chunks(per_layer.max(1)).flat_map(|w| tile_reach_cpu(&params, w)).collect();
+        let radii = receiver_radii(&params, &ranges, &reach);
         let ctx = self.context();
         let frame = Frame {
             forward: ForwardFrame::new(stack, &params, &lens.aperture, &windows, Some(ranges)),
             reach: &reach,
             tile_reach: Buffer::from_slice(ctx, "drbokeh tile_reach", &reach)?,
+            receiver_radius: Buffer::from_slice(ctx, "drbokeh receiver_radius", &radii)?,
             grad_output,
         };
         let footprint = backward_footprint(
@@ -271,6 +286,7 @@ impl DrBokehGpuGrad {
                 gout,
             )?,
             tile_reach: frame.tile_reach.clone(),
+            receiver_radius: frame.receiver_radius.clone(),
         })
     }
 
@@ -294,6 +310,9 @@ impl DrBokehGpuGrad {
         let mut pipelines = self.forward.pipelines(&params.lens, params.model, Residency::Stacked)?;
         pipelines.push(self.composite.clone());
         pipelines.extend(self.adjoint_pipelines(params)?);
+        if params.lens.path(params.model) == AperturePath::Disk {
+            pipelines.push(self.blocks.clone());
+        }
         compile_side_by_side(&pipelines)
     }
 
@@ -311,14 +330,18 @@ impl DrBokehGpuGrad {
         let push = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, f.core, f.read) };
         let push_sources = |layer| super::DrBokehPush { leaky_slope, ..params.push_tile(layer, sources, f.read) };
         let [own_pipeline, source_pipeline] = &self.adjoint_pipelines(params)?;
-        // The disk path's receiver pass reads the forward's alpha block sums of this batch.
-        let own_bindings = if params.lens.path(params.model) == AperturePath::Disk {
-            if !self.forward.sums_blocks(&params.lens, params.model)? {
-                return Err(Error::internal("the backward's disk path needs the forward's block sums"));
-            }
-            OWN_SPAN_SLOTS.len()
-        } else {
-            OWN_SLOTS.len()
+        // The disk path's pass 2 reads the forward's alpha block sums of this batch; pass 3'
+        // then writes the receivers' adjoint sums over them, for pass 4.
+        let spans = params.lens.path(params.model) == AperturePath::Disk;
+        if spans && !self.forward.sums_blocks(&params.lens, params.model)? {
+            return Err(Error::internal("the backward's disk path needs the forward's block sums"));
+        }
+        let (own_bindings, source_bindings) =
+            if spans { (OWN_SPAN_SLOTS.len(), SOURCE_SPAN_SLOTS.len()) } else { (OWN_SLOTS.len(), SOURCE_SLOTS.len()) };
+        // Pass 3': one invocation per global 16-px block (of those the read rect touches) and row.
+        let blocks_groups = {
+            let blocks = (f.read.x1 - 1) / TILE - f.read.x0 / TILE + 1;
+            self.blocks.groups_for([blocks as u32, f.read.height() as u32, 1])
         };
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
         let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];
@@ -340,6 +363,11 @@ impl DrBokehGpuGrad {
                 f.block_alpha.all(),
             ];
             batch.dispatch(own_pipeline, &own[..own_bindings], &push(layer), groups)?;
+            if spans {
+                let sums =
+                    [b.adj_cw.all(), b.receiver.all(), f.block_prefix.all(), f.block_suffix.all(), f.block_alpha.all()];
+                batch.dispatch(&self.blocks, &sums, &push(layer), blocks_groups)?;
+            }
             let source = [
                 f.rgba[0].all(),
                 f.disparity[0].all(),
@@ -352,8 +380,12 @@ impl DrBokehGpuGrad {
                 b.grad_disparity.all(),
                 b.k_partial.all(),
                 b.tile_reach.all(),
+                f.block_prefix.all(),
+                f.block_suffix.all(),
+                f.block_alpha.all(),
+                b.receiver_radius.all(),
             ];
-            batch.dispatch(source_pipeline, &source, &push_sources(layer), source_groups)?;
+            batch.dispatch(source_pipeline, &source[..source_bindings], &push_sources(layer), source_groups)?;
         }
         Ok(())
     }
@@ -373,6 +405,7 @@ struct Frame<'a> {
     forward: ForwardFrame<'a>,
     reach: &'a [i32],
     tile_reach: Buffer,
+    receiver_radius: Buffer,
     grad_output: &'a Image,
 }
 
