@@ -2,7 +2,10 @@
 //! gather passes of `glsl/drbokeh_backward_*.comp` (composite, own, source; pass 3, the tile
 //! reach, is computed on the host, which needs it to cut the tiles anyway, and uploaded) over
 //! the forward's intermediates, recorded per frame tile, several tiles to a submission
-//! ([`super::tiled`]). The f64 reference of the same passes is [`super::backward_cpu`].
+//! ([`super::tiled`]). On the disk, passes 2 and 4 sum their interior rows from block sums
+//! (pass 2 the forward's alphas; pass 4 the receivers' adjoints, summed per layer by pass 3',
+//! `drbokeh_backward_blocks.comp`, over the forward's block buffers): the f64 reference of the
+//! same passes, [`super::backward_cpu`], sums every tap.
 //!
 //! A tile is a core C of *source* pixels, whose gradients it writes. They gather over the
 //! receivers O whose windows hold a source of C (C grown by the tile reach, pass 3); O's
