@@ -11,7 +11,6 @@
 // The body is glsl/common/drbokeh_backward_source.glsl.
 #version 450
 #extension GL_GOOGLE_include_directive : require
-#extension GL_EXT_control_flow_attributes : require
 #define DRBOKEH_BACKWARD_DISK 1
 #define DRBOKEH_BACKWARD_SPANS 1
 #include "drbokeh_backward_source.glsl"

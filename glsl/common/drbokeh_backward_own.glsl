@@ -164,8 +164,7 @@ void main() {
     float interior = 0.0;
 #ifdef DRBOKEH_BACKWARD_SPANS
     if (pc.leaky_slope <= 0.0) {
-        interior = drbokeh_footprint_support(dst.r);
-        interior -= interior * (1.0 / 65536.0);
+        interior = drbokeh_interior_bound(drbokeh_footprint_support(dst.r));
     }
 #endif
     vec4 vis = receiver_visibility_sums(x, h, dst, limit2, interior);

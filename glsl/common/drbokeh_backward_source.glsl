@@ -19,9 +19,6 @@
 #include "gauge.glsl"
 #endif
 #ifdef DRBOKEH_BACKWARD_SPANS
-// [[unroll]] (GL_EXT_control_flow_attributes, enabled by the .comp): a loop over the RUN
-// sources that indexes their sums must unroll, or the sums become arrays in memory at every
-// tap (lavapipe: the pass took twice as long).
 #ifdef DRBOKEH_BACKWARD_GAUGE
 #error "interior spans skip receiver columns; the gauge path shifts its gauges column by column"
 #endif
@@ -192,11 +189,9 @@ void main() {
     float t[RUN];
     {
         float smallest = receiver_radius[tile_base + (y0.y / DRBOKEH_TILE) * pc.tiles_x + y0.x / DRBOKEH_TILE];
-        float t_receiver = smallest + 0.5;
-        t_receiver -= t_receiver * (1.0 / 65536.0);
-        [[unroll]] for (int k = 0; k < RUN; ++k) {
-            float t_source = drbokeh_coverage_radius(src[k].r) + 0.5;
-            t_source -= t_source * (1.0 / 65536.0);
+        float t_receiver = drbokeh_interior_bound(smallest + 0.5);
+        for (int k = 0; k < RUN; ++k) {
+            float t_source = drbokeh_interior_bound(drbokeh_coverage_radius(src[k].r) + 0.5);
             t[k] = exact && smallest >= 1.5 ? min(t_source, t_receiver) : 0.0;
         }
     }
@@ -212,12 +207,15 @@ void main() {
         int o0 = max(-half_width, -y0.x);
         int o1 = min(half_width + RUN - 1, pc.width - 1 - y0.x);
         // Receivers [skip0, skip1] lie in the interior of every source of the run: each adds
-        // its adjoints alone to each source, as one span sum, and the taps below skip them.
+        // its adjoints alone to each source, as one span sum, and the taps below skip them
+        // (none with skip0 = o1 + 1). One range for the run, not one per source: a bound per
+        // source read at every tap made the pass twice as slow on lavapipe, whose tap loop
+        // holds each live value in a 256-bit register per 8 lanes.
         int skip0 = o1 + 1;
         int skip1 = o1;
 #ifdef DRBOKEH_BACKWARD_SPANS
         skip0 = o0;
-        [[unroll]] for (int k = 0; k < RUN; ++k) {
+        for (int k = 0; k < RUN; ++k) {
             int m = t[k] > 1.0 ? interior_half_width_disk(t[k], float(oy * oy), half_width) : -1;
             skip0 = max(skip0, k - m);
             skip1 = min(skip1, k + m);
@@ -228,13 +226,15 @@ void main() {
             int base = drbokeh_read_index(pc.layer, ivec2(a, ry)) - a;
             vec4 adj = span_sum_adjoint(base, a, b);
             float share = span_sum_share(base, a, b);
-            [[unroll]] for (int k = 0; k < RUN; ++k) {
+            for (int k = 0; k < RUN; ++k) {
                 if (p[k].w > 0.0) {
                     d_p[k] += adj * (1.0 / area[k]);
                     d_s[k] += dot(adj, p[k]) * (-d_area[k] / area[k] / area[k] * sign_y[k]);
                 }
                 d_p[k].w += share;
             }
+        } else {
+            skip0 = o1 + 1;
         }
 #endif
 #ifdef DRBOKEH_BACKWARD_GAUGE
@@ -244,15 +244,11 @@ void main() {
             gauges[k] = gauge_pair(vec2(float(o0 - k), float(oy)));
         }
 #endif
-        // The receivers left of the skipped ones, then those right of them.
-        if (skip0 > skip1) {
-            skip0 = o1 + 1;
-            skip1 = o1;
-        }
-        for (int part = 0; part < 2; ++part) {
-        int from = part == 0 ? o0 : max(o0, skip1 + 1);
-        int to = part == 0 ? min(o1, skip0 - 1) : o1;
-        for (int o = from; o <= to; ++o) {
+        for (int o = o0; o <= o1; ++o) {
+            if (o == skip0) {
+                o = skip1; // past the receivers summed above
+                continue;
+            }
 #ifdef DRBOKEH_BACKWARD_GAUGE
             if (o > o0) {
                 for (int k = RUN - 1; k > 0; --k) {
@@ -330,7 +326,6 @@ void main() {
 #endif
                 }
             }
-        }
         }
     }
     for (int k = 0; k <= last; ++k) {

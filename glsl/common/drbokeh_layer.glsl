@@ -674,9 +674,7 @@ void main() {
             occluding = occluding || c[k].occluder > 0.0;
             t = min(t, c[k].support);
         }
-        // A margin far above f32 rounding: the interior test stays sound however the compiler
-        // orders the adds of the tap's smoothstep arguments.
-        t -= t * (1.0 / 65536.0);
+        t = drbokeh_interior_bound(t);
         // Branches are masks on lavapipe: only a lane group with an occluding centre pays for
         // the occlusion terms.
 #ifdef DRBOKEH_LAYER_KERNEL
@@ -710,7 +708,7 @@ void main() {
         float inner = pc.aperture.z;
         float low = t - 0.5;
         float t_hole = low >= APERTURE_KERNEL_FADE_END_PX ? inner * low + 0.5 : 0.0;
-        t_hole -= t_hole * (1.0 / 65536.0);
+        t_hole = drbokeh_interior_bound(t_hole);
         float outer_hole = (inner * (radii.y - 0.5) + 0.5) * (1.0 + 1.0 / 4096.0) + 1.0 / 4096.0;
         int h_hole = outer_hole >= float(h + 1) ? h : int(ceil(outer_hole));
         if (occluding) {

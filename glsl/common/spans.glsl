@@ -1,10 +1,17 @@
 // Interior row spans of a disk and their sums from global 16-px block sums, shared by the
-// layer pass's disk path (glsl/common/drbokeh_layer.glsl) and the backward's receiver pass on
-// the disk (glsl/common/drbokeh_backward_own.glsl): inside a disk of support t, where a tap's
-// Hermite steps are exactly 1, a row's taps add one value each, so a row costs a span sum
-// instead of one evaluation per tap.
+// layer pass's disk path (glsl/common/drbokeh_layer.glsl) and the backward's passes 2 and 4 on
+// the disk (glsl/common/drbokeh_backward_own.glsl, drbokeh_backward_source.glsl): inside a
+// disk of support t, where a tap's Hermite steps are exactly 1, a row's taps add one value
+// each, so a row costs a span sum instead of one evaluation per tap.
 #ifndef LENSBLUR_SPANS_GLSL
 #define LENSBLUR_SPANS_GLSL
+
+// `support` (a Hermite step's argument is support - g) less a margin far above f32 rounding:
+// where the result - g >= 1 the step is exactly 1, however the compiler orders the adds of
+// the taps' arguments.
+float drbokeh_interior_bound(float support) {
+    return support - support * (1.0 / 65536.0);
+}
 
 // An m in [-1, half_width] with t - g(m, oy) >= 1, g = sqrt(m^2 + oy^2) as the taps compute
 // their Euclidean gauge: every column |o| <= m of the row is then interior (g grows with |o|).

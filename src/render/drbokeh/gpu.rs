@@ -328,9 +328,7 @@ impl DrBokehGpu {
                 batch.dispatch(sources, &bindings, push, sources.groups_for(extent))?;
             }
             if passes.blocks {
-                // One invocation per global 16-px block (of those the read rect touches) and row.
-                let blocks = (b.read.x1 - 1) / TILE - b.read.x0 / TILE + 1;
-                let extent = [blocks as u32, b.read.height() as u32, layers as u32];
+                let extent = [block_columns(b.read), b.read.height() as u32, layers as u32];
                 let bindings =
                     [b.source_pa.all(), b.source_sa.all(), b.block_prefix.all(), b.block_suffix.all(), b.block_alpha.all()];
                 batch.dispatch(&self.blocks, &bindings, push, self.blocks.groups_for(extent))?;
@@ -381,6 +379,12 @@ impl DrBokehGpu {
             }
         }
     }
+}
+
+/// The block-sum passes' invocations per row of `read` (`drbokeh_blocks.glsl`): one per global
+/// 16-px block the rect touches.
+pub(crate) fn block_columns(read: Rect) -> u32 {
+    ((read.x1 - 1) / TILE - read.x0 / TILE + 1) as u32
 }
 
 /// Compiles `pipelines` on every core at once (see [`DrBokehGpu::compile_for`]).

@@ -18,7 +18,7 @@
 use super::backward::{check_inputs, BackwardOptions};
 use super::backward_cpu::tile_reach_cpu;
 use super::bounds::{grow_windows, receiver_radii, scanned_windows_and_ranges, StackScan};
-use super::gpu::{compile_side_by_side, halo, taps, ForwardBuffers, ForwardFrame, Residency, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
+use super::gpu::{block_columns, compile_side_by_side, halo, taps, ForwardBuffers, ForwardFrame, Residency, CORE_BYTES_PER_PIXEL, READ_BYTES_PER_PIXEL, VEC4};
 use super::{AperturePath, DrBokehGpu, Model, Params, RenderOptions, RenderStats, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
@@ -341,11 +341,7 @@ impl DrBokehGpuGrad {
         }
         let (own_bindings, source_bindings) =
             if spans { (OWN_SPAN_SLOTS.len(), SOURCE_SPAN_SLOTS.len()) } else { (OWN_SLOTS.len(), SOURCE_SLOTS.len()) };
-        // Pass 3': one invocation per global 16-px block (of those the read rect touches) and row.
-        let blocks_groups = {
-            let blocks = (f.read.x1 - 1) / TILE - f.read.x0 / TILE + 1;
-            self.blocks.groups_for([blocks as u32, f.read.height() as u32, 1])
-        };
+        let blocks_groups = self.blocks.groups_for([block_columns(f.read), f.read.height() as u32, 1]);
         // TILE / local_size_x adjacent sources per invocation (the disk path runs several).
         let per_invocation = TILE as u32 / source_pipeline.shader().local_size[0];
         let source_groups =
