@@ -536,12 +536,22 @@ fn assemble_layer(
         options.depth_kind,
     )?;
     drop(depth);
-    let mut pixels: Vec<[f32; 4]> = alpha.iter().map(|&a| [0.0, 0.0, 0.0, a]).collect();
-    drop(alpha);
-    for (c, (name, mut values)) in colour.into_iter().enumerate() {
-        replaced.insert(c, check_finite(path, &candidate.name, &name, &mut values, options.replace_nonfinite)?);
-        pixels.iter_mut().zip(values).for_each(|(p, v)| p[c] = v);
+    let mut colour = colour;
+    for (c, (name, values)) in colour.iter_mut().enumerate() {
+        replaced.insert(c, check_finite(path, &candidate.name, name, values, options.replace_nonfinite)?);
     }
+    // Interleaved in one pass, in runs on every core (four strided passes over a frame of
+    // RGBA were a third of reading a large layered file).
+    let [(_, red), (_, green), (_, blue)] = &colour;
+    let mut pixels = vec![[0.0f32; 4]; alpha.len()];
+    pixels.par_chunks_mut(1 << 16).enumerate().for_each(|(run, pixels)| {
+        let start = run << 16;
+        for (k, p) in pixels.iter_mut().enumerate() {
+            let i = start + k;
+            *p = [red[i], green[i], blue[i], alpha[i]];
+        }
+    });
+    drop((alpha, colour));
     let rgba = Image { width: display.width, height: display.height, pixels };
     let layer = Layer { name: candidate.name.clone(), rgba, disparity };
     let disparity_range =

@@ -49,13 +49,14 @@ struct Level<const N: usize> {
     weights: Vec<f32>,
 }
 
-/// The fine pixels that carry weight among the 2x2 block under coarse pixel (x, y).
-fn pull_children<const N: usize>(fine: &Level<N>, x: usize, y: usize) -> [Option<usize>; 4] {
+/// The fine pixels that carry weight among the 2x2 block under coarse pixel (x, y) of a level
+/// `width` x `height` with `weights`.
+fn pull_children(width: usize, height: usize, weights: &[f32], x: usize, y: usize) -> [Option<usize>; 4] {
     [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| {
         let (fx, fy) = (2 * x + dx, 2 * y + dy);
-        let i = fy * fine.width + fx;
+        let i = fy * width + fx;
         // Weightless values are undefined (may be NaN or infinite): never read.
-        (fx < fine.width && fy < fine.height && fine.weights[i] > 0.0).then_some(i)
+        (fx < width && fy < height && weights[i] > 0.0).then_some(i)
     })
 }
 
@@ -63,16 +64,21 @@ fn pull_children<const N: usize>(fine: &Level<N>, x: usize, y: usize) -> [Option
 /// the pyramid of every layer with transparent pixels is built while a stack is read, and one
 /// thread's passes were most of reading a large layered EXR.
 fn pull<const N: usize>(fine: &Level<N>) -> Level<N> {
-    let (width, height) = (fine.width.div_ceil(2), fine.height.div_ceil(2));
+    pull_from(fine.width, fine.height, &fine.values, &fine.weights)
+}
+
+/// [`pull`] from a level given as its arrays (the finest level is the caller's own).
+fn pull_from<const N: usize>(fine_width: usize, fine_height: usize, fine_values: &[[f32; N]], fine_weights: &[f32]) -> Level<N> {
+    let (width, height) = (fine_width.div_ceil(2), fine_height.div_ceil(2));
     let mut values = vec![[0.0; N]; width * height];
     let mut weights = vec![0.0; width * height];
     values.par_chunks_mut(width).zip(weights.par_chunks_mut(width)).enumerate().for_each(|(y, (values, weights))| {
         for x in 0..width {
             let (mut sum, mut total) = ([0.0f32; N], 0.0f32);
-            for i in pull_children(fine, x, y).into_iter().flatten() {
-                let w = fine.weights[i];
+            for i in pull_children(fine_width, fine_height, fine_weights, x, y).into_iter().flatten() {
+                let w = fine_weights[i];
                 total += w;
-                for (s, v) in sum.iter_mut().zip(fine.values[i]) {
+                for (s, v) in sum.iter_mut().zip(fine_values[i]) {
                     *s += w * v;
                 }
             }
@@ -156,6 +162,23 @@ fn full_coarse_taps(width: usize, height: usize, x: usize, y: usize) -> [(usize,
     [(ya + xa, (1.0 - tx) * (1.0 - ty)), (ya + xb, tx * (1.0 - ty)), (yb + xa, (1.0 - tx) * ty), (yb + xb, tx * ty)]
 }
 
+/// The last push, into the caller's `values`: every pixel whose weight is 0 or below takes the
+/// coarse level's sample, as [`push`] gives it a weightless pixel (`0 + 1 c`, the same bits);
+/// the others keep their own value.
+fn push_into_weightless<const N: usize>(width: usize, values: &mut [[f32; N]], weights: &[f32], coarse: &Level<N>) {
+    let full = coarse.weights.iter().all(|&w| w == 1.0);
+    values.par_chunks_mut(width).zip(weights.par_chunks(width)).enumerate().for_each(|(y, (values, weights))| {
+        for x in 0..width {
+            if weights[x] <= 0.0 {
+                let c = if full { sample_full_coarse(coarse, x, y) } else { sample_coarse(coarse, x, y) };
+                for (v, c) in values[x].iter_mut().zip(c) {
+                    *v = 0.0 + 1.0 * c;
+                }
+            }
+        }
+    });
+}
+
 /// Fills the fine level's missing weight from the coarse level, row by row on every core (each
 /// fine pixel writes only itself).
 fn push<const N: usize>(fine: &mut Level<N>, coarse: &Level<N>) {
@@ -187,8 +210,11 @@ pub fn push_pull<const N: usize>(width: usize, height: usize, values: &mut [[f32
     if width == 0 || height == 0 || !weights.iter().any(|&w| w > 0.0) {
         return false;
     }
-    let base = Level { width, height, values: values.to_vec(), weights: weights.iter().map(|w| w.max(0.0)).collect() };
-    let mut levels = vec![base];
+    // The finest level is the caller's arrays, not a copy of them (two arrays of the frame per
+    // layer, most of reading a large layered file went to allocating and copying them): the
+    // pull reads only weights above 0, as it read the clamped copy, and the last push writes
+    // only the pixels the fill replaces, which is all its copy was read for.
+    let mut levels = vec![pull_from(width, height, values, weights)];
     while levels.last().is_some_and(|l| l.width > 1 || l.height > 1) {
         let next = pull(levels.last().expect("pyramid has a level"));
         levels.push(next);
@@ -197,11 +223,7 @@ pub fn push_pull<const N: usize>(width: usize, height: usize, values: &mut [[f32
         let (finer, coarser) = levels.split_at_mut(k);
         push(&mut finer[k - 1], &coarser[0]);
     }
-    for (i, v) in values.iter_mut().enumerate() {
-        if weights[i] <= 0.0 {
-            *v = levels[0].values[i];
-        }
-    }
+    push_into_weightless(width, values, weights, &levels[0]);
     true
 }
 
@@ -393,7 +415,7 @@ pub fn push_pull_adjoint(width: usize, height: usize, weights: &[f32], grad_outp
         let (fine, coarse) = (&levels[k - 1], &levels[k]);
         for y in 0..coarse.height {
             for x in 0..coarse.width {
-                let children = pull_children(fine, x, y);
+                let children = pull_children(fine.width, fine.height, &fine.weights, x, y);
                 let total: f32 = children.iter().flatten().map(|&i| fine.weights[i]).sum();
                 if total > 0.0 {
                     for &i in children.iter().flatten() {
@@ -456,6 +478,30 @@ mod tests {
             } else {
                 // Convex combinations of the known x = 0..3 and 10..12 columns.
                 assert!(values[i][0] >= 0.0 && values[i][0] <= 12.0, "{:?}", values[i]);
+            }
+        }
+    }
+
+    /// The finest level is the caller's array: what lies under a weight of 0 or below is never
+    /// read (garbage there changes no bit), partial weights keep their value exactly.
+    #[test]
+    fn values_under_no_weight_are_never_read_and_partial_weights_are_kept() {
+        let (w, h) = (11, 7);
+        let weights: Vec<f32> = (0..w * h).map(|i| [1.0, 0.3, 0.0, -2.0][(i * 7 + i / w) % 4]).collect();
+        let known: Vec<[f32; 2]> = (0..w * h).map(|i| [(i % w) as f32 * 0.5, (i / w) as f32 - 3.0]).collect();
+        let with_garbage = |garbage: f32| {
+            let mut values: Vec<[f32; 2]> =
+                known.iter().zip(&weights).map(|(&v, &wt)| if wt > 0.0 { v } else { [garbage; 2] }).collect();
+            assert!(push_pull(w, h, &mut values, &weights));
+            values
+        };
+        let (a, b) = (with_garbage(f32::NAN), with_garbage(1e30));
+        for i in 0..w * h {
+            assert_eq!(a[i].map(f32::to_bits), b[i].map(f32::to_bits), "pixel {i}");
+            if weights[i] > 0.0 {
+                assert_eq!(a[i].map(f32::to_bits), known[i].map(f32::to_bits), "pixel {i} has weight {}", weights[i]);
+            } else {
+                assert!(a[i][0] >= 0.0 && a[i][0] <= 5.0 && a[i][1] >= -3.0 && a[i][1] <= 3.0, "pixel {i}: {:?}", a[i]);
             }
         }
     }

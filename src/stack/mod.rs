@@ -223,18 +223,65 @@ impl LayerStack {
 
     /// Orders layers front to back by their alpha-weighted mean disparity.
     pub fn sort_front_to_back(&mut self) {
-        let key = |l: &Layer| {
-            let (mut sum, mut weight) = (0.0f64, 0.0f64);
-            for (p, d) in l.rgba.pixels.iter().zip(&l.disparity) {
-                sum += (p[3] * d) as f64;
-                weight += p[3] as f64;
-            }
-            if weight > 0.0 {
-                sum / weight
-            } else {
-                0.0
-            }
+        use rayon::prelude::*;
+        // Each layer's key once, on every core: the comparator used to work both keys out at
+        // every comparison, a second of reading an 8K five-layer file on one core.
+        let keys: Vec<f64> = self
+            .layers
+            .par_iter()
+            .map(|l| {
+                // Runs summed side by side, then added in order: the same key on every run.
+                let runs: Vec<(f64, f64)> = l
+                    .rgba
+                    .pixels
+                    .par_chunks(1 << 16)
+                    .zip(l.disparity.par_chunks(1 << 16))
+                    .map(|(pixels, disparity)| {
+                        pixels.iter().zip(disparity).fold((0.0f64, 0.0f64), |(sum, weight), (p, d)| {
+                            (sum + (p[3] * d) as f64, weight + p[3] as f64)
+                        })
+                    })
+                    .collect();
+                let (sum, weight) = runs.iter().fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+                if weight > 0.0 {
+                    sum / weight
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let mut order: Vec<usize> = (0..self.layers.len()).collect();
+        order.sort_by(|&a, &b| keys[b].total_cmp(&keys[a]));
+        let mut layers: Vec<Option<Layer>> = std::mem::take(&mut self.layers).into_iter().map(Some).collect();
+        self.layers = order.into_iter().map(|i| layers[i].take().expect("each layer is placed once")).collect();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Front to back by alpha-weighted mean disparity; a transparent layer counts as far (0),
+    /// equal keys keep their order, and a frame of several runs weighs every pixel.
+    #[test]
+    fn layers_sort_front_to_back_by_their_covered_disparity() {
+        let (width, height) = (300, 400); // 120,000 pixels: two runs of the key's sums
+        let layer = |name: &str, alpha: f32, near_disparity: f32| {
+            let rgba = Image::from_fn(width, height, |_, y| [0.0, 0.0, 0.0, if y < 300 { alpha } else { alpha * 0.5 }]);
+            // The last rows (past the first run) are the nearest: they move the key.
+            let disparity = (0..width * height).map(|i| if i / width >= 350 { near_disparity } else { 0.5 }).collect();
+            Layer { name: name.into(), rgba, disparity }
         };
-        self.layers.sort_by(|a, b| key(b).total_cmp(&key(a)));
+        let layers = vec![
+            layer("empty", 0.0, 9.0),
+            layer("far", 1.0, 0.5),
+            layer("twin-a", 1.0, 2.0),
+            layer("near", 1.0, 4.0),
+            layer("twin-b", 1.0, 2.0),
+        ];
+        let mut stack = LayerStack::new(width, height, layers).unwrap();
+        stack.sort_front_to_back();
+        let names: Vec<&str> = stack.layers.iter().map(|l| l.name.as_str()).collect();
+        assert_eq!(names, ["near", "twin-a", "twin-b", "far", "empty"]);
     }
 }
