@@ -9,6 +9,7 @@ pub mod autolayer;
 pub mod deep;
 pub mod depth_clean;
 pub mod exr_header_order;
+mod exr_decode;
 pub mod exr_read;
 pub mod exr_write;
 pub mod exr_replace;
