@@ -3,11 +3,13 @@
 //! of a process case (reading, writing) can be profiled on any machine:
 //! `cargo run --release -p lensblur-dev --example process_stack -- OUT.exr [WIDTH HEIGHT LAYERS MAX_COC]`
 //! (default: the kit's 8K case, 7680 4320 5 40) writes the file, then reads it back and prints
-//! both times; `... --example process_stack -- --read FILE.exr [RUNS]` only reads it, RUNS times.
+//! both times; `... --example process_stack -- --read FILE.exr [RUNS]` only reads it, RUNS times;
+//! `... --example process_stack -- --write-image OUT.exr [RUNS]` writes an 8K RGBA image as
+//! `lensblur render` writes its output (float, as without `--half`), RUNS times.
 use std::path::PathBuf;
 use std::time::Instant;
 
-use lensblur::stack::{read_stack, write_stack, DepthKind, ReadOptions, StackWriteOptions};
+use lensblur::stack::{read_stack, write_image, write_stack, DepthKind, ReadOptions, SampleType, StackWriteOptions, WriteOptions};
 use lensblur_dev::bench::large::{layered_stack, Focus};
 type Failure = Box<dyn std::error::Error>;
 
@@ -24,7 +26,7 @@ fn stack_hash(stack: &lensblur::stack::LayerStack) -> u64 {
 
 fn main() -> Result<(), Failure> {
     let mut args = std::env::args().skip(1);
-    let usage = "usage: process_stack OUT.exr [WIDTH HEIGHT LAYERS MAX_COC]";
+    let usage = "usage: process_stack OUT.exr [WIDTH HEIGHT LAYERS MAX_COC] | --read FILE.exr [RUNS] | --write-image OUT.exr [RUNS]";
     let first = args.next().ok_or(usage)?;
     let read_options = ReadOptions { depth_kind: DepthKind::Disparity, ..ReadOptions::default() };
     if first == "--read" {
@@ -35,6 +37,21 @@ fn main() -> Result<(), Failure> {
             let read = read_stack(&input, &read_options)?;
             let seconds = start.elapsed().as_secs_f64();
             eprintln!("{}: read {} layers in {seconds:.3} s, hash {:016x}", input.display(), read.stack.layers.len(), stack_hash(&read.stack));
+        }
+        return Ok(());
+    }
+    if first == "--write-image" {
+        let output = PathBuf::from(args.next().ok_or(usage)?);
+        let runs: usize = args.next().map(|t| t.parse()).transpose().map_err(|_| usage)?.unwrap_or(1);
+        // A render's kind of content: smooth ramps, a texture, a few bright values.
+        let image = lensblur::image::Image::from_fn(7680, 4320, |x, y| {
+            let v = ((x * 7 + y * 13) % 1000) as f32 / 1000.0 + ((x ^ y) % 17) as f32 * 0.01;
+            [v, v * 0.5, 1.0 - v, 1.0]
+        });
+        for _ in 0..runs {
+            let start = Instant::now();
+            write_image(&output, &image, &WriteOptions { sample_type: SampleType::Float, ..WriteOptions::default() })?;
+            eprintln!("{}: wrote 7680x4320 RGBA in {:.3} s", output.display(), start.elapsed().as_secs_f64());
         }
         return Ok(());
     }
