@@ -28,6 +28,11 @@ fn main() -> Result<(), Failure> {
     let mut args = std::env::args().skip(1);
     let usage = "usage: process_stack OUT.exr [WIDTH HEIGHT LAYERS MAX_COC] | --read FILE.exr [RUNS] | --write-image OUT.exr [RUNS]";
     let first = args.next().ok_or(usage)?;
+    // Any other word is the output's name: `--help` once wrote an 8K stack by that name.
+    if first.starts_with('-') && first != "--read" && first != "--write-image" {
+        println!("{usage}");
+        return Ok(());
+    }
     let read_options = ReadOptions { depth_kind: DepthKind::Disparity, ..ReadOptions::default() };
     if first == "--read" {
         let input = PathBuf::from(args.next().ok_or(usage)?);
