@@ -85,4 +85,10 @@ fn the_kit_passes_every_self_check_and_times_every_case_on_this_device() {
     assert_eq!(report["passed"], true, "log:\n{log}");
     assert!(run.status.success(), "the kit exited with {}; log:\n{log}", run.status);
     assert!(log.contains("== lensblur devices") && log.contains("self-check:"), "log:\n{log}");
+    // The per-shader device times of one frame's forward and backward: two tables, the
+    // backward's passes named in the second.
+    let tables: Vec<&str> = log.split("shader (LENSBLUR_PROFILE)").skip(1).collect();
+    assert_eq!(tables.len(), 2, "two per-shader tables (forward, grad); log:\n{log}");
+    assert!(!tables[0].contains("drbokeh_backward") && tables[0].contains("drbokeh_layer"), "forward table:\n{}", tables[0]);
+    assert!(tables[1].contains("drbokeh_backward_source") && tables[1].contains("drbokeh_backward_own"), "grad table:\n{}", tables[1]);
 }

@@ -8,11 +8,8 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::fill::push_pull;
-use super::DepthKind;
+use super::{DepthKind, SAMPLES_PER_TASK};
 use crate::{Error, Result};
-
-/// Samples per task when a layer's samples are cleaned on every core.
-const RUN: usize = 1 << 16;
 
 /// Disparity per pixel, the stored depth range over covered pixels, and the fill weight of
 /// every stored sample (see [`known_depth_weight`]).
@@ -45,12 +42,12 @@ pub(crate) fn depth_to_disparity(
     let mut disparity = vec![[0.0f32; 1]; depth.len()];
     let mut weights = vec![0.0f32; depth.len()];
     let runs: Vec<(Option<(f32, f32)>, usize)> = disparity
-        .par_chunks_mut(RUN)
-        .zip(weights.par_chunks_mut(RUN))
+        .par_chunks_mut(SAMPLES_PER_TASK)
+        .zip(weights.par_chunks_mut(SAMPLES_PER_TASK))
         .enumerate()
         .map(|(run, (disparity, weights))| {
             let (mut range, mut invalid) = (None::<(f32, f32)>, 0usize);
-            let start = run * RUN;
+            let start = run * SAMPLES_PER_TASK;
             for (k, (disparity, weight_out)) in disparity.iter_mut().zip(weights.iter_mut()).enumerate() {
                 let z = depth[start + k];
                 let d = kind.to_disparity(z);
@@ -93,7 +90,7 @@ pub(crate) fn depth_to_disparity(
 /// Refuses NaN/Inf samples in colour or alpha (they would poison every blurred neighbour),
 /// or with `replace` sets them to 0 and returns a warning saying how many.
 pub(crate) fn check_finite(path: &Path, layer: &str, channel: &str, values: &mut [f32], replace: bool) -> Result<Option<String>> {
-    let bad: usize = values.par_chunks(RUN).map(|run| run.iter().filter(|v| !v.is_finite()).count()).sum();
+    let bad: usize = values.par_chunks(SAMPLES_PER_TASK).map(|run| run.iter().filter(|v| !v.is_finite()).count()).sum();
     if bad == 0 {
         return Ok(None);
     }
@@ -106,7 +103,7 @@ pub(crate) fn check_finite(path: &Path, layer: &str, channel: &str, values: &mut
             ),
         ));
     }
-    values.par_chunks_mut(RUN).for_each(|run| run.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0));
+    values.par_chunks_mut(SAMPLES_PER_TASK).for_each(|run| run.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0));
     Ok(Some(format!("{}: layer '{layer}' channel '{channel}': replaced {bad} NaN/Inf sample(s) by 0", path.display())))
 }
 

@@ -46,7 +46,9 @@ pub(super) fn read_scanline_pixels(path: &Path) -> Result<Option<ExrImage>> {
     if !eligible {
         return Ok(None);
     }
-    let headers: Vec<Header> = reader.headers().to_vec();
+    // One copy of the headers, kept for the tasks: the chunk reader takes the file's.
+    let meta = reader.meta_data().clone();
+    let headers = &meta.headers;
     let mut buffers: Vec<Vec<FlatSamples>> = headers
         .iter()
         .map(|h| {
@@ -63,12 +65,11 @@ pub(super) fn read_scanline_pixels(path: &Path) -> Result<Option<ExrImage>> {
         })
         .collect();
     let chunks = reader.all_chunks(false).map_err(failed)?;
-    let meta = chunks.meta_data().clone();
     let failure: Mutex<Option<Error>> = Mutex::new(None);
     {
         // blocks[part][k]: the rows of every channel that the part's k-th block covers.
         let blocks: Vec<Vec<Mutex<Option<Vec<ChannelRows>>>>> =
-            buffers.iter_mut().zip(&headers).map(|(channels, header)| block_rows(channels, header)).collect();
+            buffers.iter_mut().zip(headers).map(|(channels, header)| block_rows(channels, header)).collect();
         let fail = |error: Error| {
             let mut first = failure.lock().unwrap_or_else(|e| e.into_inner());
             first.get_or_insert(error);
@@ -79,9 +80,9 @@ pub(super) fn read_scanline_pixels(path: &Path) -> Result<Option<ExrImage>> {
                     Ok(chunk) => chunk,
                     Err(e) => return fail(failed(e)),
                 };
-                let (meta, headers, blocks, fail) = (&meta, &headers, &blocks, &fail);
+                let (meta, blocks, fail) = (&meta, &blocks, &fail);
                 scope.spawn(move |_| {
-                    if let Err(error) = place_block(chunk, meta, headers, blocks) {
+                    if let Err(error) = place_block(chunk, meta, blocks) {
                         fail(Error::input(path, format!("cannot read EXR pixels: {error}")));
                     }
                 });
@@ -143,12 +144,11 @@ fn block_rows<'a>(channels: &'a mut [FlatSamples], header: &Header) -> Vec<Mutex
 fn place_block(
     chunk: Chunk,
     meta: &exr::meta::MetaData,
-    headers: &[Header],
     blocks: &[Vec<Mutex<Option<Vec<ChannelRows>>>>],
 ) -> std::result::Result<(), String> {
     let block = UncompressedBlock::decompress_chunk(chunk, meta, false).map_err(|e| e.to_string())?;
     let part = block.index.layer;
-    let header = headers.get(part).ok_or("a block names a part the file does not have")?;
+    let header = meta.headers.get(part).ok_or("a block names a part the file does not have")?;
     let rows_per_block = header.compression.scan_lines_per_block();
     let first_row = block.index.pixel_position.y();
     let width = header.layer_size.width();

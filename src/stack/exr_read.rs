@@ -13,7 +13,7 @@ use super::depth_clean::{check_finite, depth_to_disparity};
 use super::info::{ChannelInfo, ExtraChannel, LayerInfo, PartInfo, SampleType, StackFile, StackInfo, Window};
 use super::file_output_slots::group_channels;
 use super::naming::{glob_match, ChannelGroup, Convention};
-use super::{DepthKind, Layer, LayerStack};
+use super::{DepthKind, Layer, LayerStack, SAMPLES_PER_TASK};
 use crate::image::Image;
 use crate::{Error, Result};
 
@@ -553,8 +553,8 @@ fn assemble_layer(
     // RGBA were a third of reading a large layered file).
     let [(_, red), (_, green), (_, blue)] = &colour;
     let mut pixels = vec![[0.0f32; 4]; alpha.len()];
-    pixels.par_chunks_mut(1 << 16).enumerate().for_each(|(run, pixels)| {
-        let start = run << 16;
+    pixels.par_chunks_mut(SAMPLES_PER_TASK).enumerate().for_each(|(run, pixels)| {
+        let start = run * SAMPLES_PER_TASK;
         for (k, p) in pixels.iter_mut().enumerate() {
             let i = start + k;
             *p = [red[i], green[i], blue[i], alpha[i]];

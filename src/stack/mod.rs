@@ -39,6 +39,11 @@ pub use output_format::OutputFormat;
 use crate::image::Image;
 use crate::{Error, Result};
 
+/// Samples per task where a frame's per-sample work runs on every core (cleaning depth,
+/// interleaving channels, summing keys): large enough that a task's overhead vanishes, small
+/// enough that an 8K layer splits into hundreds of tasks.
+pub(crate) const SAMPLES_PER_TASK: usize = 1 << 16;
+
 /// Refuses a file whose header declares more than `max_pixels` pixels, before any pixel is
 /// decoded: a forged or damaged header must not make the reader allocate gigabytes.
 pub(crate) fn check_pixel_budget(path: &std::path::Path, width: u64, height: u64, max_pixels: u64) -> Result<()> {
@@ -186,7 +191,7 @@ impl LayerStack {
         let widen = |(lo, hi): (f32, f32), (a, b): (f32, f32)| (lo.min(a), hi.max(b));
         self.layers
             .par_iter()
-            .flat_map(|l| l.disparity.par_chunks(1 << 16))
+            .flat_map(|l| l.disparity.par_chunks(SAMPLES_PER_TASK))
             .map(|run| run.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |range, &d| widen(range, (d, d))))
             .reduce(|| (f32::INFINITY, f32::NEG_INFINITY), widen)
     }
@@ -235,8 +240,8 @@ impl LayerStack {
                 let runs: Vec<(f64, f64)> = l
                     .rgba
                     .pixels
-                    .par_chunks(1 << 16)
-                    .zip(l.disparity.par_chunks(1 << 16))
+                    .par_chunks(SAMPLES_PER_TASK)
+                    .zip(l.disparity.par_chunks(SAMPLES_PER_TASK))
                     .map(|(pixels, disparity)| {
                         pixels.iter().zip(disparity).fold((0.0f64, 0.0f64), |(sum, weight), (p, d)| {
                             (sum + (p[3] * d) as f64, weight + p[3] as f64)
