@@ -15,7 +15,6 @@ use std::path::Path;
 use std::sync::Mutex;
 
 use exr::block::chunk::Chunk;
-use exr::block::reader::ChunksReader;
 use exr::block::UncompressedBlock;
 use exr::image::{AnyChannel, AnyChannels, Blocks, Encoding, FlatSamples};
 use exr::meta::header::Header;
