@@ -198,6 +198,30 @@ fn help_headings_hold_the_flags_they_name() {
     assert!(flags_under(&perf, "Performance:").contains(&"--groups"), "{perf}");
 }
 
+/// Every command's `--help` ends with examples of that command (the kit's hidden ones too):
+/// what a new user copies first.
+#[test]
+fn every_command_shows_examples_of_itself() {
+    let dir = common::temp_dir("first-hour", "examples");
+    let (top, _) = ok(&dir, &["--help"], &[]);
+    let listed: Vec<&str> = top
+        .lines()
+        .skip_while(|l| *l != "Commands:")
+        .skip(1)
+        .take_while(|l| !l.is_empty())
+        .filter_map(|l| l.split_whitespace().next())
+        .filter(|&c| c != "help")
+        .collect();
+    assert!(listed.len() >= 10 && listed.contains(&"render") && listed.contains(&"info"), "{top}");
+    for command in listed.iter().copied().chain(["self-check", "gpu-timings"]) {
+        let (help, _) = ok(&dir, &[command, "--help"], &[]);
+        let examples: Vec<&str> = help.lines().skip_while(|l| *l != "Examples:").skip(1).take_while(|l| l.starts_with("  ")).collect();
+        assert!(!examples.is_empty(), "`lensblur {command} --help` shows no examples:\n{help}");
+        let own = format!("lensblur {command}");
+        assert!(examples.iter().any(|e| e.contains(&own)), "`lensblur {command} --help`: no example runs `{own}`:\n{help}");
+    }
+}
+
 #[test]
 fn benchmarks_write_to_the_user_cache_not_the_current_folder() {
     let dir = common::temp_dir("first-hour", "bench-dirs");

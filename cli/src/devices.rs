@@ -2,6 +2,7 @@
 use lensblur::vk::{list_devices, ContextOptions};
 
 #[derive(clap::Args)]
+#[command(after_help = "Examples:\n  lensblur devices                    every Vulkan device, the one in use marked\n  lensblur devices --json             the same as JSON\n  LENSBLUR_DEVICE=1 lensblur devices  pick a device by index or name substring (every command)")]
 pub struct Args {
     /// Print JSON instead of a table.
     #[arg(long)]

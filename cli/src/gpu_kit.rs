@@ -15,6 +15,7 @@ use lensblur::stack::{read_rgba, read_stack, write_stack, DepthKind, ReadOptions
 use lensblur::vk::{Context, ContextOptions};
 
 #[derive(clap::Args)]
+#[command(after_help = "Examples:\n  lensblur self-check                                           every device pass against its CPU reference\n  LENSBLUR_VALIDATION=1 lensblur self-check --json checks.json  the same under the validation layer, each check as JSON")]
 pub struct SelfCheckArgs {
     /// Write every check (name, difference, tolerance, verdict) as JSON here.
     #[arg(long, value_name = "FILE.json")]
@@ -22,6 +23,7 @@ pub struct SelfCheckArgs {
 }
 
 #[derive(clap::Args)]
+#[command(after_help = "Examples:\n  lensblur gpu-timings --small                                           every case at CPU-device sizes\n  lensblur gpu-timings --case process --json t.json                      the whole-process cases only\n  LENSBLUR_PROFILE=1 lensblur gpu-timings --small --case \"grad 128x128\"  device time per shader")]
 pub struct TimingsArgs {
     /// Write the timings as JSON here.
     #[arg(long, value_name = "FILE.json")]

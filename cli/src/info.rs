@@ -7,6 +7,7 @@ use lensblur::stack::{ldr_size, read_ldr, read_parts, read_stack, DepthKind, Rea
 use super::input_args::input_flag_error;
 
 #[derive(clap::Args)]
+#[command(after_help = "Examples:\n  lensblur info shot.exr                      layers, channels, data windows, depth ranges, camera\n  lensblur info beauty.png --depth depth.png  a PNG/JPEG with its depth image\n  lensblur info shot.exr --json               the same as JSON (for scripts)")]
 pub struct InfoArgs {
     /// EXR stack, or PNG/JPEG image (with --depth) to describe.
     pub file: PathBuf,

@@ -5,6 +5,7 @@ use lensblur::render::Method;
 use super::method_args::flag;
 
 #[derive(clap::Args)]
+#[command(after_help = "Examples:\n  lensblur methods         what each method reads, where it runs, which flags it accepts\n  lensblur methods --json  the same as JSON (the Blender add-on reads it)")]
 pub struct Args {
     /// Print JSON instead of a table.
     #[arg(long)]
