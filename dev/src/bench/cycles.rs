@@ -108,29 +108,70 @@ pub fn cycles_truths(names: &[String], settings: &CyclesSettings, cache: &Path, 
     wanted.iter().map(|s| load_scene(&cache.join(settings.cache_key(s)))).collect()
 }
 
-/// Renders `scenes` into a scratch folder of `cache`, then moves each scene's folder into
-/// place (so an interrupted run never leaves a half-rendered entry under its key).
+/// Renders `scenes` into a scratch folder of `cache` and moves each scene's folder into place as
+/// soon as Blender has finished it: an interrupted run never leaves a half-rendered entry under
+/// its key, and keeps every scene it finished (a dev split takes Blender an hour). The scratch
+/// folder is removed whether Blender succeeds or not.
 fn render_into_cache(scenes: &[&str], settings: &CyclesSettings, cache: &Path, progress: &dyn Fn(&str)) -> Result<()> {
+    remove_abandoned_scratch(cache);
     let scratch = cache.join(format!(".render-{}", std::process::id()));
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| Error::Io { path, source }
-    };
     std::fs::create_dir_all(&scratch).map_err(io(&scratch))?;
+    let rendered = render_in(&scratch, scenes, settings, cache, progress);
+    let _ = std::fs::remove_dir_all(&scratch);
+    rendered
+}
+
+/// Removes the scratch folders of runs that were killed (their process is gone), where the
+/// system says which processes live (`/proc`); elsewhere they are left alone.
+fn remove_abandoned_scratch(cache: &Path) {
+    let processes = Path::new("/proc");
+    let Ok(entries) = std::fs::read_dir(cache) else { return };
+    if !processes.join("self").exists() {
+        return;
+    }
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name.to_str().and_then(|n| n.strip_prefix(".render-")).and_then(|p| p.parse::<u32>().ok()) else { continue };
+        if !processes.join(pid.to_string()).exists() {
+            let _ = std::fs::remove_dir_all(entry.path());
+        }
+    }
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error {
+    let path = path.to_path_buf();
+    move |source| Error::Io { path, source }
+}
+
+fn render_in(scratch: &Path, scenes: &[&str], settings: &CyclesSettings, cache: &Path, progress: &dyn Fn(&str)) -> Result<()> {
     let script = scratch.join("cycles_scenes.py");
     std::fs::write(&script, SCRIPT).map_err(io(&script))?;
     let params = serde_json::json!({
         "size": settings.size, "truth_spp": settings.truth_spp, "pinhole_spp": settings.pinhole_spp,
         "layer_spp": settings.layer_spp, "scenes": scenes,
     });
-    run_blender(&script, &scratch, &params.to_string(), progress)?;
-    for scene in scenes {
+    // A scene's folder is complete once Blender names it (the script prints after its last file).
+    let place = |scene: &str| -> Result<()> {
         let (from, to) = (scratch.join(scene), cache.join(settings.cache_key(scene)));
+        if !scenes.contains(&scene) || !from.join("camera.json").is_file() {
+            return Ok(());
+        }
         let _ = std::fs::remove_dir_all(&to);
-        std::fs::rename(&from, &to).map_err(io(&to))?;
+        std::fs::rename(&from, &to).map_err(io(&to))
+    };
+    let failed_move = std::cell::RefCell::new(None);
+    let finished = |scene: &str| {
+        if let Err(error) = place(scene) {
+            failed_move.borrow_mut().get_or_insert(error);
+        }
+        progress(scene);
+    };
+    run_blender(&script, scratch, &params.to_string(), &finished)?;
+    if let Some(error) = failed_move.into_inner() {
+        return Err(error);
     }
-    let _ = std::fs::remove_dir_all(&scratch);
-    Ok(())
+    // Any scene whose line went unseen.
+    scenes.iter().try_for_each(|scene| place(scene))
 }
 
 fn run_blender(script: &Path, out: &Path, params: &str, progress: &dyn Fn(&str)) -> Result<()> {
@@ -223,6 +264,29 @@ pub fn load_scene(folder: &Path) -> Result<GroundTruth> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A killed run's scratch folder goes at the next render; a live process's stays, and so
+    /// do the cache's entries.
+    #[test]
+    fn scratch_of_finished_processes_is_removed_and_live_ones_kept() {
+        let cache = std::env::temp_dir().join(format!("lensblur-cycles-scratch-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&cache);
+        let mut child = Command::new("true").spawn().unwrap();
+        let dead = child.id();
+        child.wait().unwrap();
+        let (abandoned, live, entry) = (
+            cache.join(format!(".render-{dead}")),
+            cache.join(format!(".render-{}", std::process::id())),
+            cache.join("fence-near-hdr-128-0123456789abcdef"),
+        );
+        for folder in [&abandoned, &live, &entry] {
+            std::fs::create_dir_all(folder.join("inner")).unwrap();
+        }
+        remove_abandoned_scratch(&cache);
+        assert!(!abandoned.exists(), "the scratch of process {dead}, which has exited, is removed");
+        assert!(live.exists() && entry.exists(), "a running process's scratch and the cache's entries stay");
+        std::fs::remove_dir_all(&cache).unwrap();
+    }
 
     #[test]
     fn key_changes_with_the_scene_and_every_sampling_setting() {
