@@ -8,7 +8,7 @@ use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
 
-use super::gt_cache::fnv1a;
+use super::gt_cache::{fnv1a, io};
 use lensblur::camera::{CocModel, PhysicalCamera, FAR_DEPTH_SENTINEL};
 use lensblur::raytrace::GroundTruth;
 use lensblur::stack::{read_rgba, read_stack, Layer, LayerStack, ReadOptions, DEFAULT_MAX_PIXELS};
@@ -136,11 +136,6 @@ fn remove_abandoned_scratch(cache: &Path) {
             let _ = std::fs::remove_dir_all(entry.path());
         }
     }
-}
-
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error {
-    let path = path.to_path_buf();
-    move |source| Error::Io { path, source }
 }
 
 fn render_in(scratch: &Path, scenes: &[&str], settings: &CyclesSettings, cache: &Path, progress: &dyn Fn(&str)) -> Result<()> {

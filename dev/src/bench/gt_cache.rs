@@ -81,6 +81,13 @@ impl Floats<'_> {
     }
 }
 
+/// `map_err` for a failed file operation on `path`: the error names the path (the cache's
+/// writers, here and in `bench::cycles`).
+pub(crate) fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error {
+    let path = path.to_path_buf();
+    move |source| Error::Io { path, source }
+}
+
 /// Writes `truth` to `dir/key` (through a temporary folder renamed into place, so a crash
 /// never leaves a half-written entry that would load).
 pub fn store(dir: &Path, key: &str, truth: &GroundTruth) -> Result<PathBuf> {
@@ -89,10 +96,6 @@ pub fn store(dir: &Path, key: &str, truth: &GroundTruth) -> Result<PathBuf> {
     static WRITERS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let writer = WRITERS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let temporary = dir.join(format!(".{key}.{}.{writer}", std::process::id()));
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| Error::Io { path, source }
-    };
     std::fs::create_dir_all(&temporary).map_err(io(&temporary))?;
     let header = Header {
         name: truth.name.clone(),
