@@ -67,7 +67,7 @@ pub fn write_atomically(path: &Path, write: impl FnOnce(&mut BufWriter<File>) ->
     // Process id and a counter: concurrent writers (test threads, other processes) never share one.
     let unique = format!("{}.{}", std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed));
     let tmp = dir.join(format!(".{}.{unique}.tmp", file_name.to_string_lossy()));
-    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let io = Error::io(path);
     let file = {
         let mut state = state();
         if state.interrupted {
@@ -122,12 +122,12 @@ mod tests {
         let dir = scratch("failed");
         let out = dir.join("out.bin");
         let result = write_atomically(&out, |w| {
-            w.write_all(b"half").map_err(|e| Error::Io { path: out.clone(), source: e })?;
+            w.write_all(b"half").map_err(Error::io(&out))?;
             Err(Error::internal("encoder failed"))
         });
         assert!(result.is_err());
         assert!(listing(&dir).is_empty(), "{:?}", listing(&dir));
-        write_atomically(&out, |w| w.write_all(b"whole").map_err(|e| Error::Io { path: out.clone(), source: e }))
+        write_atomically(&out, |w| w.write_all(b"whole").map_err(Error::io(&out)))
             .unwrap();
         assert_eq!(std::fs::read(&out).unwrap(), b"whole");
         assert_eq!(listing(&dir), ["out.bin"], "the temporary was renamed, not copied");
@@ -158,7 +158,7 @@ mod tests {
         };
         let dir = PathBuf::from(dir);
         let before = dir.join("before.bin");
-        write_atomically(&before, |w| w.write_all(b"done").map_err(|e| Error::Io { path: before.clone(), source: e }))
+        write_atomically(&before, |w| w.write_all(b"done").map_err(Error::io(&before)))
             .unwrap();
         let out = dir.join("out.bin");
         let mut claimed = None;
@@ -169,7 +169,7 @@ mod tests {
             assert_eq!(interrupt.written(), std::slice::from_ref(&before));
             drop(interrupt); // a handler would hold it until exit; released here to let the writer finish
             claimed = Some(());
-            w.write_all(b"more bytes after the interrupt").map_err(|e| Error::Io { path: out.clone(), source: e })
+            w.write_all(b"more bytes after the interrupt").map_err(Error::io(&out))
         });
         assert!(claimed.is_some());
         let message = crate::error::full_message(&result.unwrap_err());

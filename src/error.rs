@@ -120,6 +120,10 @@ impl Error {
     pub fn internal(message: impl Into<String>) -> Self {
         Error::Internal(message.into())
     }
+    /// For `map_err`: an I/O error on `path`, which the message names.
+    pub fn io<P: AsRef<std::path::Path> + ?Sized>(path: &P) -> impl Fn(std::io::Error) -> Self + Copy + '_ {
+        move |source| Error::Io { path: path.as_ref().to_path_buf(), source }
+    }
     pub fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
         Error::Input { path: path.into(), message: message.into() }
     }

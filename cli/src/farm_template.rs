@@ -26,7 +26,7 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     match &args.output {
         Some(path) => write_atomically(path, |w| {
-            w.write_all(TEMPLATE.as_bytes()).map_err(|source| lensblur::Error::Io { path: path.clone(), source })
+            w.write_all(TEMPLATE.as_bytes()).map_err(lensblur::Error::io(path))
         })?,
         None => print!("{TEMPLATE}"),
     }

@@ -222,7 +222,7 @@ fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> 
     let text = serde_json::to_string_pretty(value)?;
     lensblur::atomic_file::write_atomically(path, |file| {
         use std::io::Write;
-        file.write_all(text.as_bytes()).map_err(|source| lensblur::Error::Io { path: path.to_path_buf(), source })
+        file.write_all(text.as_bytes()).map_err(lensblur::Error::io(path))
     })
     .with_context(|| format!("writing {}", path.display()))
 }

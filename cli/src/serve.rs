@@ -363,7 +363,7 @@ fn write(path: &Path, format: Written, image: &Image) -> lensblur::Result<()> {
                 .as_flat()
                 .iter()
                 .try_for_each(|value| out.write_all(&value.to_le_bytes()))
-                .map_err(|source| lensblur::Error::Io { path: path.to_path_buf(), source })
+                .map_err(lensblur::Error::io(path))
         }),
         Written::Format(OutputFormat::Exr) => {
             // Float, as `lensblur render` writes by default: a host compares and composites it.

@@ -27,10 +27,7 @@ struct CameraRecord<'a> {
 /// Writes every file for one ground truth into `dir` (created if missing); returns the paths.
 /// EXRs carry the camera in their headers, so `lensblur render DIR/layers.exr` needs no flags.
 pub fn write_ground_truth(truth: &GroundTruth, dir: &Path) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|source| Error::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir).map_err(Error::io(dir))?;
     let float = |extra_channels| WriteOptions {
         sample_type: SampleType::Float,
         extra_channels,
@@ -98,9 +95,6 @@ fn write_camera(truth: &GroundTruth, path: &Path) -> Result<PathBuf> {
     };
     let json =
         serde_json::to_string_pretty(&record).map_err(|e| Error::input(path, e.to_string()))?;
-    std::fs::write(path, json).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    std::fs::write(path, json).map_err(Error::io(path))?;
     Ok(path.to_path_buf())
 }

@@ -50,12 +50,12 @@ impl CameraFile {
         let text = serde_json::to_string_pretty(&serde_json::json!({ "frames": frames }))
             .map_err(|e| Error::input(path, format!("encoding the camera file: {e}")))?;
         crate::atomic_file::write_atomically(path, |w| {
-            std::io::Write::write_all(w, text.as_bytes()).map_err(|source| Error::Io { path: path.to_path_buf(), source })
+            std::io::Write::write_all(w, text.as_bytes()).map_err(Error::io(path))
         })
     }
 
     pub fn read(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        let text = std::fs::read_to_string(path).map_err(Error::io(path))?;
         Self::parse(path, &text)
     }
 

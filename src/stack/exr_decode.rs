@@ -35,7 +35,7 @@ enum ChannelRows<'a> {
 /// for any other file.
 pub(super) fn read_scanline_pixels(path: &Path) -> Result<Option<ExrImage>> {
     let failed = |e: exr::error::Error| Error::input(path, format!("cannot read EXR pixels: {e}"));
-    let file = std::fs::File::open(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let file = std::fs::File::open(path).map_err(Error::io(path))?;
     let reader = exr::block::read(std::io::BufReader::new(file), false).map_err(failed)?;
     let eligible = reader.headers().iter().all(|h| {
         !h.deep

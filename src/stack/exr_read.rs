@@ -168,7 +168,7 @@ pub fn read_parts(path: &Path, max_pixels: u64) -> Result<(Vec<PartInfo>, BTreeM
 
 pub(super) fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
     let mut magic = [0u8; 4];
-    let mut file = std::fs::File::open(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let mut file = std::fs::File::open(path).map_err(Error::io(path))?;
     let is_exr = std::io::Read::read_exact(&mut file, &mut magic).is_ok() && magic == [0x76, 0x2f, 0x31, 0x01];
     if !is_exr {
         return Err(Error::input(

@@ -90,6 +90,6 @@ pub fn replace_channels(
         .map_err(|e| Error::input(output, format!("cannot write EXR: {e}")))?;
     sort_header_attributes(&mut bytes)?;
     write_atomically(output, |file| {
-        file.write_all(&bytes).map_err(|source| Error::Io { path: output.to_path_buf(), source })
+        file.write_all(&bytes).map_err(Error::io(output))
     })
 }

@@ -41,7 +41,7 @@ fn reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::
     if !path.exists() {
         return Err(Error::input(path, "file not found"));
     }
-    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let io = Error::io(path);
     image::ImageReader::open(path).map_err(io)?.with_guessed_format().map_err(io)
 }
 

@@ -121,7 +121,7 @@ impl PipelineCache {
 
 /// Replaces `path` by rename (see [`write_atomically`]), creating its folder first.
 fn save(path: &Path, data: &[u8]) -> Result<()> {
-    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let io = Error::io(path);
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(io)?;
     }

@@ -8,7 +8,7 @@ use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
 
-use super::gt_cache::{fnv1a, io};
+use super::gt_cache::fnv1a;
 use lensblur::camera::{CocModel, PhysicalCamera, FAR_DEPTH_SENTINEL};
 use lensblur::raytrace::GroundTruth;
 use lensblur::stack::{read_rgba, read_stack, Layer, LayerStack, ReadOptions, DEFAULT_MAX_PIXELS};
@@ -115,7 +115,7 @@ pub fn cycles_truths(names: &[String], settings: &CyclesSettings, cache: &Path, 
 fn render_into_cache(scenes: &[&str], settings: &CyclesSettings, cache: &Path, progress: &dyn Fn(&str)) -> Result<()> {
     remove_abandoned_scratch(cache);
     let scratch = cache.join(format!(".render-{}", std::process::id()));
-    std::fs::create_dir_all(&scratch).map_err(io(&scratch))?;
+    std::fs::create_dir_all(&scratch).map_err(Error::io(&scratch))?;
     let rendered = render_in(&scratch, scenes, settings, cache, progress);
     let _ = std::fs::remove_dir_all(&scratch);
     rendered
@@ -140,7 +140,7 @@ fn remove_abandoned_scratch(cache: &Path) {
 
 fn render_in(scratch: &Path, scenes: &[&str], settings: &CyclesSettings, cache: &Path, progress: &dyn Fn(&str)) -> Result<()> {
     let script = scratch.join("cycles_scenes.py");
-    std::fs::write(&script, SCRIPT).map_err(io(&script))?;
+    std::fs::write(&script, SCRIPT).map_err(Error::io(&script))?;
     let params = serde_json::json!({
         "size": settings.size, "truth_spp": settings.truth_spp, "pinhole_spp": settings.pinhole_spp,
         "layer_spp": settings.layer_spp, "scenes": scenes,
@@ -152,7 +152,7 @@ fn render_in(scratch: &Path, scenes: &[&str], settings: &CyclesSettings, cache: 
             return Ok(());
         }
         let _ = std::fs::remove_dir_all(&to);
-        std::fs::rename(&from, &to).map_err(io(&to))
+        std::fs::rename(&from, &to).map_err(Error::io(&to))
     };
     let failed_move = std::cell::RefCell::new(None);
     let finished = |scene: &str| {
@@ -215,7 +215,7 @@ struct CameraFile {
 /// layers: each group rendered alone, then the sky.
 pub fn load_scene(folder: &Path) -> Result<GroundTruth> {
     let json_path = folder.join("camera.json");
-    let text = std::fs::read(&json_path).map_err(|e| Error::Io { path: json_path.clone(), source: e })?;
+    let text = std::fs::read(&json_path).map_err(Error::io(&json_path))?;
     let file: CameraFile = serde_json::from_slice(&text).map_err(|e| Error::input(&json_path, e.to_string()))?;
     let camera = PhysicalCamera {
         focal_length_mm: file.focal_length_mm,

@@ -81,12 +81,6 @@ impl Floats<'_> {
     }
 }
 
-/// `map_err` for a failed file operation on `path`: the error names the path (the cache's
-/// writers, here and in `bench::cycles`).
-pub(crate) fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error {
-    let path = path.to_path_buf();
-    move |source| Error::Io { path, source }
-}
 
 /// Writes `truth` to `dir/key` (through a temporary folder renamed into place, so a crash
 /// never leaves a half-written entry that would load).
@@ -96,7 +90,7 @@ pub fn store(dir: &Path, key: &str, truth: &GroundTruth) -> Result<PathBuf> {
     static WRITERS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let writer = WRITERS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let temporary = dir.join(format!(".{key}.{}.{writer}", std::process::id()));
-    std::fs::create_dir_all(&temporary).map_err(io(&temporary))?;
+    std::fs::create_dir_all(&temporary).map_err(Error::io(&temporary))?;
     let header = Header {
         name: truth.name.clone(),
         camera: truth.camera,
@@ -106,7 +100,7 @@ pub fn store(dir: &Path, key: &str, truth: &GroundTruth) -> Result<PathBuf> {
         layers: truth.layers.layers.iter().map(|l| l.name.clone()).collect(),
     };
     let json = serde_json::to_vec_pretty(&header).map_err(|e| Error::input(&temporary, e.to_string()))?;
-    std::fs::write(temporary.join("truth.json"), json).map_err(io(&temporary))?;
+    std::fs::write(temporary.join("truth.json"), json).map_err(Error::io(&temporary))?;
     let mut floats: Vec<f32> = Vec::new();
     floats.extend(truth.pinhole.pixels.iter().flatten());
     floats.extend(&truth.pinhole_depth);
@@ -116,7 +110,7 @@ pub fn store(dir: &Path, key: &str, truth: &GroundTruth) -> Result<PathBuf> {
         floats.extend(&layer.disparity);
     }
     let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
-    std::fs::write(temporary.join("truth.bin"), bytes).map_err(io(&temporary))?;
+    std::fs::write(temporary.join("truth.bin"), bytes).map_err(Error::io(&temporary))?;
     // A damaged entry (the load that preceded this missed) goes; one that another writer is
     // removing too is gone already.
     match std::fs::remove_dir_all(&folder) {

@@ -78,8 +78,8 @@ pub fn write_deep(path: &Path, parts: &[(Option<&str>, &DeepImage)], options: &D
             out.extend_from_slice(&data);
         }
     }
-    let mut file = std::fs::File::create(path).map_err(|source| Error::Io { path: path.into(), source })?;
-    file.write_all(&out).map_err(|source| Error::Io { path: path.into(), source })
+    let mut file = std::fs::File::create(path).map_err(Error::io(path))?;
+    file.write_all(&out).map_err(Error::io(path))
 }
 
 /// OpenEXR's ZIP coding: bytes split into even and odd halves, each byte stored as the
