@@ -119,7 +119,7 @@ impl JobOptions {
             max_pixels: self.max_pixels.unwrap_or(defaults.deep.max_pixels),
             part: self.deep_part.as_deref().map(str::parse::<PartChoice>).transpose()?.unwrap_or_default(),
         };
-        let mut auto_layer = defaults.auto_layer.clone();
+        let mut auto_layer = defaults.auto_layer;
         auto_layer.coc_spacing_px = self.layer_spacing.unwrap_or(auto_layer.coc_spacing_px);
         auto_layer.max_layers = self.max_layers.unwrap_or(auto_layer.max_layers);
         Ok(InputOptions {

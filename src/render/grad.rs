@@ -66,7 +66,7 @@ impl CameraGradients {
         Self {
             k_px: grads.k_px,
             focus_disparity: grads.focus_disparity,
-            focus_distance: physical.map(|c| grads.focus_disparity * -1.0 / (c.focus_distance as f64).powi(2)),
+            focus_distance: physical.map(|c| -grads.focus_disparity / (c.focus_distance as f64).powi(2)),
             fstop: physical.map(|c| grads.k_px * -k / c.fstop as f64),
             focal_length_mm: physical.map(|c| grads.k_px * 2.0 * k / c.focal_length_mm as f64),
         }

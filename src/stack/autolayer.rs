@@ -697,9 +697,7 @@ fn thin_front_split(image: &Image, label: &[usize], pairs: &[Option<(usize, usiz
             if label[q] != front {
                 continue;
             }
-            if pairs[q].is_none() {
-                return None; // not thin: the means and samples of band_with know its colour
-            }
+            pairs[q]?; // not thin: the means and samples of band_with know its colour
             let d = rgb(sub_scaled(image.pixels[q], b, 1.0));
             let distance = dot(d, d);
             if structure.map_or(true, |(_, best)| distance > best) {

@@ -68,7 +68,7 @@ fn spill_source(lum: &[f32], disparity: &[f32], coc_of: &impl Fn(f32) -> f32, (w
             if q == p || !nearer || l_q <= l_p || (coc_of(d_q) - c_p).abs() >= discontinuity_px {
                 continue;
             }
-            if best.is_none_or(|(l, _)| l_q > l) {
+            if best.map_or(true, |(l, _)| l_q > l) {
                 best = Some((l_q, d_q));
             }
         }

@@ -86,7 +86,7 @@ fn run_in(truths: &[GroundTruth], binary: &Path, dir: &Path) -> Result<PeerRun, 
     let done = command.output().map_err(|e| format!("could not start {}: {e}", binary.display()))?;
     if !done.status.success() {
         let stderr = String::from_utf8_lossy(&done.stderr);
-        let last = stderr.lines().filter(|l| !l.contains("XDG_RUNTIME_DIR")).last().unwrap_or("").to_string();
+        let last = stderr.lines().filter(|l| !l.contains("XDG_RUNTIME_DIR")).next_back().unwrap_or("").to_string();
         return Err(format!("the peer failed ({}): {last}", done.status));
     }
     let stdout = String::from_utf8_lossy(&done.stdout);

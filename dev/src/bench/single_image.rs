@@ -143,7 +143,7 @@ impl fmt::Display for SingleImageTable {
             }
             writeln!(f)?;
         }
-        write!(f, "PSNR dB on sRGB over black, clipped to [0,1] (render seconds; worst row: lowest PSNR, longest time).\n")?;
+        writeln!(f, "PSNR dB on sRGB over black, clipped to [0,1] (render seconds; worst row: lowest PSNR, longest time).")?;
         if !self.gather_pick_gain.is_empty() {
             let gains: Vec<String> = self.gather_pick_gain.iter().map(|(scene, gain)| format!("{scene} +{gain:.2}")).collect();
             writeln!(

@@ -398,6 +398,7 @@ pub fn grow_windows(mut windows: Vec<i32>, margin: i32) -> Vec<i32> {
 ///   disparity (bit for bit, so the shader's s is the same number at each), else 0. Then any
 ///   source that adds something sees the aperture through the centre's own CoC, and the kernel
 ///   path samples the kernel image once a tap for both.
+///
 /// Tiles outside the core hold `[0, f32::MAX, 0, 0]`: no shortcut.
 pub fn span_radii(params: &Params, ranges: &SourceRanges, windows: &[i32], core: Rect) -> Vec<[f32; 4]> {
     let per_layer = params.tiles_x * params.tiles_y;

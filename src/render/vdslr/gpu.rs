@@ -109,7 +109,7 @@ impl Vdslr {
                 // The core's edge records, classified now: a whole frame's would outweigh the image.
                 let edge_records = prepared.edges_in(image, disparity, lens.coc.k_px, core);
                 let edges =
-                    Buffer::from_iter_in(ctx, batch, "vdslr mixed edges", core.area(), edge_records.into_iter())?;
+                    Buffer::from_iter_in(ctx, batch, "vdslr mixed edges", core.area(), edge_records)?;
                 // The shader writes every core pixel.
                 let (bytes, room) = (core.area() as u64 * 16, room.core as u64 * 16);
                 let result = Buffer::uninitialised_with_room(ctx, "vdslr result", bytes, room)?;
