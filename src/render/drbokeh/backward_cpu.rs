@@ -6,7 +6,7 @@
 use rayon::prelude::*;
 
 use super::backward::{check_inputs, pair_grad, vis_weight, BackwardOptions, Px};
-use super::cpu::{render_cpu_terms, LayerTerms};
+use super::cpu::{clipped_window, render_cpu_terms, LayerTerms};
 use super::{math, Model, Params, TILE};
 use crate::image::Image;
 use crate::render::grad::{Differentiable, LayerGradients, StackGradients};
@@ -160,7 +160,7 @@ pub fn own_cpu(params: &Params, layer: &Layer, window: &[i32], adjoint: &LayerAd
 
 /// Loops over x's forward window like `layer_pixel`, differentiating w.r.t. x's inputs.
 fn own_pixel(params: &Params, layer: &Layer, adjoint: &LayerAdjoint, leak: f64, x: i64, y: i64, h: i64) -> [f64; 4] {
-    let (width, height) = (params.width as i64, params.height as i64);
+    let width = params.width as i64;
     let ix = (y * width + x) as usize;
     let dst = Px::new(&params.lens, layer.disparity[ix], layer.rgba.pixels[ix][3]);
     let [gc0, gc1, gc2, gw] = adjoint.cw[ix];
@@ -168,36 +168,25 @@ fn own_pixel(params: &Params, layer: &Layer, adjoint: &LayerAdjoint, leak: f64, 
     let (mut d_alpha, mut d_s, mut d_rel) = (0.0f64, 0.0f64, 0.0f64);
     // sum D, sum alpha D, sum D', sum alpha D' (D' = dD/dr_x), or the compat box count.
     let mut vis = [0.0f64; 4];
-    for oy in -h..=h {
-        let sy = y + oy;
-        if sy < 0 || sy >= height {
-            continue;
+    for (ox, oy, iy) in clipped_window(params, x, y, h) {
+        let p = layer.rgba.pixels[iy];
+        let src = Px::new(&params.lens, layer.disparity[iy], p[3]);
+        let (dx, dy) = (-ox as f64, -oy as f64);
+        if p[3] > 0.0 {
+            let a = gc0 * p[0] as f64 + gc1 * p[1] as f64 + gc2 * p[2] as f64 + gw * src.alpha;
+            let pg = pair_grad(params, leak, dx, dy, &src, &dst, ox == 0 && oy == 0);
+            d_alpha += a * pg.alpha_x;
+            d_s += a * pg.s_x;
+            d_rel += a * pg.rel_x;
         }
-        for ox in -h..=h {
-            let sx = x + ox;
-            if sx < 0 || sx >= width {
-                continue;
+        match params.model {
+            Model::DrBokeh => {
+                let (d, d_d) = vis_weight(params, leak, dx, dy, &dst);
+                vis = [vis[0] + d, vis[1] + src.alpha * d, vis[2] + d_d, vis[3] + src.alpha * d_d];
             }
-            let iy = (sy * width + sx) as usize;
-            let p = layer.rgba.pixels[iy];
-            let src = Px::new(&params.lens, layer.disparity[iy], p[3]);
-            let (dx, dy) = (-ox as f64, -oy as f64);
-            if p[3] > 0.0 {
-                let a = gc0 * p[0] as f64 + gc1 * p[1] as f64 + gc2 * p[2] as f64 + gw * src.alpha;
-                let pg = pair_grad(params, leak, dx, dy, &src, &dst, ox == 0 && oy == 0);
-                d_alpha += a * pg.alpha_x;
-                d_s += a * pg.s_x;
-                d_rel += a * pg.rel_x;
-            }
-            match params.model {
-                Model::DrBokeh => {
-                    let (d, d_d) = vis_weight(params, leak, dx, dy, &dst);
-                    vis = [vis[0] + d, vis[1] + src.alpha * d, vis[2] + d_d, vis[3] + src.alpha * d_d];
-                }
-                Model::Compat => {
-                    if ox.abs() <= box_half && oy.abs() <= box_half {
-                        vis[0] += 1.0;
-                    }
+            Model::Compat => {
+                if ox.abs() <= box_half && oy.abs() <= box_half {
+                    vis[0] += 1.0;
                 }
             }
         }
@@ -277,40 +266,30 @@ fn source_pixel(
     y: i64,
     reach: i64,
 ) -> ([f64; 4], f64, f64) {
-    let (width, height) = (params.width as i64, params.height as i64);
+    let width = params.width as i64;
     let iy = (y * width + x) as usize;
     let p = layer.rgba.pixels[iy];
     let src = Px::new(&params.lens, layer.disparity[iy], p[3]);
     let [own_alpha, own_s, own_rel, _] = own[iy];
     let mut d_p = [0.0, 0.0, 0.0, own_alpha];
     let (mut d_s, mut d_rel) = (own_s, own_rel);
-    for oy in -reach..=reach {
-        let ry = y + oy;
-        if ry < 0 || ry >= height {
-            continue;
+    for (ox, oy, ix) in clipped_window(params, x, y, reach) {
+        let (rx, ry) = ((x + ox) as usize, (y + oy) as usize);
+        let h = window[(ry / TILE) * params.tiles_x + rx / TILE] as i64;
+        if ox.abs() > h || oy.abs() > h {
+            continue; // receiver (rx, ry)'s window does not hold this source
         }
-        for ox in -reach..=reach {
-            let rx = x + ox;
-            if rx < 0 || rx >= width {
-                continue;
-            }
-            let h = window[(ry as usize / TILE) * params.tiles_x + rx as usize / TILE] as i64;
-            if ox.abs() > h || oy.abs() > h {
-                continue; // receiver (rx, ry)'s window does not hold this source
-            }
-            let ix = (ry * width + rx) as usize;
-            let dst = Px::new(&params.lens, layer.disparity[ix], layer.rgba.pixels[ix][3]);
-            let (dx, dy) = (ox as f64, oy as f64);
-            if p[3] > 0.0 {
-                let [gc0, gc1, gc2, gw] = adjoint.cw[ix];
-                let pg = pair_grad(params, leak, dx, dy, &src, &dst, ox == 0 && oy == 0);
-                d_p = [d_p[0] + gc0 * pg.w, d_p[1] + gc1 * pg.w, d_p[2] + gc2 * pg.w, d_p[3] + gw * pg.w];
-                let a = gc0 * p[0] as f64 + gc1 * p[1] as f64 + gc2 * p[2] as f64 + gw * src.alpha;
-                d_s += a * pg.s_y;
-                d_rel += a * pg.rel_y;
-            }
-            d_p[3] += own[ix][3] * vis_share(params, dx, dy, &dst);
+        let dst = Px::new(&params.lens, layer.disparity[ix], layer.rgba.pixels[ix][3]);
+        let (dx, dy) = (ox as f64, oy as f64);
+        if p[3] > 0.0 {
+            let [gc0, gc1, gc2, gw] = adjoint.cw[ix];
+            let pg = pair_grad(params, leak, dx, dy, &src, &dst, ox == 0 && oy == 0);
+            d_p = [d_p[0] + gc0 * pg.w, d_p[1] + gc1 * pg.w, d_p[2] + gc2 * pg.w, d_p[3] + gw * pg.w];
+            let a = gc0 * p[0] as f64 + gc1 * p[1] as f64 + gc2 * p[2] as f64 + gw * src.alpha;
+            d_s += a * pg.s_y;
+            d_rel += a * pg.rel_y;
         }
+        d_p[3] += own[ix][3] * vis_share(params, dx, dy, &dst);
     }
     (d_p, params.lens.k_px * d_s + d_rel, src.rel * d_s)
 }

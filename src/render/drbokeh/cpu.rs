@@ -91,7 +91,7 @@ pub fn layer_cpu(params: &Params, layer: &Layer, window: Vec<i32>) -> LayerTerms
 
 /// `[C.rgb, W]` and `V` of output pixel (x, y) over the square window of half-width `h`.
 fn layer_pixel(params: &Params, layer: &Layer, x: i64, y: i64, h: i64) -> ([f64; 4], f64) {
-    let (width, height) = (params.width as i64, params.height as i64);
+    let width = params.width as i64;
     // A vignetted lens's shape is the receiver tile's.
     let lens = &*params.receiver_lens(x as usize, y as usize);
     let ix = (y * width + x) as usize;
@@ -103,57 +103,57 @@ fn layer_pixel(params: &Params, layer: &Layer, x: i64, y: i64, h: i64) -> ([f64;
 
     let mut cw = [0.0f64; 4];
     let (mut vis_sum, mut vis_weight) = (0.0f64, 0.0f64);
-    for oy in -h..=h {
-        let sy = y + oy;
-        if sy < 0 || sy >= height {
-            continue;
+    for (ox, oy, iy) in clipped_window(params, x, y, h) {
+        let (sx, sy) = ((x + ox) as usize, (y + oy) as usize);
+        let p = layer.rgba.pixels[iy];
+        let alpha_y = p[3] as f64;
+        let rel_y = lens.rel(layer.disparity[iy]);
+        let s_y = lens.k_px * rel_y;
+        let r_y = s_y.abs();
+        // Offset x - y: the lens term is evaluated where the source lands.
+        let (dx, dy) = (-ox as f64, -oy as f64);
+        let is_self = ox == 0 && oy == 0;
+
+        if alpha_y > 0.0 {
+            let (g, k) = lens.lens(dx, dy, r_y, rel_y);
+            let (s, o) = match params.model {
+                Model::DrBokeh => (math::scatter(r_y, g), math::occlusion(s_y, s_x, r_x, alpha_x, is_self)),
+                Model::Compat => (math::scatter_compat(r_y, g), math::occlusion_compat(rel_y, rel_x, r_x, is_self)),
+            };
+            let weight = s * k * o / params.area_at(r_y, sx, sy);
+            for c in 0..3 {
+                cw[c] += p[c] as f64 * weight;
+            }
+            cw[3] += alpha_y * weight;
         }
-        for ox in -h..=h {
-            let sx = x + ox;
-            if sx < 0 || sx >= width {
-                continue;
-            }
-            let iy = (sy * width + sx) as usize;
-            let p = layer.rgba.pixels[iy];
-            let alpha_y = p[3] as f64;
-            let rel_y = lens.rel(layer.disparity[iy]);
-            let s_y = lens.k_px * rel_y;
-            let r_y = s_y.abs();
-            // Offset x - y: the lens term is evaluated where the source lands.
-            let (dx, dy) = (-ox as f64, -oy as f64);
-            let is_self = ox == 0 && oy == 0;
 
-            if alpha_y > 0.0 {
-                let (g, k) = lens.lens(dx, dy, r_y, rel_y);
-                let (s, o) = match params.model {
-                    Model::DrBokeh => (math::scatter(r_y, g), math::occlusion(s_y, s_x, r_x, alpha_x, is_self)),
-                    Model::Compat => (math::scatter_compat(r_y, g), math::occlusion_compat(rel_y, rel_x, r_x, is_self)),
-                };
-                let weight = s * k * o / params.area_at(r_y, sx as usize, sy as usize);
-                for c in 0..3 {
-                    cw[c] += p[c] as f64 * weight;
-                }
-                cw[3] += alpha_y * weight;
+        match params.model {
+            Model::DrBokeh => {
+                let (g, k) = lens.lens(dx, dy, r_x, rel_x);
+                let d = math::footprint(r_x, g) * k;
+                vis_sum += alpha_y * d;
+                vis_weight += d;
             }
-
-            match params.model {
-                Model::DrBokeh => {
-                    let (g, k) = lens.lens(dx, dy, r_x, rel_x);
-                    let d = math::footprint(r_x, g) * k;
-                    vis_sum += alpha_y * d;
-                    vis_weight += d;
-                }
-                Model::Compat => {
-                    if ox.abs() <= box_half && oy.abs() <= box_half {
-                        vis_sum += alpha_y;
-                        vis_weight += 1.0;
-                    }
+            Model::Compat => {
+                if ox.abs() <= box_half && oy.abs() <= box_half {
+                    vis_sum += alpha_y;
+                    vis_weight += 1.0;
                 }
             }
         }
     }
     let visibility = if vis_weight > 0.0 { vis_sum / vis_weight } else { 0.0 };
     (cw, visibility)
+}
+
+/// The pixels of the square window of half-width `h` around `(x, y)` that lie in the image,
+/// row by row, as `(ox, oy, index)`: the loop of every pass of the CPU reference, forward and
+/// backward (the shaders clip their rows and columns the same way).
+pub(super) fn clipped_window(params: &Params, x: i64, y: i64, h: i64) -> impl Iterator<Item = (i64, i64, usize)> {
+    let (width, height) = (params.width as i64, params.height as i64);
+    (-h..=h).filter(move |oy| (0..height).contains(&(y + oy))).flat_map(move |oy| {
+        (-h..=h).filter(move |ox| (0..width).contains(&(x + ox))).map(move |ox| (ox, oy, ((y + oy) * width + x + ox) as usize))
+    })
 }
 
 /// Body of `drbokeh_composite.comp` (`drbokeh_composite_step` per layer, which a forward render
