@@ -4,8 +4,9 @@
 //! `cargo run --release -p lensblur-dev --example process_stack -- OUT.exr [WIDTH HEIGHT LAYERS MAX_COC]`
 //! (default: the kit's 8K case, 7680 4320 5 40) writes the file, then reads it back and prints
 //! both times; `... --example process_stack -- --read FILE.exr [RUNS]` only reads it, RUNS times;
-//! `... --example process_stack -- --write-image OUT.exr [RUNS]` writes an 8K RGBA image as
-//! `lensblur render` writes its output (float, as without `--half`), RUNS times.
+//! `... --example process_stack -- --write-image OUT.exr [RUNS [FROM.exr]]` writes an 8K RGBA
+//! image (or FROM.exr's) as `lensblur render` writes its output (float, as without `--half`),
+//! RUNS times.
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -26,7 +27,7 @@ fn stack_hash(stack: &lensblur::stack::LayerStack) -> u64 {
 
 fn main() -> Result<(), Failure> {
     let mut args = std::env::args().skip(1);
-    let usage = "usage: process_stack OUT.exr [WIDTH HEIGHT LAYERS MAX_COC] | --read FILE.exr [RUNS] | --write-image OUT.exr [RUNS]";
+    let usage = "usage: process_stack OUT.exr [WIDTH HEIGHT LAYERS MAX_COC] | --read FILE.exr [RUNS] | --write-image OUT.exr [RUNS [FROM.exr]]";
     let first = args.next().ok_or(usage)?;
     // Any other word is the output's name: `--help` once wrote an 8K stack by that name.
     if first.starts_with('-') && first != "--read" && first != "--write-image" {
@@ -48,15 +49,19 @@ fn main() -> Result<(), Failure> {
     if first == "--write-image" {
         let output = PathBuf::from(args.next().ok_or(usage)?);
         let runs: usize = args.next().map(|t| t.parse()).transpose().map_err(|_| usage)?.unwrap_or(1);
-        // A render's kind of content: smooth ramps, a texture, a few bright values.
-        let image = lensblur::image::Image::from_fn(7680, 4320, |x, y| {
-            let v = ((x * 7 + y * 13) % 1000) as f32 / 1000.0 + ((x ^ y) % 17) as f32 * 0.01;
-            [v, v * 0.5, 1.0 - v, 1.0]
-        });
+        // FROM.exr's image, else a render's kind of content: smooth ramps, a texture, a few bright
+        // values (far more compressible than real renders).
+        let image = match args.next() {
+            Some(from) => lensblur::stack::read_rgba(std::path::Path::new(&from), None, u64::MAX)?,
+            None => lensblur::image::Image::from_fn(7680, 4320, |x, y| {
+                let v = ((x * 7 + y * 13) % 1000) as f32 / 1000.0 + ((x ^ y) % 17) as f32 * 0.01;
+                [v, v * 0.5, 1.0 - v, 1.0]
+            }),
+        };
         for _ in 0..runs {
             let start = Instant::now();
             write_image(&output, &image, &WriteOptions { sample_type: SampleType::Float, ..WriteOptions::default() })?;
-            eprintln!("{}: wrote 7680x4320 RGBA in {:.3} s", output.display(), start.elapsed().as_secs_f64());
+            eprintln!("{}: wrote {}x{} RGBA in {:.3} s", output.display(), image.width, image.height, start.elapsed().as_secs_f64());
         }
         return Ok(());
     }

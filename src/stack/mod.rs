@@ -13,6 +13,7 @@ mod exr_decode;
 pub mod exr_read;
 pub mod exr_write;
 pub mod exr_replace;
+mod exr_zip;
 pub mod file_output_slots;
 pub mod file_channels;
 pub mod fill;

@@ -6,6 +6,7 @@ use std::io::Write as _;
 use std::path::Path;
 
 use super::DeepImage;
+use crate::stack::exr_zip::zip_block;
 use crate::{Error, Result};
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -70,7 +71,7 @@ pub fn write_deep(path: &Path, parts: &[(Option<&str>, &DeepImage)], options: &D
             }
             let (table, data) = chunk_data(image, x0, y0, w, h, &names, &types);
             let unpacked = data.len() as u64;
-            let (table, data) = if options.zip { (zip(table), zip(data)) } else { (table, data) };
+            let (table, data) = if options.zip { (zip_block(table), zip_block(data)) } else { (table, data) };
             for size in [table.len() as u64, data.len() as u64, unpacked] {
                 out.extend_from_slice(&size.to_le_bytes());
             }
@@ -80,29 +81,6 @@ pub fn write_deep(path: &Path, parts: &[(Option<&str>, &DeepImage)], options: &D
     }
     let mut file = std::fs::File::create(path).map_err(Error::io(path))?;
     file.write_all(&out).map_err(Error::io(path))
-}
-
-/// OpenEXR's ZIP coding: bytes split into even and odd halves, each byte stored as the
-/// difference to the one before (plus 128), then zlib. Kept raw when that is not smaller, as
-/// the format asks (a block as long as its raw size is read as raw).
-fn zip(raw: Vec<u8>) -> Vec<u8> {
-    let half = raw.len().div_ceil(2);
-    let mut split = vec![0u8; raw.len()];
-    for (i, &b) in raw.iter().enumerate() {
-        split[if i % 2 == 0 { i / 2 } else { half + i / 2 }] = b;
-    }
-    let mut previous = split.first().copied().unwrap_or(0);
-    for b in split.iter_mut().skip(1) {
-        let current = *b;
-        *b = current.wrapping_sub(previous).wrapping_add(128);
-        previous = current;
-    }
-    let packed = miniz_oxide::deflate::compress_to_vec_zlib(&split, 6);
-    if packed.len() < raw.len() {
-        packed
-    } else {
-        raw
-    }
 }
 
 /// Each chunk as (its coordinate as the chunk header stores it: tile x/y or line y, and
