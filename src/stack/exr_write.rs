@@ -1,5 +1,6 @@
 //! Writing images and stacks as EXR: single part, ZIP scanline compression (what Blender
-//! and OIIO write by default; the blocks coded by `exr_zip.rs`), channel names in the convention the input used.
+//! and OIIO write by default; the blocks coded by `exr_zip.rs`), channel names in the
+//! convention the input used.
 //! Files appear atomically: written to a temporary file beside the target, then renamed.
 use std::path::Path;
 
@@ -277,14 +278,17 @@ fn write_parts(path: &Path, frame: Frame, parts: Vec<PartChannels>, camera: Opti
 }
 
 /// Writes `image` (every part ZIP16 scanlines) as the exr crate's own writer would, but codes
-/// the blocks with [`zip_block`] (libdeflate at OpenEXR's level, about three times as fast as the
-/// crate's deflate for the same size: `exr_zip.rs`), on every core a group at a time, so that only a group's
-/// blocks are held at once, and in file order.
+/// the blocks with [`zip_block`] (libdeflate at OpenEXR's level, about three times as fast as
+/// the crate's deflate for the same size: `exr_zip.rs`): on every core, a group of blocks at a
+/// time so that only a group is held at once, and written in file order.
 fn write_zip_scanlines<L>(image: &exr::prelude::Image<L>, file: impl std::io::Write + std::io::Seek) -> exr::error::UnitResult
 where
     L: for<'a> WritableLayers<'a>,
 {
-    const _: () = assert!(cfg!(target_endian = "little"), "zip_block codes the blocks' native bytes as the file's little-endian ones");
+    const _: () = assert!(
+        cfg!(target_endian = "little"),
+        "zip_block codes the blocks' native bytes as the file's little-endian ones"
+    );
     let headers = image.layer_data.infer_headers(&image.attributes);
     debug_assert!(headers.iter().all(|h| h.compression == Compression::ZIP16 && h.blocks == BlockDescription::ScanLines));
     let layers = image.layer_data.create_writer(&headers);
