@@ -395,15 +395,7 @@ mod tests {
     use super::*;
     use crate::render::Method;
 
-    fn lens(k_px: f32, focus: f32) -> Lens {
-        Lens {
-            coc: CocModel {
-                k_px,
-                focus_disparity: focus,
-            },
-            aperture: Aperture::Disk,
-        }
-    }
+    use crate::render::test_inputs::disk_lens as lens;
 
     /// `--method gausspsf` renders the forward pass of the default model, on the CPU, and
     /// refuses an aperture shape it cannot draw instead of drawing a Gaussian.

@@ -16,6 +16,8 @@ pub mod oracle;
 pub mod placement;
 mod registry;
 pub mod scatter;
+#[cfg(test)]
+mod test_inputs;
 pub mod tiler;
 pub mod vdslr;
 

@@ -88,19 +88,9 @@ fn gather_pixel(image: &Image, disparity: &[f32], radius: &[f32], lens: &Lens, x
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::CocModel;
     use crate::render::disk::{disk_blur_cpu, DiskKernel};
 
-    fn lens(k_px: f32, focus: f32) -> Lens {
-        Lens { coc: CocModel::new(k_px, focus).unwrap(), aperture: Aperture::Disk }
-    }
-
-    fn texture(w: usize, h: usize) -> Image {
-        Image::from_fn(w, h, |x, y| {
-            let v = ((x * 7 + y * 3) % 11) as f32 / 10.0;
-            [v, 1.0 - v, 0.5 * v, 1.0]
-        })
-    }
+    use crate::render::test_inputs::{disk_lens as lens, texture};
 
     #[test]
     fn in_focus_pixels_are_unchanged() {
