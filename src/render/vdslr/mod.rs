@@ -220,7 +220,8 @@ fn mixed_edge(image: &Image, relative: &[f32], disparity: &[f32], k: f32, i: usi
         })
     };
     let (mut near, mut far) = (4, 4);
-    let nine: Vec<usize> = window(i, 1).collect();
+    // An array, not a vector: this runs for every pixel of the frame.
+    let nine: [usize; 9] = std::array::from_fn(|n| neighbour(i % width, i / width, n, width, height));
     for (n, &q) in nine.iter().enumerate() {
         if disparity[q] > disparity[nine[near]] {
             near = n;
