@@ -123,11 +123,11 @@ impl Multiview {
             |batch, core, _, room| {
                 let window = pr.window(core);
                 let pyramid_len = pr.layers * window.pyramid_len;
-                let pyramids = pr.window_pyramids(stack, &window);
-                let pyramid = Buffer::from_iter_in(ctx, batch, "multiview pyramid", pyramid_len, pyramids)?;
-                let heights_len = pr.layers * window.rect.area();
-                let heights = pr.window_heights(stack, &window);
-                let heights = Buffer::from_iter_in(ctx, batch, "multiview heights", heights_len, heights)?;
+                let upper = pr.window_upper_levels(stack, &window);
+                let pyramids = pr.window_pyramids(stack, &window, &upper);
+                let pyramid =
+                    Buffer::from_slices_with_room_in(ctx, batch, "multiview pyramid", pyramid_len, pyramid_len, pyramids)?;
+                let heights = Buffer::from_slice_in(ctx, batch, "multiview heights", &pr.window_heights(stack, &window))?;
                 let levels =
                     Buffer::from_iter_in(ctx, batch, "multiview levels", window.levels.len(), window.levels.iter().copied())?;
                 // The shader writes every core pixel.

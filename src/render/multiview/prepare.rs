@@ -9,7 +9,9 @@
 //! there (each texel the box filter of the same existing children). Reads clamp to the frame's
 //! edges and then index the window.
 use crate::render::lens_samples::LensSamples;
-use crate::render::tiler::crop;
+use rayon::prelude::*;
+
+use crate::render::tiler::crop_rows;
 use crate::render::Lens;
 use crate::stack::LayerStack;
 use crate::tile_grid::Rect;
@@ -66,7 +68,7 @@ impl Window {
 }
 
 impl Prepared {
-    /// Everything but the height fields and pyramids, which the caller streams from `stack`
+    /// Everything but the height fields and pyramids, which the caller makes from `stack`
     /// per window ([`Self::window_heights`], [`Self::window_pyramids`]).
     pub fn new(stack: &LayerStack, lens: &Lens, params: &MultiviewParams) -> Result<Self> {
         params.validate()?;
@@ -123,8 +125,9 @@ impl Prepared {
     /// reference), read through the same window indexing as a GPU tile's.
     pub fn with_planes(stack: &LayerStack, lens: &Lens, params: &MultiviewParams) -> Result<Self> {
         let mut pr = Self::new(stack, lens, params)?;
-        pr.heights = pr.window_heights(stack, &pr.window).collect();
-        pr.pyramid = pr.window_pyramids(stack, &pr.window).collect();
+        pr.heights = pr.window_heights(stack, &pr.window);
+        let upper = pr.window_upper_levels(stack, &pr.window);
+        pr.pyramid = pr.window_pyramids(stack, &pr.window, &upper).flatten().copied().collect();
         Ok(pr)
     }
 
@@ -154,18 +157,41 @@ impl Prepared {
     }
 
     /// Every layer's height field over `window`, in order (`layers * area` texels): the
-    /// disparity, empty pixels at the layer's far bound so that rays pass through holes.
-    pub fn window_heights<'a>(&'a self, stack: &'a LayerStack, window: &'a Window) -> impl Iterator<Item = f32> + 'a {
-        stack.layers.iter().zip(&self.bounds).flat_map(move |(layer, &[far, ..])| {
-            let rgba = crop(&layer.rgba.pixels, self.width, window.rect);
-            rgba.zip(crop(&layer.disparity, self.width, window.rect)).map(move |(p, d)| if is_covered(&p) { d } else { far })
-        })
+    /// disparity, empty pixels at the layer's far bound so that rays pass through holes. Rows
+    /// on every core.
+    pub fn window_heights(&self, stack: &LayerStack, window: &Window) -> Vec<f32> {
+        let rect = window.rect;
+        let mut heights = vec![0.0f32; stack.layers.len() * rect.area()];
+        heights.par_chunks_mut(rect.width().max(1)).enumerate().for_each(|(row, out)| {
+            let (l, y) = (row / rect.height(), rect.y0 + row % rect.height());
+            let (layer, far) = (&stack.layers[l], self.bounds[l][0]);
+            let span = y * self.width + rect.x0..y * self.width + rect.x1;
+            let pixels = layer.rgba.pixels[span.clone()].iter().zip(&layer.disparity[span]);
+            for (h, (p, &d)) in out.iter_mut().zip(pixels) {
+                *h = if is_covered(p) { d } else { far };
+            }
+        });
+        heights
     }
 
-    /// Every layer's pyramid over `window`, in order (`layers * pyramid_len` texels), built
-    /// level by level as it is consumed ([`PyramidTexels`]).
-    pub fn window_pyramids<'a>(&'a self, stack: &'a LayerStack, window: &'a Window) -> impl Iterator<Item = [f32; 4]> + 'a {
-        stack.layers.iter().flat_map(move |layer| PyramidTexels::new(&layer.rgba.pixels, self.width, window.rect, &window.levels))
+    /// Every layer's mip levels above level 0 over `window` ([`upper_levels`]), layer after
+    /// layer: what [`Self::window_pyramids`] sends besides the layers' own rows.
+    pub fn window_upper_levels(&self, stack: &LayerStack, window: &Window) -> Vec<Vec<[f32; 4]>> {
+        stack.layers.iter().map(|layer| upper_levels(&layer.rgba.pixels, self.width, window.rect, &window.levels)).collect()
+    }
+
+    /// Every layer's pyramid over `window`, in order (`layers * pyramid_len` texels), as runs
+    /// to copy: level 0 is the window's rows of the layer, the levels above are `upper` (from
+    /// [`Self::window_upper_levels`]).
+    pub fn window_pyramids<'a>(
+        &'a self,
+        stack: &'a LayerStack,
+        window: &'a Window,
+        upper: &'a [Vec<[f32; 4]>],
+    ) -> impl Iterator<Item = &'a [[f32; 4]]> + 'a {
+        stack.layers.iter().zip(upper).flat_map(move |(layer, upper)| {
+            crop_rows(&layer.rgba.pixels, self.width, window.rect).chain(std::iter::once(upper.as_slice()))
+        })
     }
 
     /// Whether layer `l` has coverage within reach of `pixel`'s rays (the culling mask).
@@ -288,66 +314,49 @@ fn mip_levels(width: usize, height: usize) -> Vec<[u32; 4]> {
 #[cfg(test)]
 fn build_pyramid(base: &[[f32; 4]], levels: &[[u32; 4]]) -> Vec<[f32; 4]> {
     let (width, height) = (levels[0][1] as usize, levels[0][2] as usize);
-    PyramidTexels::new(base, width, Rect { x0: 0, y0: 0, x1: width, y1: height }, levels).collect()
+    window_pyramid(base, width, Rect { x0: 0, y0: 0, x1: width, y1: height }, levels)
 }
 
-/// The texels of a box-filtered pyramid of `rect` of a row-major image `base_width` wide
-/// (each texel the mean of its up to four existing children; alpha at level L is the coverage
-/// of its 2^L x 2^L footprint), level after level, each level computed from the previous one
-/// when the iterator reaches it. Only that previous level is held (a quarter of the rect at
-/// most): a device buffer fills from this with no host copy of the pyramid beside it.
-struct PyramidTexels<'a> {
-    base: &'a [[f32; 4]],
-    base_width: usize,
-    rect: Rect,
-    levels: &'a [[u32; 4]],
-    /// Index in `levels` of the level being yielded.
-    level: usize,
-    /// That level's texels, once past level 0 (which is `rect` of `base`).
-    texels: Vec<[f32; 4]>,
-    /// The next texel of that level to yield.
-    next: usize,
+/// The whole pyramid of `rect` ([`upper_levels`] after level 0), texel after texel.
+#[cfg(test)]
+fn window_pyramid(base: &[[f32; 4]], base_width: usize, rect: Rect, levels: &[[u32; 4]]) -> Vec<[f32; 4]> {
+    let mut pyramid: Vec<[f32; 4]> = crop_rows(base, base_width, rect).flatten().copied().collect();
+    pyramid.extend(upper_levels(base, base_width, rect, levels));
+    pyramid
 }
 
-impl<'a> PyramidTexels<'a> {
-    fn new(base: &'a [[f32; 4]], base_width: usize, rect: Rect, levels: &'a [[u32; 4]]) -> Self {
-        Self { base, base_width, rect, levels, level: 0, texels: Vec::new(), next: 0 }
-    }
-
-    /// Texel (x, y) of level 0: pixel (x, y) of `rect`.
-    fn base_texel(&self, x: usize, y: usize) -> [f32; 4] {
-        self.base[(self.rect.y0 + y) * self.base_width + self.rect.x0 + x]
-    }
-}
-
-impl Iterator for PyramidTexels<'_> {
-    type Item = [f32; 4];
-
-    fn next(&mut self) -> Option<[f32; 4]> {
-        let [_, pw, ph, _] = self.levels[self.level];
-        let (pw, ph) = (pw as usize, ph as usize);
-        if self.next == pw * ph {
-            let &[_, w, h, _] = self.levels.get(self.level + 1)?;
-            self.texels = if self.level == 0 {
-                downsample(|x, y| self.base_texel(x, y), pw, ph, w as usize, h as usize)
-            } else {
-                downsample(|x, y| self.texels[y * pw + x], pw, ph, w as usize, h as usize)
-            };
-            (self.level, self.next) = (self.level + 1, 0);
-            return self.next();
+/// Levels 1 and up of the box-filtered pyramid of `rect` of a row-major image `base_width`
+/// wide (level 0 is `rect` of the image itself), one after another: each texel the mean of its
+/// up to four existing children, so alpha at level L is the coverage of its 2^L x 2^L
+/// footprint. Each level's rows are computed on every core from the level below. A third of
+/// level 0's texels at most; level 0 itself goes to the device as rows of the image (a
+/// pyramid built texel by texel into write-combined staging memory, one layer after another,
+/// was most of a 1024^2 multiview render's host time on an H200).
+fn upper_levels(base: &[[f32; 4]], base_width: usize, rect: Rect, levels: &[[u32; 4]]) -> Vec<[f32; 4]> {
+    let upper_len = levels.last().map_or(0, |l| (l[0] + l[1] * l[2]) as usize) - rect.area();
+    let mut upper = vec![[0.0f32; 4]; upper_len];
+    let mut below: &mut [[f32; 4]] = &mut [];
+    let mut rest = upper.as_mut_slice();
+    for pair in levels.windows(2) {
+        let ([_, pw, ph, _], [_, w, h, _]) = (pair[0], pair[1]);
+        let (pw, ph, w, h) = (pw as usize, ph as usize, w as usize, h as usize);
+        let (level, after) = std::mem::take(&mut rest).split_at_mut(w * h);
+        if below.is_empty() {
+            downsample(|x, y| base[(rect.y0 + y) * base_width + rect.x0 + x], pw, ph, w, level);
+        } else {
+            let previous: &[[f32; 4]] = below;
+            downsample(|x, y| previous[y * pw + x], pw, ph, w, level);
         }
-        let (x, y) = (self.next % pw, self.next / pw);
-        self.next += 1;
-        Some(if self.level == 0 { self.base_texel(x, y) } else { self.texels[y * pw + x] })
+        (below, rest) = (level, after);
     }
+    upper
 }
 
-/// The `w x h` level above a `pw x ph` one whose texel (x, y) is `previous(x, y)`: each texel
-/// the mean of its existing children.
-fn downsample(previous: impl Fn(usize, usize) -> [f32; 4], pw: usize, ph: usize, w: usize, h: usize) -> Vec<[f32; 4]> {
-    let mut out = Vec::with_capacity(w * h);
-    for y in 0..h {
-        for x in 0..w {
+/// Fills `out`, the level (`w` texels a row) above a `pw x ph` one whose texel (x, y) is
+/// `previous(x, y)`, row by row on every core: each texel the mean of its existing children.
+fn downsample(previous: impl Fn(usize, usize) -> [f32; 4] + Sync, pw: usize, ph: usize, w: usize, out: &mut [[f32; 4]]) {
+    out.par_chunks_mut(w.max(1)).enumerate().for_each(|(y, row)| {
+        for (x, texel) in row.iter_mut().enumerate() {
             let (mut sum, mut n) = ([0.0f32; 4], 0.0f32);
             for (cx, cy) in [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)] {
                 if cx < pw && cy < ph {
@@ -356,10 +365,9 @@ fn downsample(previous: impl Fn(usize, usize) -> [f32; 4], pw: usize, ph: usize,
                     n += 1.0;
                 }
             }
-            out.push(sum.map(|s| s / n));
+            *texel = sum.map(|s| s / n);
         }
-    }
-    out
+    });
 }
 
 /// A pixel with any coverage: it sets the layer's disparity bounds and its height field.
@@ -433,25 +441,38 @@ mod tests {
         }
     }
 
-    /// The streamed pyramid is the eager one: every level downsampled from the whole previous
-    /// level (the eager construction, written out here), in the same texel order.
+    /// The pyramid, its levels computed row by row on every core, is the one built texel by
+    /// texel from the whole previous level (written out here), bit for bit, in the same order.
     #[test]
-    fn streamed_pyramid_equals_the_levels_built_one_by_one() {
-        let (w, h) = (11usize, 6usize);
-        let base = texels(w, h);
-        let levels = mip_levels(w, h);
-        let mut eager = base.clone();
-        let mut previous = base.clone();
-        for pair in levels.windows(2) {
-            let pw = pair[0][1] as usize;
-            let next = downsample(|x, y| previous[y * pw + x], pw, pair[0][2] as usize, pair[1][1] as usize, pair[1][2] as usize);
-            assert_eq!(eager.len(), pair[1][0] as usize, "level offsets");
-            eager.extend_from_slice(&next);
-            previous = next;
+    fn pyramid_equals_the_levels_built_texel_by_texel() {
+        for (w, h) in [(11usize, 6usize), (64, 37), (1, 9)] {
+            let base = texels(w, h);
+            let levels = mip_levels(w, h);
+            let mut serial = base.clone();
+            let mut previous = base.clone();
+            for pair in levels.windows(2) {
+                let ([_, pw, ph, _], [offset, nw, nh, _]) = (pair[0], pair[1]);
+                let (pw, ph) = (pw as usize, ph as usize);
+                assert_eq!(serial.len(), offset as usize, "level offsets");
+                let mut next = Vec::new();
+                for y in 0..nh as usize {
+                    for x in 0..nw as usize {
+                        let children: Vec<[f32; 4]> = [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)]
+                            .into_iter()
+                            .filter(|&(cx, cy)| cx < pw && cy < ph)
+                            .map(|(cx, cy)| previous[cy * pw + cx])
+                            .collect();
+                        let sum = children.iter().fold([0.0f32; 4], |s, t| [s[0] + t[0], s[1] + t[1], s[2] + t[2], s[3] + t[3]]);
+                        next.push(sum.map(|v| v / children.len() as f32));
+                    }
+                }
+                serial.extend_from_slice(&next);
+                previous = next;
+            }
+            let pyramid = build_pyramid(&base, &levels);
+            assert_eq!(pyramid.len(), levels.last().map(|l| (l[0] + l[1] * l[2]) as usize).unwrap());
+            assert_eq!(bits_of(&pyramid), bits_of(&serial), "{w}x{h}");
         }
-        let streamed = build_pyramid(&base, &levels);
-        assert_eq!(streamed.len(), levels.last().map(|l| (l[0] + l[1] * l[2]) as usize).unwrap());
-        assert_eq!(bits_of(&streamed), bits_of(&eager));
     }
 
     /// A window whose origin is a multiple of 2^top and that ends on such a multiple or at the
@@ -473,7 +494,7 @@ mod tests {
                 }
                 let rect = Rect { x0, y0, x1, y1 };
                 let window = Window::new(rect, top + 1);
-                let pyramid: Vec<[f32; 4]> = PyramidTexels::new(&base, w, rect, &window.levels).collect();
+                let pyramid = window_pyramid(&base, w, rect, &window.levels);
                 assert_eq!(pyramid.len(), window.pyramid_len);
                 for (level, &[offset, ww, wh, _]) in window.levels.iter().enumerate() {
                     let [frame_offset, fw, _, _] = frame_levels[level];
