@@ -100,22 +100,33 @@ impl Prepared {
             heights: Vec::new(),
             pyramid: Vec::new(),
         };
+        // Each layer's bounds and culling mask, the layers side by side (one after another,
+        // they were most of a 1024^2 frame's preparation on a 16-core GPU machine).
+        let per_layer: Vec<Result<([f32; 4], Vec<u32>)>> = stack
+            .layers
+            .par_iter()
+            .map(|layer| {
+                let covered: Vec<bool> = layer.rgba.pixels.iter().map(is_covered).collect();
+                let (lo, hi) = covered.iter().zip(&layer.disparity).filter(|(&c, _)| c).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), (_, &d)| (lo.min(d), hi.max(d)));
+                let active = lo.is_finite() && hi.is_finite();
+                if !active && covered.iter().any(|&c| c) {
+                    return Err(Error::data(format!("layer '{}' has non-finite disparity", layer.name)));
+                }
+                let (lo, hi) = if active { (lo, hi) } else { (0.0, 0.0) };
+                let mask = dilate(&covered, width, height, pr.reach(lo, hi));
+                Ok(([lo, hi, if active { 1.0 } else { 0.0 }, 0.0], mask))
+            })
+            .collect();
         let mut widest = 0.0f32;
-        for layer in &stack.layers {
-            let covered: Vec<bool> = layer.rgba.pixels.iter().map(is_covered).collect();
-            let (lo, hi) = covered.iter().zip(&layer.disparity).filter(|(&c, _)| c).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), (_, &d)| (lo.min(d), hi.max(d)));
-            let active = lo.is_finite() && hi.is_finite();
-            if !active && covered.iter().any(|&c| c) {
-                return Err(Error::data(format!("layer '{}' has non-finite disparity", layer.name)));
-            }
-            let (lo, hi) = if active { (lo, hi) } else { (0.0, 0.0) };
-            pr.bounds.push([lo, hi, if active { 1.0 } else { 0.0 }, 0.0]);
+        for layer in per_layer {
+            let (bounds, mask) = layer?;
+            let [lo, hi, active, _] = bounds;
             // Inactive layers are never traced, so their (zero) bounds widen nothing.
-            if active {
+            if active > 0.0 {
                 widest = widest.max(pr.relative_reach(lo, hi));
             }
-            let reach = pr.reach(lo, hi);
-            pr.occupancy.extend(dilate(&covered, width, height, reach));
+            pr.bounds.push(bounds);
+            pr.occupancy.extend(mask);
         }
         (pr.top_level, pr.margin) = pr.read_extent(widest);
         Ok(pr)
