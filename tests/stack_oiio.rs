@@ -321,3 +321,40 @@ fn openexr_reads_our_zip_blocks_sample_for_sample() {
         }
     }
 }
+
+/// Tiled files as OpenImageIO writes them (what `maketx`-style textures and tiled renders
+/// hand over) read sample for sample: plain tiles whose last row and column are partial, and a
+/// mip-mapped texture (`-otex`), whose largest level is the image and whose smaller levels are
+/// not read.
+#[test]
+fn oiiotool_tiled_and_mip_mapped_files_read_sample_for_sample() {
+    let dir = common::temp_dir("oiio", "tiled");
+    let (width, height) = (83, 45);
+    let image = Image::from_fn(width, height, |x, y| [x as f32 * 0.25 - 3.0, y as f32 * 1.5, (x * y) as f32 * 0.01, 0.5 + 0.005 * x as f32]);
+    let ours = dir.join("scanlines.exr");
+    write_image(&ours, &image, &WriteOptions { sample_type: SampleType::Float, ..WriteOptions::default() }).unwrap();
+    for (name, args) in [
+        ("tiles.exr", vec!["--tile", "16", "16", "--compression", "zip"]),
+        ("tall-tiles.exr", vec!["--tile", "8", "32", "--compression", "piz"]),
+        ("texture.exr", vec!["-otex"]),
+    ] {
+        let theirs = dir.join(name);
+        let mut command = vec![s(&ours)];
+        command.extend(args.iter().copied());
+        if args != ["-otex"] {
+            command.push("-o");
+        }
+        command.push(s(&theirs));
+        tool("oiiotool", &command);
+        let info = tool("oiiotool", &["--info", "-v", s(&theirs)]);
+        assert!(info.contains("tile size"), "{name} is tiled: {info}");
+        if name == "texture.exr" {
+            assert!(info.contains("MIP-map levels"), "{name} is mip-mapped: {info}");
+        }
+        let back = lensblur::stack::read_rgba(&theirs, None, u64::MAX).unwrap();
+        assert_eq!((back.width, back.height), (width, height), "{name}");
+        for (i, (a, b)) in image.pixels.iter().zip(&back.pixels).enumerate() {
+            assert_eq!(a, b, "{name} pixel {i}");
+        }
+    }
+}

@@ -215,15 +215,15 @@ pub(super) fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
 /// Every part's pixels; a file whose parts only split one layout's passes comes back as one part
 /// (see [`join_split_passes`]).
 pub(super) fn read_pixels(path: &Path) -> Result<ExrImage> {
-    // Scan-line files (what renderers write) decode on every core; tiled ones through the crate.
-    if let Some(image) = super::exr_decode::read_scanline_pixels(path)? {
+    // Flat files, scan-line and tiled, decode on every core; subsampled channels through the crate.
+    if let Some(image) = super::exr_decode::read_flat_pixels(path)? {
         return Ok(join_split_passes(image));
     }
     Ok(join_split_passes(read_with_the_crate(path)?))
 }
 
-/// Every part's pixels at the largest resolution, through the `exr` crate's image reader: tiled
-/// files, and what [`super::exr_decode`] is held equal to.
+/// Every part's pixels at the largest resolution, through the `exr` crate's image reader: files
+/// with subsampled channels, and what [`super::exr_decode`] is held equal to.
 pub(super) fn read_with_the_crate(path: &Path) -> Result<ExrImage> {
     exr::prelude::read()
         .no_deep_data()
