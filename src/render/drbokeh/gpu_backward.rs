@@ -245,7 +245,7 @@ impl DrBokehGpuGrad {
         let collect = |core: Rect, tile: TileGradients| grads.store(ctx, params, &tile, core);
         let (mut stats, cores) = run_batches(ctx, tiling, plan, options, record, collect)?;
         stats.taps = cores.iter().map(|&core| taps(params, frame.forward.windows, frame.receivers(core))).sum();
-        Ok((grads.finish(params), stats))
+        Ok((grads.finish(), stats))
     }
 
     /// A tile's backward buffers, zero fills and uploads recorded into `batch`.
@@ -448,26 +448,32 @@ fn backward_footprint(params: &Params, max_window: i32, max_reach: i32) -> impl 
     }
 }
 
-/// The full-frame per-pixel gradients, layer-major, filled tile by tile.
+/// The full-frame per-pixel gradients, one vector per layer (what [`StackGradients`] hands
+/// out, so finishing moves them instead of copying a flat frame's slices: those copies were
+/// most of a 1024^2 backward's host time outside the tiles), filled tile by tile.
 struct FrameGradients {
-    rgba: Vec<[f32; 4]>,
-    disparity: Vec<f32>,
-    k_partial: Vec<f32>,
+    rgba: Vec<Vec<[f32; 4]>>,
+    disparity: Vec<Vec<f32>>,
+    k_partial: Vec<Vec<f32>>,
 }
 
 impl FrameGradients {
     fn new(params: &Params) -> Self {
-        let n = params.layer_count * params.width * params.height;
-        Self { rgba: vec![[0.0; 4]; n], disparity: vec![0.0; n], k_partial: vec![0.0; n] }
+        let n = params.width * params.height;
+        let layers = params.layer_count;
+        Self {
+            rgba: (0..layers).map(|_| vec![[0.0; 4]; n]).collect(),
+            disparity: (0..layers).map(|_| vec![0.0; n]).collect(),
+            k_partial: (0..layers).map(|_| vec![0.0; n]).collect(),
+        }
     }
 
     /// Copies a tile's core-local gradients (layer after layer, each the core's rows) into the
     /// frame, straight from the read-backs: a copy of each into a vector first, then one thread
     /// placing its rows, made reading back most of a 1024^2 backward's wall time on an H200.
     fn store(&mut self, ctx: &Context, params: &Params, tile: &TileGradients, core: Rect) -> Result<()> {
-        fn place<T: Copy + Send + Sync>(frame: &mut [T], tile: &[T], params: &Params, core: Rect) {
-            let layers = frame.chunks_exact_mut(params.width * params.height).zip(tile.chunks_exact(core.area()));
-            for (layer, rows) in layers {
+        fn place<T: Copy + Send + Sync>(frame: &mut [Vec<T>], tile: &[T], params: &Params, core: Rect) {
+            for (layer, rows) in frame.iter_mut().zip(tile.chunks_exact(core.area())) {
                 place_core_rows(layer, params.width, core, rows);
             }
         }
@@ -476,18 +482,12 @@ impl FrameGradients {
         tile.k_partial.read_with(ctx, |k_partial: &[f32]| place(&mut self.k_partial, k_partial, params, core))
     }
 
-    /// Splits the frame per layer and sums the scalar shares in f64 in image order (layer by
-    /// layer, row by row), whatever order the tiles came in.
-    fn finish(self, params: &Params) -> StackGradients {
-        let n = params.width * params.height;
-        let k_px = self.k_partial.iter().map(|&v| v as f64).sum();
-        let focus_disparity = -self.disparity.iter().map(|&v| v as f64).sum::<f64>();
-        let layers = (0..params.layer_count)
-            .map(|l| LayerGradients {
-                rgba: self.rgba[l * n..(l + 1) * n].to_vec(),
-                disparity: self.disparity[l * n..(l + 1) * n].to_vec(),
-            })
-            .collect();
+    /// Hands out the layers' gradients and sums the scalar shares in f64 in image order (layer
+    /// by layer, row by row), whatever order the tiles came in.
+    fn finish(self) -> StackGradients {
+        let k_px = self.k_partial.iter().flatten().map(|&v| v as f64).sum();
+        let focus_disparity = -self.disparity.iter().flatten().map(|&v| v as f64).sum::<f64>();
+        let layers = self.rgba.into_iter().zip(self.disparity).map(|(rgba, disparity)| LayerGradients { rgba, disparity }).collect();
         StackGradients { layers, k_px, focus_disparity }
     }
 }
