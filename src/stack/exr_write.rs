@@ -277,11 +277,16 @@ fn write_parts(path: &Path, frame: Frame, parts: Vec<PartChannels>, camera: Opti
     })
 }
 
-/// Writes `image` (every part ZIP16 scanlines) as the exr crate's own writer would, but codes
+/// Whether [`write_zip_scanlines`] writes parts of this compression, stored as scan lines or not.
+pub(super) fn zip_scanlines(compression: Compression, scan_lines: bool) -> bool {
+    matches!(compression, Compression::ZIP16 | Compression::ZIP1) && scan_lines
+}
+
+/// Writes `image` (every part ZIP scan lines, 16 or 1 a block: [`zip_scanlines`]) as the exr crate's own writer would, but codes
 /// the blocks with [`zip_block`] (libdeflate at OpenEXR's level, about three times as fast as
 /// the crate's deflate for the same size: `exr_zip.rs`): on every core, a group of blocks at a
 /// time so that only a group is held at once, and written in file order.
-fn write_zip_scanlines<L>(image: &exr::prelude::Image<L>, file: impl std::io::Write + std::io::Seek) -> exr::error::UnitResult
+pub(super) fn write_zip_scanlines<L>(image: &exr::prelude::Image<L>, file: impl std::io::Write + std::io::Seek) -> exr::error::UnitResult
 where
     L: for<'a> WritableLayers<'a>,
 {
@@ -290,7 +295,7 @@ where
         "zip_block codes the blocks' native bytes as the file's little-endian ones"
     );
     let headers = image.layer_data.infer_headers(&image.attributes);
-    debug_assert!(headers.iter().all(|h| h.compression == Compression::ZIP16 && h.blocks == BlockDescription::ScanLines));
+    debug_assert!(headers.iter().all(|h| zip_scanlines(h.compression, h.blocks == BlockDescription::ScanLines)));
     let layers = image.layer_data.create_writer(&headers);
     exr::block::write(file, headers, true, |meta, chunk_writer| {
         let order: Vec<(usize, BlockIndex)> = exr::block::enumerate_ordered_header_block_indices(&meta.headers).collect();
