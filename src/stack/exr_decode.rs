@@ -72,9 +72,8 @@ pub(super) fn read_flat_pixels(path: &Path) -> Result<Option<ExrImage>> {
                 .collect()
         })
         .collect();
-    // Scan-line files: every chunk in file order, whatever the offset tables say (as before
-    // tiled files were read here too). Tiled files: the largest level's tiles, through the
-    // offset tables, as the crate's reader takes them.
+    // Scan-line files: every chunk in file order, whatever the offset tables say. Tiled files:
+    // the largest level's tiles, through the offset tables, as the crate's reader takes them.
     let chunks: Box<dyn Iterator<Item = exr::error::Result<Chunk>> + Send> = if tiled {
         let largest = |_: &exr::meta::MetaData, tile: TileCoordinates, _| tile.level_index == Vec2(0, 0);
         Box::new(reader.filter_chunks(false, largest).map_err(failed)?)
@@ -213,8 +212,17 @@ mod tests {
     use super::*;
     use exr::prelude::{Compression, Image, IntegerBounds, Layer, LayerAttributes, LineOrder, SmallVec, WritableImage};
 
-    fn crate_reader(path: &Path) -> ExrImage {
-        super::super::exr_read::read_with_the_crate(path).expect("the crate reads its own file")
+    /// Our reading of `path` (which must be ours to read) equals the crate's reader's: image
+    /// attributes, and per part its size, encoding, attributes and every channel's samples.
+    fn reads_as_the_crate_reads_it(path: &Path, case: &str) {
+        let ours = read_flat_pixels(path).unwrap().expect("a flat file is read here");
+        let theirs = super::super::exr_read::read_with_the_crate(path).expect("the crate reads its own file");
+        assert_eq!(ours.attributes, theirs.attributes, "{case}");
+        assert_eq!(ours.layer_data.len(), theirs.layer_data.len(), "{case}");
+        for (a, b) in ours.layer_data.iter().zip(&theirs.layer_data) {
+            assert_eq!((a.size, a.encoding, &a.attributes), (b.size, b.encoding, &b.attributes), "{case}");
+            assert_eq!(a.channel_data, b.channel_data, "{case}");
+        }
     }
 
     fn channel(name: &str, samples: FlatSamples) -> AnyChannel<FlatSamples> {
@@ -247,7 +255,7 @@ mod tests {
         let compressions = [Compression::Uncompressed, Compression::RLE, Compression::ZIP1, Compression::ZIP16, Compression::PIZ, Compression::PXR24];
         for (k, compression) in compressions.into_iter().enumerate() {
             let order = if k % 2 == 0 { LineOrder::Increasing } else { LineOrder::Decreasing };
-            let parts = vec![
+            let parts = [
                 part("front", (37, 53), (0, 0), compression, order, k as u32),
                 part("back", (37, 53), (-3, 5), compression, order, 100 + k as u32),
             ];
@@ -256,14 +264,7 @@ mod tests {
                 let layers: Vec<_> = parts[..count].to_vec();
                 let image = Image::from_layers(exr::prelude::ImageAttributes::new(IntegerBounds::from_dimensions((40, 60))), layers);
                 image.write().to_file(&path).unwrap();
-                let ours = read_flat_pixels(&path).unwrap().expect("a scan-line file");
-                let theirs = crate_reader(&path);
-                assert_eq!(ours.attributes, theirs.attributes, "{compression:?}, {count} part(s)");
-                assert_eq!(ours.layer_data.len(), theirs.layer_data.len());
-                for (a, b) in ours.layer_data.iter().zip(&theirs.layer_data) {
-                    assert_eq!((a.size, a.encoding, &a.attributes), (b.size, b.encoding, &b.attributes), "{compression:?}");
-                    assert_eq!(a.channel_data, b.channel_data, "{compression:?}, {count} part(s)");
-                }
+                reads_as_the_crate_reads_it(&path, &format!("{compression:?}, {count} part(s)"));
             }
         }
         std::fs::remove_dir_all(&dir).unwrap();
@@ -283,7 +284,7 @@ mod tests {
                     layer.encoding.blocks = Blocks::Tiles(Vec2(tile.0, tile.1));
                     layer
                 };
-                let parts = vec![
+                let parts = [
                     tiled(part("front", (37, 53), (0, 0), compression, LineOrder::Increasing, k as u32)),
                     tiled(part("back", (37, 53), (-3, 5), compression, LineOrder::Increasing, 100 + t as u32)),
                 ];
@@ -291,15 +292,7 @@ mod tests {
                     let path = dir.join(format!("c{k}-t{t}-{count}.exr"));
                     let image = Image::from_layers(exr::prelude::ImageAttributes::new(IntegerBounds::from_dimensions((40, 60))), parts[..count].to_vec());
                     image.write().to_file(&path).unwrap();
-                    let ours = read_flat_pixels(&path).unwrap().expect("a flat tiled file");
-                    let theirs = crate_reader(&path);
-                    let case = format!("{compression:?}, tiles {tile:?}, {count} part(s)");
-                    assert_eq!(ours.attributes, theirs.attributes, "{case}");
-                    assert_eq!(ours.layer_data.len(), theirs.layer_data.len(), "{case}");
-                    for (a, b) in ours.layer_data.iter().zip(&theirs.layer_data) {
-                        assert_eq!((a.size, a.encoding, &a.attributes), (b.size, b.encoding, &b.attributes), "{case}");
-                        assert_eq!(a.channel_data, b.channel_data, "{case}");
-                    }
+                    reads_as_the_crate_reads_it(&path, &format!("{compression:?}, tiles {tile:?}, {count} part(s)"));
                 }
             }
         }

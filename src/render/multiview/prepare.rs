@@ -346,13 +346,14 @@ fn window_pyramid(base: &[[f32; 4]], base_width: usize, rect: Rect, levels: &[[u
 fn upper_levels(base: &[[f32; 4]], base_width: usize, rect: Rect, levels: &[[u32; 4]]) -> Vec<[f32; 4]> {
     let upper_len = levels.last().map_or(0, |l| (l[0] + l[1] * l[2]) as usize) - rect.area();
     let mut upper = vec![[0.0f32; 4]; upper_len];
+    // The level being filled and the one below it, split off `upper` one after another.
     let mut below: &mut [[f32; 4]] = &mut [];
     let mut rest = upper.as_mut_slice();
-    for pair in levels.windows(2) {
+    for (k, pair) in levels.windows(2).enumerate() {
         let ([_, pw, ph, _], [_, w, h, _]) = (pair[0], pair[1]);
         let (pw, ph, w, h) = (pw as usize, ph as usize, w as usize, h as usize);
         let (level, after) = std::mem::take(&mut rest).split_at_mut(w * h);
-        if below.is_empty() {
+        if k == 0 {
             downsample(|x, y| base[(rect.y0 + y) * base_width + rect.x0 + x], pw, ph, w, level);
         } else {
             let previous: &[[f32; 4]] = below;
