@@ -565,3 +565,19 @@ fn edges_of_a_cut_jumping_less_than_a_cut_gap_are_still_matted() {
     assert!((front.get(21, 12)[3] - 0.7).abs() < 0.06, "{:?}", front.get(21, 12));
     assert!(max_diff(&composite(&stack), &image) < 1e-5);
 }
+
+#[test]
+fn surfaces_blurred_alike_across_a_narrow_gap_stay_one_layer() {
+    // The square scene with both sides far from focus: the square at 13.6 px of CoC over a
+    // background at 13.0 (a 0.6 px gap, 4% of their blur), then at 6.0 over 5.4 (10%). Their
+    // edges jump by more than `matte_jump_px` all round, so either pair would be a narrow
+    // gap's cut; only the second is blurred differently enough for the layers' "over" to be
+    // closer to the lens than one layer (dev-842 of issue 46 against dev-36 and dev-68).
+    let (image, disparity) = square_scene();
+    for (front, back, layers) in [(13.6, 13.0, 1), (6.0, 5.4, 2), (0.65, 0.0, 2)] {
+        let disparity: Vec<f32> = disparity.iter().map(|&d| if d > 0.5 { at_coc(front) } else { at_coc(back) }).collect();
+        let stack = split_into_layers(&image, &disparity, &coc(), &AutoLayerOptions::default());
+        assert_eq!(stack.layers.len(), layers, "square at {front} px over {back} px");
+        assert!(max_diff(&composite(&stack), &image) < 1e-5);
+    }
+}
