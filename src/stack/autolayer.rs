@@ -136,7 +136,7 @@ fn boundaries(coc: &[f32], width: usize, options: &AutoLayerOptions) -> Vec<f32>
     for &s in coc {
         histogram[bin_index(s, lo, bin, bins)] += 1;
     }
-    let centre = |b: usize| lo + (b as f32 + 0.5) * bin;
+    let centre = |b: usize| bin_centre(b, lo, bin);
     // (cut, priority): gaps by their width, in-surface cuts below every gap.
     let mut cuts: Vec<(f32, f32)> = Vec::new();
     // Two occupied bins `d` px of CoC apart leave `d / bin - 1` empty ones between them.
@@ -203,7 +203,7 @@ fn narrow_gap_cuts(coc: &[f32], width: usize, histogram: &[usize], min_gap: usiz
     for (pair, &(jumps, gentle)) in runs.windows(2).zip(&contacts) {
         let bins = pair[1].0 - pair[0].1;
         // The occupied bins on either side of the gap, in signed CoC.
-        let (farther, nearer) = (lo + (pair[0].1 as f32 - 0.5) * bin, lo + (pair[1].0 as f32 + 0.5) * bin);
+        let (farther, nearer) = (bin_centre(pair[0].1 - 1, lo, bin), bin_centre(pair[1].0, lo, bin));
         if bins < min_gap && jumps >= need && jumps > NARROW_GAP_JUMP_RATIO * gentle && !blurred_alike(farther, nearer) {
             let middle = lo + 0.5 * (pair[0].1 + pair[1].0) as f32 * bin;
             // Below every wide gap in priority, above the in-surface slices.
@@ -241,6 +241,11 @@ const NARROW_GAP_JUMP_RATIO: usize = 2;
 /// alike (a pixel must fall in the run whose bins it filled).
 fn bin_index(s: f32, lo: f32, bin: f32, bins: usize) -> usize {
     (((s - lo) / bin) as usize).min(bins - 1)
+}
+
+/// The signed CoC at the middle of histogram bin `b` (the inverse of [`bin_index`]).
+fn bin_centre(b: usize, lo: f32, bin: f32) -> f32 {
+    lo + (b as f32 + 0.5) * bin
 }
 
 /// The histogram split at every inner run of at least `min_gap` empty bins: the bin ranges

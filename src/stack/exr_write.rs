@@ -282,10 +282,11 @@ pub(super) fn zip_scanlines(compression: Compression, scan_lines: bool) -> bool 
     matches!(compression, Compression::ZIP16 | Compression::ZIP1) && scan_lines
 }
 
-/// Writes `image` (every part ZIP scan lines, 16 or 1 a block: [`zip_scanlines`]) as the exr crate's own writer would, but codes
-/// the blocks with [`zip_block`] (libdeflate at OpenEXR's level, about three times as fast as
-/// the crate's deflate for the same size: `exr_zip.rs`): on every core, a group of blocks at a
-/// time so that only a group is held at once, and written in file order.
+/// Writes `image` (every part ZIP scan lines, 16 or 1 a block: [`zip_scanlines`]) as the exr
+/// crate's own writer would, but codes the blocks with [`zip_block`] (libdeflate at OpenEXR's
+/// level, about three times as fast as the crate's deflate for the same size: `exr_zip.rs`): on
+/// every core, a group of blocks at a time so that only a group is held at once, and written in
+/// file order.
 pub(super) fn write_zip_scanlines<L>(image: &exr::prelude::Image<L>, file: impl std::io::Write + std::io::Seek) -> exr::error::UnitResult
 where
     L: for<'a> WritableLayers<'a>,
