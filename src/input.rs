@@ -12,6 +12,8 @@ use crate::camera::{Aperture, CameraHints, CocModel, PhysicalCamera, SceneUnit, 
 use crate::stack::gradients::{stored_depth_gradient, StackGradients};
 use crate::render::{InputKind, Lens};
 use crate::stack::arrays::ArrayStack;
+use crate::image::Image;
+use crate::stack::frame_edge::{extend_beyond_frame, frame_margin};
 use crate::stack::deep::{deep_to_layers, is_deep_exr, read_deep_files, DeepImage, DeepLayerOptions, DeepReadOptions};
 use crate::stack::{
     is_ldr_path, read_ldr, read_stack, split_into_layers, AutoLayerOptions, DepthKind, FileChannels, Layer,
@@ -204,6 +206,9 @@ pub struct LoadedInput {
     pub camera: ResolvedCamera,
     /// The single input image was split into this many layers.
     pub auto_layered: Option<usize>,
+    /// `stack` holds the frame this many pixels inside its edge, on a canvas guessed beyond
+    /// it (an auto-layered image: [`extend_beyond_frame`]); the render is cut back by it.
+    pub frame_margin: usize,
     /// What the caller should tell the user: the file's own warnings (replaced samples,
     /// ignored channels) and a depth encoding that cannot drive a physical camera.
     pub warnings: Vec<String>,
@@ -320,26 +325,27 @@ impl ReadInput {
     fn finish(self, options: &InputOptions, camera: ResolvedCamera, wants: InputKind) -> Result<LoadedInput> {
         let start = Instant::now();
         let read_time = self.read_time;
-        let (stack, info, depth_kind, mut warnings, auto_layered, deep_samples) = match self.source {
+        let (stack, info, depth_kind, mut warnings, auto_layered, frame_margin, deep_samples) = match self.source {
             ReadSource::Flat { stack, info, depth_kind, warnings } => {
                 let single = info.as_ref().map_or(true, |i| i.single_image) && stack.layers.len() == 1;
-                let (stack, auto_layered) = layers_for(stack, single, &camera.lens.coc, wants, &options.auto_layer);
-                (stack, info, depth_kind, warnings, auto_layered, None)
+                let (stack, auto_layered, frame_margin) = layers_for(stack, single, &camera.lens.coc, wants, &options.auto_layer);
+                (stack, info, depth_kind, warnings, auto_layered, frame_margin, None)
             }
             ReadSource::Deep(image) => {
-                let (stack, auto_layered) = deep_layers(&image, &camera.lens.coc, options, wants)?;
-                (stack, None, DepthKind::Z, Vec::new(), auto_layered, Some(image.samples.len() as u64))
+                let (stack, auto_layered, frame_margin) = deep_layers(&image, &camera.lens.coc, options, wants)?;
+                (stack, None, DepthKind::Z, Vec::new(), auto_layered, frame_margin, Some(image.samples.len() as u64))
             }
             ReadSource::Arrays(arrays) => {
-                let (stack, auto_layered) =
+                let (stack, auto_layered, frame_margin) =
                     layers_for(arrays.stack, arrays.single_image, &camera.lens.coc, wants, &options.auto_layer);
-                (stack, None, arrays.depth_kind, Vec::new(), auto_layered, None)
+                (stack, None, arrays.depth_kind, Vec::new(), auto_layered, frame_margin, None)
             }
         };
         if camera.physical.is_some() && deep_samples.is_none() {
             warnings.extend(depth_kind.physical_camera_warning());
         }
-        Ok(LoadedInput { stack, info, depth_kind, camera, auto_layered, warnings, read_time, layering_time: start.elapsed(), deep_samples })
+        let layering_time = start.elapsed();
+        Ok(LoadedInput { stack, info, depth_kind, camera, auto_layered, frame_margin, warnings, read_time, layering_time, deep_samples })
     }
 }
 
@@ -364,10 +370,10 @@ fn read_deep(path: &Path, options: &InputOptions) -> Result<DeepImage> {
 
 /// Deep samples clustered into layers spaced by `coc`. A method that takes one image gets the
 /// deep pixels flattened, with the depth of the nearest layer.
-fn deep_layers(image: &DeepImage, coc: &CocModel, options: &InputOptions, wants: InputKind) -> Result<(LayerStack, Option<usize>)> {
+fn deep_layers(image: &DeepImage, coc: &CocModel, options: &InputOptions, wants: InputKind) -> Result<(LayerStack, Option<usize>, usize)> {
     let stack = deep_to_layers(image, coc, &options.deep_layers)?;
     if wants == InputKind::Layers && !options.deep_flatten {
-        return Ok((stack, None));
+        return Ok((stack, None, 0));
     }
     let (rgba, disparity) = stack.flatten();
     let flat = LayerStack::new(image.width, image.height, vec![Layer { name: "flattened".into(), rgba, disparity }])?;
@@ -376,21 +382,34 @@ fn deep_layers(image: &DeepImage, coc: &CocModel, options: &InputOptions, wants:
 
 /// The stack a method taking `wants` renders: `stack` itself, or, when it is one flat image
 /// (`single`) and the method takes layers, that image split into layers spaced by CoC under
-/// `coc` (how many: the second value).
+/// `coc` (how many: the second value), on a canvas extended beyond the frame by the third
+/// value on every side when `options` guess what lies there ([`extend_beyond_frame`]).
 pub fn layers_for(
     stack: LayerStack,
     single: bool,
     coc: &CocModel,
     wants: InputKind,
     options: &AutoLayerOptions,
-) -> (LayerStack, Option<usize>) {
+) -> (LayerStack, Option<usize>, usize) {
     if !(single && wants == InputKind::Layers && stack.layers.len() == 1) {
-        return (stack, None);
+        return (stack, None, 0);
     }
     let flat = &stack.layers[0];
-    let layered = split_into_layers(&flat.rgba, &flat.disparity, coc, options);
+    let (layered, count, margin) = auto_layers(&flat.rgba, &flat.disparity, coc, options);
+    (layered, Some(count), margin)
+}
+
+/// One flat image split into layers spaced by CoC under `coc` (how many: the second value),
+/// on a canvas extended beyond the frame by the third value on every side when `options`
+/// guess what lies there ([`extend_beyond_frame`]): what a render job renders of it.
+pub fn auto_layers(image: &Image, disparity: &[f32], coc: &CocModel, options: &AutoLayerOptions) -> (LayerStack, usize, usize) {
+    let layered = split_into_layers(image, disparity, coc, options);
     let count = layered.layers.len();
-    (layered, Some(count))
+    if !options.guess_beyond_frame {
+        return (layered, count, 0);
+    }
+    let margin = frame_margin(disparity, coc, image.width, image.height);
+    (extend_beyond_frame(&layered, margin), count, margin)
 }
 
 /// Refuses, before any read, an input that `writer` (`"grad writes its gradients"`) could not
@@ -445,6 +464,11 @@ pub fn read(path: &Path, options: &InputOptions) -> Result<(LayerStack, Option<S
 }
 
 impl LoadedInput {
+    /// The frame's width and height: the stack's, less the canvas guessed beyond the frame.
+    pub fn frame_size(&self) -> (usize, usize) {
+        (self.stack.width - 2 * self.frame_margin, self.stack.height - 2 * self.frame_margin)
+    }
+
     /// Gradients of a render of this input, mapped onto every channel of the file it came
     /// from (its names; multi-part inputs as `<part>.<channel>`): colour and alpha as stored
     /// (premultiplied), depth through the file's depth convention and the reader's fill,

@@ -97,7 +97,7 @@ impl Session {
         let renderer = self.renderers[method.name()].as_ref();
         let rendering = Instant::now();
         let rendered = job.render_resident(renderer, loaded, None, Some(memo))?;
-        let image = job.output(&rendered.image)?.into_owned();
+        let image = job.output(&rendered.image, loaded)?.into_owned();
         stats.render_ms = ms(rendering.elapsed());
         stats.total_ms = ms(start.elapsed());
         Ok((image, stats))
@@ -182,6 +182,7 @@ mod tests {
             assert_eq!(stats.prepared, i == 0, "render {i}: the method is prepared once");
             let loaded = job.load_arrays(flat_arrays()).unwrap();
             let one_shot = job.render(None, &loaded, None).unwrap().image;
+            let one_shot = job.output(&one_shot, &loaded).unwrap();
             assert_eq!(image.pixels, one_shot.pixels, "render {i} equals the one-shot render");
         }
         session.close().unwrap();

@@ -581,3 +581,80 @@ fn surfaces_blurred_alike_across_a_narrow_gap_stay_one_layer() {
         assert!(max_diff(&composite(&stack), &image) < 1e-5);
     }
 }
+
+/// A render job over one flat image through a normalised camera (`guess`: the canvas guessed
+/// beyond the frame, the default).
+fn flat_job(coc: CocModel, guess: bool) -> lensblur::job::RenderJob {
+    use lensblur::input::CameraRequest;
+    use lensblur::job::{JobSpec, RenderJob};
+    let mut spec = JobSpec {
+        method: lensblur::render::Method::Oracle,
+        camera: CameraRequest { normalised: Some(coc), ..CameraRequest::default() },
+        ..JobSpec::default()
+    };
+    spec.input.auto_layer.guess_beyond_frame = guess;
+    RenderJob::new(spec).unwrap()
+}
+
+/// The frame a job keeps of one flat image (`rgba`, depth `z`).
+fn job_render(job: &lensblur::job::RenderJob, image: &Image, z: f32) -> Image {
+    let rgba: Vec<f32> = image.pixels.iter().flatten().copied().collect();
+    let depth = vec![z; image.width * image.height];
+    let arrays = lensblur::stack::stack_from_arrays(&rgba, &[image.height, image.width, 4], &depth, &[image.height, image.width], lensblur::stack::DepthKind::Z)
+        .unwrap();
+    let loaded = job.load_arrays(arrays).unwrap();
+    let rendered = job.render(None, &loaded, None).unwrap();
+    job.output(&rendered.image, &loaded).unwrap().into_owned()
+}
+
+#[test]
+fn a_blur_at_the_frames_edge_sees_the_scene_beyond_it_not_twice_the_light_inside() {
+    // A wall (0.2-0.3, a gentle ramp) blurred 6 px, the truth rendered on a frame 20 px wider
+    // on every side and cut: the scene goes on beyond the frame. Inside the frame, a lamp 3 px
+    // from its left edge (rows 8-9), and a lamp the frame's left edge cuts (rows 40-43: it
+    // goes on beyond). Without the guess, the edge averages only the in-frame half of each
+    // disk: the inside lamp counts about twice near the edge, the cut lamp half.
+    let (w, h, pad) = (48usize, 56usize, 20usize);
+    let coc = CocModel::new(12.0, 1.0).unwrap();
+    let z = 2.0; // disparity 0.5: CoC 6 px
+    let wide = Image::from_fn(w + 2 * pad, h + 2 * pad, |x, y| {
+        let (fx, fy) = (x as i64 - pad as i64, y as i64 - pad as i64);
+        let inside_lamp = (3..5).contains(&fx) && (8..10).contains(&fy);
+        let cut_lamp = (-6..4).contains(&fx) && (40..44).contains(&fy);
+        if inside_lamp || cut_lamp {
+            [8.0, 8.0, 8.0, 1.0]
+        } else {
+            let v = 0.2 + 0.1 * x as f32 / (w + 2 * pad) as f32;
+            [v, v, v, 1.0]
+        }
+    });
+    let frame = Image::from_fn(w, h, |x, y| wide.get(x + pad, y + pad));
+    let truth = job_render(&flat_job(coc, true), &wide, z).without_border(pad).unwrap();
+    let guessed = job_render(&flat_job(coc, true), &frame, z);
+    let cut = job_render(&flat_job(coc, false), &frame, z);
+    assert_eq!((guessed.width, guessed.height), (w, h), "the output is the frame");
+    // The error over the 6 columns at the left edge, in the rows each lamp reaches.
+    let error = |image: &Image, rows: std::ops::Range<usize>| -> f32 {
+        let mut sum = 0.0;
+        let mut n = 0.0;
+        for y in rows {
+            for x in 0..6 {
+                let (a, b) = (image.get(x, y), truth.get(x, y));
+                sum += (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f32>();
+                n += 3.0;
+            }
+        }
+        (sum / n).sqrt()
+    };
+    for (lamp, rows) in [("inside", 2..16), ("cut", 34..50)] {
+        let (with, without) = (error(&guessed, rows.clone()), error(&cut, rows));
+        assert!(with < 0.5 * without, "{lamp} lamp: RMSE at the edge {with:.4} with the guess, {without:.4} without");
+    }
+    // Far from every edge the guess changes nothing.
+    for y in 20..30 {
+        for x in 20..28 {
+            let (a, b) = (guessed.get(x, y), cut.get(x, y));
+            assert!((0..4).all(|c| (a[c] - b[c]).abs() < 1e-5), "({x}, {y}): {a:?} vs {b:?}");
+        }
+    }
+}

@@ -55,9 +55,10 @@ impl CharacterArgs {
 
     /// Writes the `--debug-out` views of a render, if asked (after the device work is done and
     /// validated, like every other output).
-    pub fn write_debug_views(&self, rendered: &Rendered) -> anyhow::Result<()> {
+    pub fn write_debug_views(&self, rendered: &Rendered, frame_margin: usize) -> anyhow::Result<()> {
         if let Some(dir) = &self.debug_out {
-            lensblur::character::write_debug_views(dir, &rendered.prepared, &rendered.lens, &rendered.focus, &rendered.image)
+            let (stack, image) = (&rendered.prepared, &rendered.image);
+            lensblur::character::write_debug_views(dir, stack, &rendered.lens, &rendered.focus, image, frame_margin)
                 .context("--debug-out")?;
         }
         Ok(())

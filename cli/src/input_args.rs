@@ -38,6 +38,11 @@ pub struct InputArgs {
     /// Auto-layering of a single image: most layers to cut it into.
     #[arg(long, value_name = "N", help_heading = "Input")]
     pub max_layers: Option<usize>,
+    /// Auto-layering of a single image: render the frame alone, without the canvas guessed
+    /// beyond its edge (then a blur at the edge averages only the part of its disk inside the
+    /// frame: a light near the edge counts up to twice there).
+    #[arg(long, help_heading = "Input")]
+    pub no_edge_guess: bool,
     /// Refuse inputs (EXR, PNG/JPEG and --depth images) whose header declares more pixels
     /// than this, before reading pixels.
     #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_PIXELS, help_heading = "Input")]
@@ -98,6 +103,7 @@ impl InputArgs {
             auto_layer: AutoLayerOptions {
                 coc_spacing_px: self.layer_spacing.unwrap_or(defaults.coc_spacing_px),
                 max_layers: self.max_layers.unwrap_or(defaults.max_layers),
+                guess_beyond_frame: !self.no_edge_guess,
                 ..defaults
             },
             merge: self.merge.clone(),

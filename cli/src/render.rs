@@ -230,7 +230,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let start = Instant::now();
     // As rendered: after --near-blur/--far-blur/--max-blur, which remap the disparity.
     let layers = layer_reports(&rendered.prepared, &rendered.lens);
-    args.character.write_debug_views(&rendered)?;
+    args.character.write_debug_views(&rendered, loaded.frame_margin)?;
     // The stack is done with: free it before the write copies the image into EXR channels,
     // so the host never holds the stack, the image and the channels at once.
     let Rendered { image, lens, prepared, .. } = rendered;
@@ -417,7 +417,7 @@ pub(super) fn write_output(
     loaded: &LoadedInput,
     image: &Image,
 ) -> anyhow::Result<()> {
-    let image = job.output(image).map_err(job_error)?;
+    let image = job.output(image, loaded).map_err(job_error)?;
     let image = image.as_ref();
     if format != OutputFormat::Exr {
         if args.output_layer.is_some() || args.keep_channels || args.half {
@@ -470,8 +470,8 @@ fn report<'a>(
         method: args.method,
         device,
         device_peak_bytes,
-        width: loaded.stack.width,
-        height: loaded.stack.height,
+        width: loaded.frame_size().0,
+        height: loaded.frame_size().1,
         k_px: lens.coc.k_px,
         focus_disparity: lens.coc.focus_disparity,
         camera: loaded.camera.physical,

@@ -314,7 +314,7 @@ impl Renderer {
         let method = job.method();
         let render = |renderer: &dyn lensblur::render::Renderer| -> lensblur::Result<Image> {
             let rendered = job.render_with(renderer, loaded, None)?;
-            Ok(job.output(&rendered.image)?.into_owned())
+            Ok(job.output(&rendered.image, loaded)?.into_owned())
         };
         if leaky {
             return self.with_differentiable(py, method, true, |d| {

@@ -7,7 +7,9 @@ use crate::render::drbokeh::{render_cpu_terms, Model, Window};
 use crate::camera::FocusField;
 use crate::render::Lens;
 use crate::stack::{write_png_preview, LayerStack};
+use crate::tile_grid::Rect;
 use crate::Result;
+use super::vignette::crop;
 
 /// Sobel gradient of display luminance (per pixel) above which a pixel is "in focus": a sharp
 /// 0-1 step gives 0.5, the same step blurred over 8 px about 0.06.
@@ -75,8 +77,28 @@ pub fn focus_peaking(image: &Image) -> Vec<bool> {
 
 /// Writes every debug view into `dir` (created if missing); returns the files written.
 /// `stack`, `lens` and `focus` are what was rendered (after any remap, focus pick or bloom).
-pub fn write_debug_views(dir: &Path, stack: &LayerStack, lens: &Lens, focus: &FocusField, rendered: &Image) -> Result<Vec<PathBuf>> {
+///
+/// The stack and render hold the frame `frame_margin` pixels inside their edge (a canvas
+/// guessed beyond the frame: [`crate::input::LoadedInput::frame_margin`]): the views show the
+/// frame, as the output does.
+pub fn write_debug_views(
+    dir: &Path,
+    stack: &LayerStack,
+    lens: &Lens,
+    focus: &FocusField,
+    rendered: &Image,
+    frame_margin: usize,
+) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).map_err(|e| crate::Error::input(dir, format!("cannot create the debug folder: {e}")))?;
+    let framed;
+    let (stack, rendered) = if frame_margin > 0 {
+        let (w, h) = (stack.width - frame_margin, stack.height - frame_margin);
+        let frame = Rect { x0: frame_margin, y0: frame_margin, x1: w, y1: h };
+        framed = (crop(stack, frame)?, rendered.without_border(frame_margin).expect("the canvas holds the frame"));
+        (&framed.0, &framed.1)
+    } else {
+        (stack, rendered)
+    };
     let (w, h) = (stack.width, stack.height);
     let mut written = Vec::new();
     let mut save = |name: String, image: &Image| -> Result<()> {

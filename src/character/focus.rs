@@ -5,16 +5,16 @@ use crate::{Error, Result};
 /// Coverage from which a layer counts as what the user sees at a pixel (as `flatten` uses).
 const COVERING_ALPHA: f32 = 0.5;
 
-/// Disparity of the front-most layer covering pixel `(x, y)` with alpha >= 0.5, else the
-/// flattened stack's disparity there (a pixel only partly covered by every layer).
-pub fn focus_disparity_at(stack: &LayerStack, x: usize, y: usize) -> Result<f32> {
-    if x >= stack.width || y >= stack.height {
-        return Err(Error::invalid("focus pixel", format!(
-            "focus pixel ({x}, {y}) is outside the {}x{} image",
-            stack.width, stack.height
-        )));
+/// Disparity of the front-most layer covering pixel `(x, y)` of the frame with alpha >= 0.5,
+/// else the flattened stack's disparity there (a pixel only partly covered by every layer).
+/// The frame lies `frame_margin` pixels inside the stack's edge (a canvas extended beyond it:
+/// [`crate::input::LoadedInput::frame_margin`]).
+pub fn focus_disparity_at(stack: &LayerStack, x: usize, y: usize, frame_margin: usize) -> Result<f32> {
+    let (width, height) = (stack.width - 2 * frame_margin, stack.height - 2 * frame_margin);
+    if x >= width || y >= height {
+        return Err(Error::invalid("focus pixel", format!("focus pixel ({x}, {y}) is outside the {width}x{height} image")));
     }
-    let i = y * stack.width + x;
+    let i = (y + frame_margin) * stack.width + x + frame_margin;
     let covering = stack.layers.iter().find(|l| l.rgba.pixels[i][3] >= COVERING_ALPHA);
     match covering {
         Some(layer) => Ok(layer.disparity[i]),

@@ -67,10 +67,16 @@ impl Character {
     /// The stack and lens a renderer sees: focus picked, then disparities remapped (around the
     /// final focus), then highlights boosted. Borrowed unchanged when nothing applies.
     pub fn prepare<'a>(&self, stack: &'a LayerStack, lens: &Lens) -> Result<(Cow<'a, LayerStack>, Lens)> {
+        self.prepare_framed(stack, lens, 0)
+    }
+
+    /// [`Self::prepare`] of a stack holding the frame `frame_margin` pixels inside its edge
+    /// (the focus pixel is the frame's).
+    pub fn prepare_framed<'a>(&self, stack: &'a LayerStack, lens: &Lens, frame_margin: usize) -> Result<(Cow<'a, LayerStack>, Lens)> {
         self.remap.validate()?;
         let mut lens = lens.clone();
         if let Some([x, y]) = self.focus_at {
-            lens.coc.focus_disparity = focus_disparity_at(stack, x, y)?;
+            lens.coc.focus_disparity = focus_disparity_at(stack, x, y, frame_margin)?;
         }
         if self.remap.is_identity() && self.bloom.is_none() {
             return Ok((Cow::Borrowed(stack), lens));

@@ -253,6 +253,12 @@ impl RenderJob {
             return Err(Error::invalid("tiling", "`tile` must be at least 1 pixel"));
         }
         let mut spec = spec;
+        // An overscanned input carries what lies beyond the frame: nothing to guess. A
+        // cat's-eye's shift is measured from the frame's centre to its corners: a canvas
+        // extended beyond the frame would move the corners.
+        if spec.overscan > 0 || spec.character.cats_eye.is_some() {
+            spec.input.auto_layer.guess_beyond_frame = false;
+        }
         // The first focal plane stands for the camera's focus: what reports and the other
         // controls' checks see.
         if let Some(&first) = spec.method_options.focal_planes.as_ref().and_then(|p| p.first()) {
@@ -306,8 +312,8 @@ impl RenderJob {
     /// The method's settings for a loaded input (a tilt and focal planes depend on its lens
     /// and size).
     pub fn settings(&self, loaded: &LoadedInput) -> Result<MethodSettings> {
-        let (lens, stack) = (&loaded.camera.lens, &loaded.stack);
-        self.spec.method_options.resolve(lens, loaded.camera.physical.is_some(), stack.width, stack.height)
+        let (width, height) = loaded.frame_size();
+        self.spec.method_options.resolve(&loaded.camera.lens, loaded.camera.physical.is_some(), width, height)
     }
 
     /// How many method renders [`Self::render`] makes of `loaded` (x3 for chromatic
@@ -358,7 +364,7 @@ impl RenderJob {
         let settings = self.settings(loaded)?;
         let character = &self.spec.character;
         character.check_focus_field(settings.focus(method))?;
-        let (prepared, lens) = character.prepare(&loaded.stack, &loaded.camera.lens)?;
+        let (prepared, lens) = character.prepare_framed(&loaded.stack, &loaded.camera.lens, loaded.frame_margin)?;
         let (look, lens) = character.for_method(method, &lens);
         let options = RenderOptions { tile: self.spec.tile, max_memory: self.spec.max_memory, progress, ..RenderOptions::default() };
         let render = |s: &LayerStack, l: &Lens| {
@@ -371,16 +377,19 @@ impl RenderJob {
         Ok(Rendered { image, prepared, lens, focus, prepare_time: Duration::ZERO, render_time: start.elapsed() })
     }
 
-    /// The frame a caller keeps: `image` without the overscan margin.
-    pub fn output<'i>(&self, image: &'i Image) -> Result<Cow<'i, Image>> {
-        match self.spec.overscan {
+    /// The frame a caller keeps: `image`, a render of `loaded`, without the overscan margin
+    /// and the canvas guessed beyond the frame ([`LoadedInput::frame_margin`]).
+    pub fn output<'i>(&self, image: &'i Image, loaded: &LoadedInput) -> Result<Cow<'i, Image>> {
+        let overscan = self.spec.overscan;
+        match overscan + loaded.frame_margin {
             0 => Ok(Cow::Borrowed(image)),
             margin => image.without_border(margin).map(Cow::Owned).ok_or_else(|| {
                 Error::invalid(
                     "overscan",
                     format!(
-                        "`overscan` {margin} cuts {margin} px from each side of a {}x{} frame: nothing is left (give the margin the input was rendered with)",
-                        image.width, image.height
+                        "`overscan` {overscan} cuts {overscan} px from each side of a {}x{} frame: nothing is left (give the margin the input was rendered with)",
+                        image.width - 2 * loaded.frame_margin,
+                        image.height - 2 * loaded.frame_margin
                     ),
                 )
             }),

@@ -19,8 +19,8 @@ use crate::{Error, Result};
 
 /// The options of every render, in the order help texts list them: `lensblur render`'s
 /// image-changing flags in snake_case (the camera's own flags are [`CameraValues`]).
-pub const RENDER_OPTIONS: [&str; 20] = [
-    "method", "aperture", "scene_unit", "layer_spacing", "max_layers", "near_blur", "far_blur", "max_blur",
+pub const RENDER_OPTIONS: [&str; 21] = [
+    "method", "aperture", "scene_unit", "layer_spacing", "max_layers", "no_edge_guess", "near_blur", "far_blur", "max_blur",
     "focus_at", "bloom", "chromatic", "cats_eye", "samples", "iterations", "highlight_sigma", "tilt_shift",
     "focal_planes", "overscan", "tile", "max_memory",
 ];
@@ -48,6 +48,7 @@ pub struct JobOptions {
     pub scene_unit: Option<String>,
     pub layer_spacing: Option<f32>,
     pub max_layers: Option<usize>,
+    pub no_edge_guess: Option<bool>,
     pub near_blur: Option<f32>,
     pub far_blur: Option<f32>,
     pub max_blur: Option<f32>,
@@ -122,6 +123,7 @@ impl JobOptions {
         let mut auto_layer = defaults.auto_layer;
         auto_layer.coc_spacing_px = self.layer_spacing.unwrap_or(auto_layer.coc_spacing_px);
         auto_layer.max_layers = self.max_layers.unwrap_or(auto_layer.max_layers);
+        auto_layer.guess_beyond_frame = !self.no_edge_guess.unwrap_or(false);
         Ok(InputOptions {
             layers: self.layers.clone(),
             depth_kind: self.depth_kind.as_deref().map(str::parse::<DepthKind>).transpose()?,

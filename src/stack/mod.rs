@@ -17,6 +17,7 @@ mod exr_zip;
 pub mod file_output_slots;
 pub mod file_channels;
 pub mod fill;
+pub mod frame_edge;
 pub mod gradients;
 pub mod info;
 pub mod ldr;

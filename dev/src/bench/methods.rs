@@ -6,7 +6,8 @@ use lensblur::raytrace::GroundTruth;
 use lensblur::render::drbokeh::RenderOptions;
 use lensblur::render::{Lens, Method, MethodInput, MethodSettings};
 use lensblur::stack::deep::{deep_to_layers, DeepImage, DeepLayerOptions};
-use lensblur::stack::{split_into_layers, AutoLayerOptions};
+use lensblur::input::auto_layers;
+use lensblur::stack::AutoLayerOptions;
 use lensblur::vk::Context;
 use lensblur::{Error, Result};
 
@@ -117,14 +118,15 @@ pub fn gpu_methods(ctx: &Context) -> Result<Vec<BenchMethod>> {
     let drbokeh = Method::DrBokeh.prepare(Some(ctx))?;
     methods.push(BenchMethod::new("drbokeh-auto", InputKind::SingleImage, move |case| {
         let (image, disparity) = case.single_image()?;
-        let stack = split_into_layers(image, disparity, &case.lens.coc, &AutoLayerOptions::default());
-        drbokeh.render(MethodInput::Layers(&stack), case.lens, &RenderOptions::default(), &MethodSettings::default())
+        let (stack, _, margin) = auto_layers(image, disparity, &case.lens.coc, &AutoLayerOptions::default());
+        let canvas = drbokeh.render(MethodInput::Layers(&stack), case.lens, &RenderOptions::default(), &MethodSettings::default())?;
+        Ok(canvas.without_border(margin).expect("the canvas holds the frame"))
     }));
     // The layering before issue 46, for before/after tables in one run.
     let drbokeh = Method::DrBokeh.prepare(Some(ctx))?;
     methods.push(BenchMethod::new("drbokeh-auto-sampled", InputKind::SingleImage, move |case| {
         let (image, disparity) = case.single_image()?;
-        let stack = split_into_layers(image, disparity, &case.lens.coc, &AutoLayerOptions::sampled());
+        let (stack, _, _) = auto_layers(image, disparity, &case.lens.coc, &AutoLayerOptions::sampled());
         drbokeh.render(MethodInput::Layers(&stack), case.lens, &RenderOptions::default(), &MethodSettings::default())
     }));
     let drbokeh = Method::DrBokeh.prepare(Some(ctx))?;
