@@ -409,7 +409,7 @@ pub fn auto_layers(image: &Image, disparity: &[f32], coc: &CocModel, options: &A
         return (layered, count, 0);
     }
     let margin = frame_margin(disparity, coc, image.width, image.height);
-    (extend_beyond_frame(&layered, margin), count, margin)
+    (extend_beyond_frame(layered, margin), count, margin)
 }
 
 /// Refuses, before any read, an input that `writer` (`"grad writes its gradients"`) could not

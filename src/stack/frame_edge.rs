@@ -46,17 +46,19 @@ fn fold(p: usize, n: usize, margin: usize) -> usize {
 }
 
 /// `stack` on a canvas `margin` pixels larger on every side, guessed as the module note says;
-/// the frame itself is unchanged at `(margin, margin)`. `margin` must be under both sides.
-pub fn extend_beyond_frame(stack: &LayerStack, margin: usize) -> LayerStack {
+/// the frame itself is unchanged at `(margin, margin)`. `margin` must be under both sides. Each
+/// layer is dropped once its canvas is made, so the host holds one layer more than the stack at
+/// most (an 8K frame's layers are a gigabyte each).
+pub fn extend_beyond_frame(stack: LayerStack, margin: usize) -> LayerStack {
     if margin == 0 {
-        return stack.clone();
+        return stack;
     }
     let (w, h) = (stack.width, stack.height);
     assert!(margin < w && margin < h, "a margin of {margin} px mirrors more than a {w}x{h} frame holds");
     let (pw, ph) = (w + 2 * margin, h + 2 * margin);
     let layers = stack
         .layers
-        .iter()
+        .into_iter()
         .map(|layer| {
             let edges = LitRuns::new(&layer.rgba);
             let mut pixels = vec![[0.0f32; 4]; pw * ph];
@@ -66,7 +68,7 @@ pub fn extend_beyond_frame(stack: &LayerStack, margin: usize) -> LayerStack {
                 }
             });
             let disparity = (0..pw * ph).map(|i| layer.disparity[fold(i / pw, h, margin) * w + fold(i % pw, w, margin)]).collect();
-            Layer { name: layer.name.clone(), rgba: Image { width: pw, height: ph, pixels }, disparity }
+            Layer { name: layer.name, rgba: Image { width: pw, height: ph, pixels }, disparity }
         })
         .collect();
     LayerStack::new(pw, ph, layers).expect("the extended layers share the canvas")
@@ -149,7 +151,7 @@ mod tests {
         let (w, h, m) = (9usize, 7usize, 3usize);
         let image = Image::from_fn(w, h, |x, y| [0.1 * x as f32, 0.05 * y as f32, 0.3, 1.0]);
         let stack = layer(image.clone(), |x, y| (x + 10 * y) as f32 * 0.01);
-        let out = extend_beyond_frame(&stack, m);
+        let out = extend_beyond_frame(stack.clone(), m);
         let l = &out.layers[0];
         assert_eq!((out.width, out.height), (w + 2 * m, h + 2 * m));
         assert_eq!(l.rgba.without_border(m).unwrap().pixels, image.pixels, "the frame is unchanged");
@@ -173,7 +175,7 @@ mod tests {
             let lamp = ((2..4).contains(&y) && x < 3) || (x == 6 && y == 1);
             if lamp { [5.0, 5.0, 5.0, 1.0] } else { [0.2, 0.2, 0.2, 1.0] }
         });
-        let out = extend_beyond_frame(&layer(image, |_, _| 0.5), m);
+        let out = extend_beyond_frame(layer(image, |_, _| 0.5), m);
         let l = &out.layers[0];
         // Left of the frame, rows 2-3: the touching lamp is mirrored (columns 0-2 beyond it).
         for dx in 1..=3 {
@@ -200,7 +202,7 @@ mod tests {
         use crate::character::focus_disparity_at;
         let (w, h, m) = (10usize, 8usize, 3usize);
         let stack = layer(Image::filled(w, h, [0.5, 0.5, 0.5, 1.0]), |x, y| (x + 10 * y) as f32 * 0.01);
-        let canvas = extend_beyond_frame(&stack, m);
+        let canvas = extend_beyond_frame(stack.clone(), m);
         for (x, y) in [(0, 0), (9, 7), (4, 2)] {
             assert_eq!(focus_disparity_at(&canvas, x, y, m).unwrap(), focus_disparity_at(&stack, x, y, 0).unwrap());
         }
