@@ -92,8 +92,8 @@ pub fn write_debug_views(
     std::fs::create_dir_all(dir).map_err(|e| crate::Error::input(dir, format!("cannot create the debug folder: {e}")))?;
     let framed;
     let (stack, rendered) = if frame_margin > 0 {
-        let (w, h) = (stack.width - frame_margin, stack.height - frame_margin);
-        let frame = Rect { x0: frame_margin, y0: frame_margin, x1: w, y1: h };
+        let (x1, y1) = (stack.width - frame_margin, stack.height - frame_margin);
+        let frame = Rect { x0: frame_margin, y0: frame_margin, x1, y1 };
         framed = (crop(stack, frame)?, rendered.without_border(frame_margin).expect("the canvas holds the frame"));
         (&framed.0, &framed.1)
     } else {

@@ -206,7 +206,8 @@ pub struct RenderJob {
 /// A render of one input with its lens character applied, and what the reports and debug
 /// views describe.
 pub struct Rendered<'a> {
-    /// The defocused frame, overscan included (see [`RenderJob::output`]).
+    /// The defocused frame, overscan and the canvas guessed beyond the frame included (see
+    /// [`RenderJob::output`]).
     pub image: Image,
     /// The stack as rendered (after the blur remap and bloom).
     pub prepared: Cow<'a, LayerStack>,
@@ -451,6 +452,16 @@ mod tests {
         assert!(RenderJob::new(spec).unwrap_err().to_string().starts_with("`tile` cuts the frames"));
         let spec = JobSpec { device: DevicePreference::Cpu, max_memory: Some(1 << 30), ..Default::default() };
         assert!(RenderJob::new(spec).unwrap_err().to_string().contains("`device` cpu"));
+    }
+
+    #[test]
+    fn the_canvas_beyond_the_frame_is_left_out_where_the_frame_is_not_the_whole_story() {
+        let guesses = |spec: JobSpec| RenderJob::new(spec).unwrap().spec().input.auto_layer.guess_beyond_frame;
+        assert!(guesses(JobSpec::default()));
+        // The input holds what lies beyond; a cat's-eye measures its shift to the frame's corners.
+        assert!(!guesses(JobSpec { overscan: 8, ..Default::default() }));
+        let cats_eye = Character { cats_eye: Some(crate::character::CatsEye::new(0.5).unwrap()), ..Default::default() };
+        assert!(!guesses(JobSpec { character: cats_eye, ..Default::default() }));
     }
 
     #[test]

@@ -240,7 +240,7 @@ mod tests {
     #[test]
     fn options_become_the_job_the_command_line_builds() {
         let options = JobOptions::from_json(
-            object(json!({"near_blur": 2, "focus_at": [40, 100], "bloom": [3, 2], "max_layers": 4, "samples": null})),
+            object(json!({"near_blur": 2, "focus_at": [40, 100], "bloom": [3, 2], "max_layers": 4, "no_edge_guess": true, "samples": null})),
             OptionSet::Render,
         )
         .unwrap();
@@ -249,6 +249,8 @@ mod tests {
         assert_eq!(spec.character.focus_at, Some([40, 100]));
         assert_eq!(spec.character.bloom, Some(Bloom { threshold: 3.0, gain: 2.0 }));
         assert_eq!(spec.input.auto_layer.max_layers, 4);
+        assert!(!spec.input.auto_layer.guess_beyond_frame, "--no-edge-guess");
+        assert!(JobOptions::default().input().unwrap().auto_layer.guess_beyond_frame, "the canvas by default");
         assert_eq!(spec.method_options.samples, None);
         let threshold = JobOptions { bloom: Some(BloomValue::Threshold(1.5)), ..JobOptions::default() };
         assert_eq!(threshold.spec(None, Method::DrBokeh).unwrap().character.bloom.unwrap().gain, DEFAULT_BLOOM_GAIN);
