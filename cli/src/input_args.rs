@@ -93,19 +93,13 @@ impl InputArgs {
     }
 
     pub fn options(&self) -> InputOptions {
-        let defaults = AutoLayerOptions::default();
         InputOptions {
             layers: self.layers.clone(),
             depth_kind: self.depth_kind,
             depth_image: self.depth.clone(),
             max_pixels: self.max_pixels,
             replace_nonfinite: self.replace_nonfinite,
-            auto_layer: AutoLayerOptions {
-                coc_spacing_px: self.layer_spacing.unwrap_or(defaults.coc_spacing_px),
-                max_layers: self.max_layers.unwrap_or(defaults.max_layers),
-                guess_beyond_frame: !self.no_edge_guess,
-                ..defaults
-            },
+            auto_layer: AutoLayerOptions::chosen(self.layer_spacing, self.max_layers, self.no_edge_guess),
             merge: self.merge.clone(),
             deep: DeepReadOptions { max_samples: self.max_samples, max_pixels: self.max_pixels, part: self.deep_part.clone() },
             deep_layers: Default::default(),

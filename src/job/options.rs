@@ -14,7 +14,7 @@ use crate::character::{Bloom, BlurRemap, CatsEye, Character};
 use crate::input::{CameraRequest, InputOptions};
 use crate::render::Method;
 use crate::stack::deep::{DeepReadOptions, PartChoice};
-use crate::stack::DepthKind;
+use crate::stack::{AutoLayerOptions, DepthKind};
 use crate::{Error, Result};
 
 /// The options of every render, in the order help texts list them: `lensblur render`'s
@@ -120,10 +120,8 @@ impl JobOptions {
             max_pixels: self.max_pixels.unwrap_or(defaults.deep.max_pixels),
             part: self.deep_part.as_deref().map(str::parse::<PartChoice>).transpose()?.unwrap_or_default(),
         };
-        let mut auto_layer = defaults.auto_layer;
-        auto_layer.coc_spacing_px = self.layer_spacing.unwrap_or(auto_layer.coc_spacing_px);
-        auto_layer.max_layers = self.max_layers.unwrap_or(auto_layer.max_layers);
-        auto_layer.guess_beyond_frame = !self.no_edge_guess.unwrap_or(false);
+        let auto_layer =
+            AutoLayerOptions::chosen(self.layer_spacing, self.max_layers, self.no_edge_guess.unwrap_or(false));
         Ok(InputOptions {
             layers: self.layers.clone(),
             depth_kind: self.depth_kind.as_deref().map(str::parse::<DepthKind>).transpose()?,
@@ -250,6 +248,7 @@ mod tests {
         assert_eq!(spec.character.bloom, Some(Bloom { threshold: 3.0, gain: 2.0 }));
         assert_eq!(spec.input.auto_layer.max_layers, 4);
         assert!(!spec.input.auto_layer.guess_beyond_frame, "--no-edge-guess");
+        assert_eq!(JobOptions::default().input().unwrap().auto_layer, AutoLayerOptions::default(), "nothing given: the defaults");
         assert!(JobOptions::default().input().unwrap().auto_layer.guess_beyond_frame, "the canvas by default");
         assert_eq!(spec.method_options.samples, None);
         let threshold = JobOptions { bloom: Some(BloomValue::Threshold(1.5)), ..JobOptions::default() };

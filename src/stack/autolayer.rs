@@ -91,6 +91,19 @@ pub enum Matting {
 }
 
 impl AutoLayerOptions {
+    /// The defaults with the three choices a user makes (`--layer-spacing`, `--max-layers`,
+    /// `--no-edge-guess`; the same names in Python and `lensblur serve`): one mapping for every
+    /// front end. `None`: the default.
+    pub fn chosen(coc_spacing_px: Option<f32>, max_layers: Option<usize>, no_edge_guess: bool) -> Self {
+        let defaults = Self::default();
+        Self {
+            coc_spacing_px: coc_spacing_px.unwrap_or(defaults.coc_spacing_px),
+            max_layers: max_layers.unwrap_or(defaults.max_layers),
+            guess_beyond_frame: !no_edge_guess,
+            ..defaults
+        }
+    }
+
     /// The auto-layering before issue 46: the sampled matting, cuts at 1 px CoC jumps (the
     /// bench's `drbokeh-auto-sampled`, the "before" of its tables).
     pub fn sampled() -> Self {
