@@ -425,26 +425,9 @@ impl KernelImage {
         Ok(kernel)
     }
 
-    /// Bilinear sample at `(u, v)` in `[-1, 1]^2`; zero outside.
+    /// Bilinear sample at `(u, v)` in `[-1, 1]^2`; zero outside ([`bilinear_kernel_sample`]).
     pub fn sample(&self, u: f32, v: f32) -> f32 {
-        let n = self.size as f32;
-        let fx = (u * 0.5 + 0.5) * n - 0.5;
-        let fy = (v * 0.5 + 0.5) * n - 0.5;
-        if !(fx > -1.0 && fy > -1.0 && fx < n && fy < n) {
-            return 0.0;
-        }
-        let (x0, y0) = (fx.floor(), fy.floor());
-        let (tx, ty) = (fx - x0, fy - y0);
-        let at = |x: f32, y: f32| -> f32 {
-            if x < 0.0 || y < 0.0 || x >= n || y >= n {
-                0.0
-            } else {
-                self.weights[y as usize * self.size + x as usize]
-            }
-        };
-        let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1.0, y0) * tx;
-        let bottom = at(x0, y0 + 1.0) * (1.0 - tx) + at(x0 + 1.0, y0 + 1.0) * tx;
-        top * (1.0 - ty) + bottom * ty
+        bilinear_kernel_sample(&self.weights, self.size, u, v)
     }
 
     fn mean_over_disk(&self) -> f32 {
@@ -461,6 +444,34 @@ impl KernelImage {
         }
         (sum / count.max(1) as f64) as f32
     }
+}
+
+
+/// Bilinear sample of a `size x size` kernel image at `(u, v)` in `[-1, 1]^2`, texel centres at
+/// `(i + 1/2) / size`; zero outside. One body for the f32 image the shaders sample
+/// ([`KernelImage::sample`]) and the f64 CPU reference of Dr.Bokeh's lens term
+/// (`render::drbokeh::math::kernel_sample`): the same operations in the same order.
+pub fn bilinear_kernel_sample<T: num_traits::Float>(weights: &[T], size: usize, u: T, v: T) -> T {
+    let constant = |value: f64| T::from(value).expect("a float holds the sample's constants");
+    let (half, one) = (constant(0.5), T::one());
+    let n = constant(size as f64);
+    let fx = (u * half + half) * n - half;
+    let fy = (v * half + half) * n - half;
+    if !(fx > -one && fy > -one && fx < n && fy < n) {
+        return T::zero();
+    }
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (tx, ty) = (fx - x0, fy - y0);
+    let at = |x: T, y: T| -> T {
+        if x < T::zero() || y < T::zero() || x >= n || y >= n {
+            T::zero()
+        } else {
+            weights[y.to_usize().unwrap_or(0) * size + x.to_usize().unwrap_or(0)]
+        }
+    };
+    let top = at(x0, y0) * (one - tx) + at(x0 + one, y0) * tx;
+    let bottom = at(x0, y0 + one) * (one - tx) + at(x0 + one, y0 + one) * tx;
+    top * (one - ty) + bottom * ty
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ mod vignetted;
 pub(crate) mod hints;
 mod scene_unit;
 
-pub use aperture::{cats_eye_gauge, ring_weight, Aperture, ApertureGpu, KernelImage, CATS_EYE_SHAPE, KERNEL_FADE_PX, VIGNETTED_SHAPE};
+pub use aperture::{bilinear_kernel_sample, cats_eye_gauge, ring_weight, Aperture, ApertureGpu, KernelImage, CATS_EYE_SHAPE, KERNEL_FADE_PX, VIGNETTED_SHAPE};
 pub use aperture_rows::{aperture_row_table, closed_form_gauge, APERTURE_ROW_SEGMENTS, EMPTY_APERTURE_ROW};
 pub use focus_field::FocusField;
 pub use hints::CameraHints;

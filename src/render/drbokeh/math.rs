@@ -296,26 +296,10 @@ pub fn gauge(aperture: &[f64; 4], u: f64, v: f64) -> f64 {
     poly + (length - poly) * aperture[2]
 }
 
-/// Mirrors `KernelImage::sample`: bilinear at `(u, v)` in `[-1, 1]^2`, zero outside.
+/// `KernelImage::sample` in f64: bilinear at `(u, v)` in `[-1, 1]^2`, zero outside (one body,
+/// [`crate::camera::bilinear_kernel_sample`]).
 pub fn kernel_sample(weights: &[f64], size: usize, u: f64, v: f64) -> f64 {
-    let n = size as f64;
-    let fx = (u * 0.5 + 0.5) * n - 0.5;
-    let fy = (v * 0.5 + 0.5) * n - 0.5;
-    if !(fx > -1.0 && fy > -1.0 && fx < n && fy < n) {
-        return 0.0;
-    }
-    let (x0, y0) = (fx.floor(), fy.floor());
-    let (tx, ty) = (fx - x0, fy - y0);
-    let at = |x: f64, y: f64| -> f64 {
-        if x < 0.0 || y < 0.0 || x >= n || y >= n {
-            0.0
-        } else {
-            weights[y as usize * size + x as usize]
-        }
-    };
-    let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1.0, y0) * tx;
-    let bottom = at(x0, y0 + 1.0) * (1.0 - tx) + at(x0 + 1.0, y0 + 1.0) * tx;
-    top * (1.0 - ty) + bottom * ty
+    crate::camera::bilinear_kernel_sample(weights, size, u, v)
 }
 
 // ---------------------------------------------------------------- derivatives (backward pass)
