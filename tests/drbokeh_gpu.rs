@@ -425,13 +425,14 @@ fn a_forward_render_holds_at_most_three_times_the_stack_on_the_device() {
     finish(ctx);
 }
 
-/// A render handed a stack memo (a resident session's) keeps Dr.Bokeh's stack scan in it and
-/// refocuses from it: the images equal renders without one, bit for bit, for focus behind, in
-/// and in front of the scene's layers (the straddled tiles read again) and two apertures.
+/// A render handed a stack memo (a resident session's) keeps Dr.Bokeh's stack scan and, for a
+/// frame of one tile, its upload in it and refocuses from them: the images equal renders
+/// without one, bit for bit, for focus behind, in and in front of the scene's layers (the
+/// straddled tiles read again) and two apertures. A render cut into tiles lets the upload go
+/// (its tiles upload their own rects) and still equals the others.
 #[test]
-fn a_stack_memo_keeps_the_scan_and_changes_no_pixel() {
-    use lensblur::render::drbokeh::bounds::StackScan;
-    use lensblur::render::drbokeh::RenderOptions;
+fn a_stack_memo_keeps_the_scan_and_the_upload_and_changes_no_pixel() {
+    use lensblur::render::drbokeh::{RenderOptions, ResidentStack};
     use lensblur::render::tiler::StackMemo;
     use lensblur::render::{Method, MethodInput, MethodSettings};
     let ctx = gpu();
@@ -447,19 +448,35 @@ fn a_stack_memo_keeps_the_scan_and_changes_no_pixel() {
                 renderer.render(MethodInput::Layers(&stack), &lens, &options, &MethodSettings::default()).unwrap()
             };
             let kept = render(Some(&memo));
-            assert!(memo.holds::<StackScan>(), "render {i}: no scan kept");
+            assert!(memo.holds::<ResidentStack>(), "render {i}: no scan kept");
+            let resident = memo.get_or_insert_with::<ResidentStack>(|| unreachable!("kept above"));
+            assert!(resident.holds_upload(), "render {i}: the one-tile frame's upload was not kept");
             assert_eq!(kept.pixels, render(None).pixels, "render {i}, focus {focus}, {aperture:?}");
         }
     }
+    // Cut into 32-px tiles, the render uploads each tile's rect and lets the frame's go; the
+    // next one-tile render keeps its own again.
+    let lens = Lens { coc: CocModel::new(20.0, lo).unwrap(), aperture: Aperture::Disk };
+    let render = |memo, tile| {
+        let options = RenderOptions { stack_memo: memo, tile, ..RenderOptions::default() };
+        renderer.render(MethodInput::Layers(&stack), &lens, &options, &MethodSettings::default()).unwrap()
+    };
+    let resident = memo.get_or_insert_with::<ResidentStack>(|| unreachable!("kept above"));
+    let whole = render(None, None);
+    assert_eq!(render(Some(&memo), Some(32)).pixels, whole.pixels, "tiled, from the memo");
+    assert!(!resident.holds_upload(), "a tiled render kept the frame's upload");
+    assert_eq!(render(Some(&memo), None).pixels, whole.pixels, "one tile again");
+    assert!(resident.holds_upload(), "the one-tile render did not keep its upload again");
+    drop(resident);
     // A scan of another stack is refused, not rendered from.
     let other = scene(48, 64);
-    let lens = Lens { coc: CocModel::new(20.0, lo).unwrap(), aperture: Aperture::Disk };
     let gpu = DrBokehGpu::new(&ctx).unwrap();
-    let refused = gpu.render_scanned(&other, &StackScan::new(&stack, lo), &lens, Model::DrBokeh, &RenderOptions::default());
+    let refused =
+        gpu.render_resident(&other, &ResidentStack::new(&stack, lo), &lens, Model::DrBokeh, &RenderOptions::default());
     assert!(refused.is_err_and(|e| e.to_string().contains("another stack")), "a mismatched scan was rendered from");
     drop(gpu);
     // One scan served every render: the first's.
-    let scans = std::sync::Arc::strong_count(&memo.get_or_insert_with::<StackScan>(|| unreachable!("the scan was not kept")));
+    let scans = std::sync::Arc::strong_count(&memo.get_or_insert_with::<ResidentStack>(|| unreachable!("the scan was not kept")));
     assert_eq!(scans, 2, "the memo's and this one");
     drop(renderer);
     finish(ctx);

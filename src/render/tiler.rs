@@ -37,9 +37,9 @@ pub const MAX_WORK_PER_TILE: u64 = 2_000_000_000;
 const MIN_TILE: usize = 16;
 
 /// What a method keeps from one render of a stack for the next render of the same stack, such
-/// as Dr.Bokeh's pass over the pixels that bounds its searches (a
-/// [`crate::render::drbokeh::bounds::StackScan`]). Whoever hands one to a render vouches that
-/// the stack is the one the memo was filled from, unchanged, and makes a new memo when the stack
+/// as Dr.Bokeh's pass over the pixels that bounds its searches and the stack's upload (a
+/// [`crate::render::drbokeh::ResidentStack`]). Whoever hands one to a render vouches that the
+/// stack is the one the memo was filled from, unchanged, and makes a new memo when the stack
 /// changes: a resident session does, for the stack it holds. One value at a time, of any type:
 /// a method that finds another method's value replaces it.
 #[derive(Default)]

@@ -78,6 +78,11 @@ pub struct Binding<'a> {
 }
 
 impl Buffer {
+    /// Whether the buffer lives on `ctx`'s device (one kept from an earlier render may not).
+    pub fn is_on(&self, ctx: &Context) -> bool {
+        Arc::ptr_eq(&self.0.device, &ctx.device)
+    }
+
     fn create(ctx: &Context, name: &str, size: u64, location: MemoryLocation) -> Result<Self> {
         Self::create_on(&ctx.device, name, size, size, location)
     }

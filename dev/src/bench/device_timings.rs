@@ -10,8 +10,7 @@ use super::large::{layered_stack, Focus};
 use super::perf::median;
 use lensblur::camera::Aperture;
 use lensblur::image::Image;
-use lensblur::render::drbokeh::bounds::StackScan;
-use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpu, DrBokehGpuGrad, Model, RenderOptions, RenderStats};
+use lensblur::render::drbokeh::{BackwardOptions, DrBokehGpu, DrBokehGpuGrad, Model, RenderOptions, RenderStats, ResidentStack};
 use lensblur::render::multiview::{Multiview, MultiviewParams};
 use lensblur::render::vdslr::{Vdslr, VdslrParams};
 use lensblur::render::Lens;
@@ -166,6 +165,7 @@ pub struct CaseTiming {
     pub bandwidth_share: Option<f64>,
     pub tiles: usize,
     pub tile_size: usize,
+    /// Most device memory a timed render held, a resident stack's kept upload included.
     pub peak_device_bytes: u64,
     /// Where the wall time of the median run went on the host (ms): the method's preparation
     /// of the frame (wall less the tile loop), recording tiles (allocations, uploads), waiting
@@ -178,9 +178,11 @@ pub struct CaseTiming {
 
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct HostBreakdown {
-    /// A forward case's pass over its stack's pixels ([`StackScan`]): made once per stack, by
-    /// its first render, and kept for the timed ones (a resident stack refocused), so it is
-    /// in none of their walls. A one-shot render pays it on top of `prepare`. 0 for the others.
+    /// A forward case's pass over its stack's pixels (a [`ResidentStack`]'s scan): made once
+    /// per stack and kept for the timed renders (a resident stack refocused), so it is in none
+    /// of their walls. A one-shot render pays it on top of `prepare`. 0 for the others. The
+    /// warm-up render also keeps the stack's upload when the frame is one tile, which the timed
+    /// renders then bind instead of recording its copy.
     pub scan: f64,
     pub prepare: f64,
     pub record: f64,
@@ -219,8 +221,8 @@ pub struct TimingReport {
 
 /// A case's inputs and the renderer that times it, built outside the timings.
 enum Prepared {
-    /// The renderer, the scan of the case's stack its renders keep, and the scan's time (ms).
-    Forward(DrBokehGpu, StackScan, f64),
+    /// The renderer, what its renders of the case's stack keep, and the scan's time (ms).
+    Forward(DrBokehGpu, ResidentStack, f64),
     Backward(DrBokehGpuGrad, Image),
     Multiview(Multiview, MultiviewParams),
     Vdslr(Vdslr, VdslrParams, Image, Vec<f32>),
@@ -232,8 +234,8 @@ impl Prepared {
         Ok(match case.pass {
             TimedPass::Forward => {
                 let start = Instant::now();
-                let scan = StackScan::new(stack, lens.coc.focus_disparity);
-                Prepared::Forward(DrBokehGpu::new(ctx)?, scan, start.elapsed().as_secs_f64() * 1e3)
+                let resident = ResidentStack::new(stack, lens.coc.focus_disparity);
+                Prepared::Forward(DrBokehGpu::new(ctx)?, resident, start.elapsed().as_secs_f64() * 1e3)
             }
             TimedPass::Backward => {
                 let (w, h) = (case.width, case.height);
@@ -253,7 +255,7 @@ impl Prepared {
     fn run(&self, stack: &LayerStack, lens: &Lens) -> Result<RenderStats> {
         let options = RenderOptions::default();
         Ok(match self {
-            Prepared::Forward(renderer, scan, _) => renderer.render_scanned(stack, scan, lens, Model::DrBokeh, &options)?.1,
+            Prepared::Forward(renderer, resident, _) => renderer.render_resident(stack, resident, lens, Model::DrBokeh, &options)?.1,
             Prepared::Backward(renderer, grad_output) => renderer.backward_with(stack, lens, grad_output, &options)?.1,
             Prepared::Multiview(renderer, params) => renderer.run_with(stack, lens, params, &options)?.1,
             Prepared::Vdslr(renderer, params, image, disparity) => {
@@ -308,7 +310,9 @@ pub fn time_case(ctx: &Context, case: &TimingCase, repeats: usize) -> Result<Cas
         bandwidth_share: peak.map(|peak| compulsory_gb_per_second / peak),
         tiles: last.tiles,
         tile_size: last.tile_size,
-        peak_device_bytes: last.peak_device_bytes,
+        // A resident stack's upload, kept from the warm-up render, is held by the timed ones too.
+        peak_device_bytes: last.peak_device_bytes
+            + if let Prepared::Forward(_, resident, _) = &prepared { resident.upload_bytes() } else { 0 },
         host_ms,
         meets_goal: case
             .goal_ms

@@ -35,6 +35,67 @@ pub(crate) const WORK_BYTES_PER_PIXEL: u64 = 24 + 40;
 pub(crate) const CORE_BYTES_PER_PIXEL: u64 = 20;
 pub(crate) const VEC4: u64 = 16;
 
+/// What renders of one stack keep for the next (a resident stack refocused: a session's
+/// [`crate::render::tiler::StackMemo`], the GPU kit's forward cases): the pass over its pixels
+/// that bounds the searches ([`StackScan`]), and, where a render took the whole frame as one
+/// tile, the layers it uploaded. Those are the stack's own pixels, which no camera, aperture
+/// or lens setting changes, so the next render of the frame as one tile binds them instead of
+/// copying the stack to the device again. A render cut into several tiles lets them go first
+/// (their memory is the tiles'), and a render on another device uploads its own.
+pub struct ResidentStack {
+    scan: StackScan,
+    upload: Mutex<Option<LayerUpload>>,
+}
+
+/// A read rect of every layer on the device: one buffer of colours and one of disparities per
+/// layer ([`Residency::LayerByLayer`]).
+#[derive(Clone)]
+pub(crate) struct LayerUpload {
+    read: Rect,
+    rgba: Vec<Buffer>,
+    disparity: Vec<Buffer>,
+}
+
+impl ResidentStack {
+    /// Scans `stack` (see [`StackScan::new`]); nothing is on the device until a render keeps it.
+    pub fn new(stack: &LayerStack, focus_disparity: f32) -> Self {
+        Self { scan: StackScan::new(stack, focus_disparity), upload: Mutex::new(None) }
+    }
+
+    pub fn scan(&self) -> &StackScan {
+        &self.scan
+    }
+
+    /// Whether a render's upload of the stack is kept on the device.
+    pub fn holds_upload(&self) -> bool {
+        self.kept().is_some()
+    }
+
+    /// Device bytes of the kept upload (0 when none is kept): memory a render binding it holds
+    /// from before it began, which its [`RenderStats::peak_device_bytes`] does not count.
+    pub fn upload_bytes(&self) -> u64 {
+        self.kept().as_ref().map_or(0, |kept| kept.rgba.iter().chain(&kept.disparity).map(Buffer::size).sum())
+    }
+
+    fn kept(&self) -> std::sync::MutexGuard<'_, Option<LayerUpload>> {
+        self.upload.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// The kept upload, if it holds `read` on `ctx`'s device.
+    fn upload_of(&self, ctx: &Context, read: Rect) -> Option<LayerUpload> {
+        self.kept().clone().filter(|kept| kept.read == read && kept.rgba.iter().all(|buffer| buffer.is_on(ctx)))
+    }
+
+    fn keep(&self, buffers: &ForwardBuffers) {
+        let upload = LayerUpload { read: buffers.read, rgba: buffers.rgba.clone(), disparity: buffers.disparity.clone() };
+        *self.kept() = Some(upload);
+    }
+
+    fn release(&self) {
+        self.kept().take();
+    }
+}
+
 /// The Dr.Bokeh pipelines on one device; build once, render many stacks.
 pub struct DrBokehGpu {
     ctx: Context,
@@ -172,20 +233,22 @@ impl DrBokehGpu {
         model: Model,
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
-        self.render_scanned(stack, &StackScan::new(stack, lens.coc.focus_disparity), lens, model, options)
+        self.render_resident(stack, &ResidentStack::new(stack, lens.coc.focus_disparity), lens, model, options)
     }
 
-    /// [`Self::render_with`] from a [`StackScan`] of `stack` kept from an earlier render (a
+    /// [`Self::render_with`] from what an earlier render of `stack` kept ([`ResidentStack`]: a
     /// resident stack refocused): the pass over every pixel that bounds the searches is not
-    /// made again. The image is the same, bit for bit.
-    pub fn render_scanned(
+    /// made again, nor, for a frame rendered as one tile, the stack's upload. The image is the
+    /// same, bit for bit.
+    pub fn render_resident(
         &self,
         stack: &LayerStack,
-        scan: &StackScan,
+        resident: &ResidentStack,
         lens: &Lens,
         model: Model,
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
+        let scan = &resident.scan;
         if !scan.fits(stack) {
             return Err(Error::invalid(
                 "stack scan",
@@ -211,26 +274,36 @@ impl DrBokehGpu {
         let work = params.layer_count as u64 * (2 * max_window.max(0) as u64 + 1).pow(2);
         let tiling = params.tiling().with_work(work);
         self.compile_passes(&params.lens, params.model)?;
-        run_tiled(&self.ctx, &tiling, options, footprint, |plan| self.render_tiles(&frame, &tiling, plan, options))
+        run_tiled(&self.ctx, &tiling, options, footprint, |plan| self.render_tiles(&frame, resident, &tiling, plan, options))
     }
 
     /// One attempt at the frame: its tiles in batches of `plan.tiles_per_batch`, each tile's
-    /// core read back into the image once its batch has run.
+    /// core read back into the image once its batch has run. A frame of one tile binds the
+    /// upload `resident` kept, or keeps its own there.
     fn render_tiles(
         &self,
         frame: &ForwardFrame,
+        resident: &ResidentStack,
         tiling: &FrameTiling,
         plan: TilePlan,
         options: &RenderOptions,
     ) -> Result<(Image, RenderStats)> {
         let (ctx, params) = (&self.ctx, frame.params);
         frame.begin_attempt();
+        let one_tile = tiling.cores(plan.tile).len() == 1;
+        if !one_tile {
+            resident.release();
+        }
         let mut image = Image::new(params.width, params.height);
         let max_halo = frame.windows.iter().copied().max().unwrap_or(0).max(0) as usize;
         let room = TileRoom { core: tiling.room(plan.tile, 0), read: tiling.room(plan.tile, max_halo) };
         let record = |batch: &mut CommandBatch, core: Rect| {
             let read = core.grown(halo(params, frame.windows, core), params.width, params.height);
-            let buffers = ForwardBuffers::new(ctx, batch, frame, core, read, room, Residency::LayerByLayer)?;
+            let kept = if one_tile { resident.upload_of(ctx, read) } else { None };
+            let buffers = ForwardBuffers::new(ctx, batch, frame, core, read, room, Residency::LayerByLayer, kept)?;
+            if one_tile {
+                resident.keep(&buffers);
+            }
             self.record(batch, params, &buffers)?;
             buffers.output().readable_in(batch)
         };
@@ -444,8 +517,9 @@ impl ForwardBuffers {
     }
 
     /// Allocates a tile's buffers (intermediates left unfilled: every pass writes its output
-    /// whole) and records the upload of its `read` rect into `batch`; the frame's tables are
-    /// shared, not copied.
+    /// whole) and records the upload of its `read` rect into `batch`, unless `kept` holds it
+    /// already (layer by layer; see [`ResidentStack`]); the frame's tables are shared, not copied.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &Context,
         batch: &mut CommandBatch,
@@ -454,6 +528,7 @@ impl ForwardBuffers {
         read: Rect,
         room: TileRoom,
         residency: Residency,
+        kept: Option<LayerUpload>,
     ) -> Result<Self> {
         let (stack, params) = (frame.stack, frame.params);
         let tables = frame.tables(ctx, batch)?;
@@ -475,6 +550,10 @@ impl ForwardBuffers {
                 let depths = stack.layers.iter().flat_map(|l| crop_rows(&l.disparity, params.width, read));
                 rgba.push(Buffer::from_slices_with_room_in(ctx, batch, "drbokeh rgba", read_n, read_room, colours)?);
                 disparity.push(Buffer::from_slices_with_room_in(ctx, batch, "drbokeh disparity", read_n, read_room, depths)?);
+            }
+            Residency::LayerByLayer if kept.as_ref().is_some_and(|kept| kept.read == read && kept.rgba.len() == stack.layers.len()) => {
+                let kept = kept.expect("checked above");
+                (rgba, disparity) = (kept.rgba, kept.disparity);
             }
             Residency::LayerByLayer => {
                 for l in &stack.layers {

@@ -232,7 +232,7 @@ impl DrBokehGpuGrad {
         let record = |batch: &mut CommandBatch, core: Rect| {
             let receivers = frame.receivers(core);
             let read = receivers.grown(halo(params, frame.forward.windows, receivers), params.width, params.height);
-            let fwd = ForwardBuffers::new(ctx, batch, &frame.forward, receivers, read, room.forward, Residency::Stacked)?;
+            let fwd = ForwardBuffers::new(ctx, batch, &frame.forward, receivers, read, room.forward, Residency::Stacked, None)?;
             let bwd = self.buffers(batch, frame, core, receivers, read, room)?;
             self.forward.record(batch, params, &fwd)?;
             self.record(batch, params, &fwd, &bwd, core)?;

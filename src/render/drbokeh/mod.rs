@@ -54,7 +54,7 @@ mod tests;
 pub use backward::BackwardOptions;
 pub use backward_cpu::{backward_cpu, CpuGradients, CpuLayerGradients, DrBokehCpu};
 pub use cpu::{render_cpu, render_cpu_params, render_cpu_terms, LayerTerms, Terms, Window};
-pub use gpu::{DrBokehGpu, LayerKernel, RenderOptions, RenderStats};
+pub use gpu::{DrBokehGpu, LayerKernel, RenderOptions, RenderStats, ResidentStack};
 pub use gpu_backward::DrBokehGpuGrad;
 pub use params::Params;
 
@@ -94,10 +94,11 @@ impl Renderer for DrBokehRenderer {
     fn render(&self, input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, _: &MethodSettings) -> crate::Result<crate::image::Image> {
         let stack = input.layers()?;
         match (&self.gpu, options.stack_memo) {
-            // A resident stack: its scan is made by its first render and kept for the others.
+            // A resident stack: its scan (and upload) are made by its first render and kept for
+            // the others.
             (Some(gpu), Some(memo)) => {
-                let scan = memo.get_or_insert_with(|| bounds::StackScan::new(stack, lens.coc.focus_disparity));
-                Ok(gpu.render_scanned(stack, &scan, lens, self.model, options)?.0)
+                let resident = memo.get_or_insert_with(|| ResidentStack::new(stack, lens.coc.focus_disparity));
+                Ok(gpu.render_resident(stack, &resident, lens, self.model, options)?.0)
             }
             (Some(gpu), None) => Ok(gpu.render_with(stack, lens, self.model, options)?.0),
             (None, _) => render_cpu(stack, lens, self.model),
