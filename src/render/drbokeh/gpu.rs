@@ -56,6 +56,12 @@ pub(crate) struct LayerUpload {
     disparity: Vec<Buffer>,
 }
 
+impl LayerUpload {
+    fn of(buffers: &ForwardBuffers) -> Self {
+        Self { read: buffers.read, rgba: buffers.rgba.clone(), disparity: buffers.disparity.clone() }
+    }
+}
+
 impl ResidentStack {
     /// Scans `stack` (see [`StackScan::new`]); nothing is on the device until a render keeps it.
     pub fn new(stack: &LayerStack, focus_disparity: f32) -> Self {
@@ -86,8 +92,7 @@ impl ResidentStack {
         self.kept().clone().filter(|kept| kept.read == read && kept.rgba.iter().all(|buffer| buffer.is_on(ctx)))
     }
 
-    fn keep(&self, buffers: &ForwardBuffers) {
-        let upload = LayerUpload { read: buffers.read, rgba: buffers.rgba.clone(), disparity: buffers.disparity.clone() };
+    fn keep(&self, upload: LayerUpload) {
         *self.kept() = Some(upload);
     }
 
@@ -297,18 +302,25 @@ impl DrBokehGpu {
         let mut image = Image::new(params.width, params.height);
         let max_halo = frame.windows.iter().copied().max().unwrap_or(0).max(0) as usize;
         let room = TileRoom { core: tiling.room(plan.tile, 0), read: tiling.room(plan.tile, max_halo) };
+        // A one-tile frame's fresh upload, kept once its batch has run (a copy recorded into a
+        // batch that never ran would leave the buffers undefined).
+        let mut uploaded = None;
         let record = |batch: &mut CommandBatch, core: Rect| {
             let read = core.grown(halo(params, frame.windows, core), params.width, params.height);
             let kept = if one_tile { resident.upload_of(ctx, read) } else { None };
+            let fresh = kept.is_none();
             let buffers = ForwardBuffers::new(ctx, batch, frame, core, read, room, Residency::LayerByLayer, kept)?;
-            if one_tile {
-                resident.keep(&buffers);
+            if one_tile && fresh {
+                uploaded = Some(LayerUpload::of(&buffers));
             }
             self.record(batch, params, &buffers)?;
             buffers.output().readable_in(batch)
         };
         let collect = |core: Rect, result: ReadBack| store_core(ctx, &mut image, core, &result);
         let (mut stats, cores) = run_batches(ctx, tiling, plan, options, record, collect)?;
+        if let Some(upload) = uploaded {
+            resident.keep(upload);
+        }
         stats.taps = cores.iter().map(|&core| taps(params, frame.windows, core)).sum();
         Ok((image, stats))
     }
