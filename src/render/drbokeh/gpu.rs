@@ -87,9 +87,12 @@ impl ResidentStack {
         self.upload.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 
-    /// The kept upload, if it holds `read` on `ctx`'s device.
-    fn upload_of(&self, ctx: &Context, read: Rect) -> Option<LayerUpload> {
-        self.kept().clone().filter(|kept| kept.read == read && kept.rgba.iter().all(|buffer| buffer.is_on(ctx)))
+    /// The kept upload, if it holds `read` of `layers` layers on `ctx`'s device.
+    fn upload_of(&self, ctx: &Context, read: Rect, layers: usize) -> Option<LayerUpload> {
+        let fits = |kept: &LayerUpload| {
+            kept.read == read && kept.rgba.len() == layers && kept.rgba.iter().all(|buffer| buffer.is_on(ctx))
+        };
+        self.kept().clone().filter(fits)
     }
 
     fn keep(&self, upload: LayerUpload) {
@@ -307,7 +310,7 @@ impl DrBokehGpu {
         let mut uploaded = None;
         let record = |batch: &mut CommandBatch, core: Rect| {
             let read = core.grown(halo(params, frame.windows, core), params.width, params.height);
-            let kept = if one_tile { resident.upload_of(ctx, read) } else { None };
+            let kept = if one_tile { resident.upload_of(ctx, read, params.layer_count) } else { None };
             let fresh = kept.is_none();
             let buffers = ForwardBuffers::new(ctx, batch, frame, core, read, room, Residency::LayerByLayer, kept)?;
             if one_tile && fresh {
@@ -530,7 +533,8 @@ impl ForwardBuffers {
 
     /// Allocates a tile's buffers (intermediates left unfilled: every pass writes its output
     /// whole) and records the upload of its `read` rect into `batch`, unless `kept` holds it
-    /// already (layer by layer; see [`ResidentStack`]); the frame's tables are shared, not copied.
+    /// already (layer by layer: [`ResidentStack::upload_of`] checked it); the frame's tables
+    /// are shared, not copied.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &Context,
@@ -563,8 +567,9 @@ impl ForwardBuffers {
                 rgba.push(Buffer::from_slices_with_room_in(ctx, batch, "drbokeh rgba", read_n, read_room, colours)?);
                 disparity.push(Buffer::from_slices_with_room_in(ctx, batch, "drbokeh disparity", read_n, read_room, depths)?);
             }
-            Residency::LayerByLayer if kept.as_ref().is_some_and(|kept| kept.read == read && kept.rgba.len() == stack.layers.len()) => {
-                let kept = kept.expect("checked above");
+            Residency::LayerByLayer if kept.is_some() => {
+                let kept = kept.expect("matched above");
+                debug_assert!(kept.read == read && kept.rgba.len() == stack.layers.len(), "a kept upload of another rect");
                 (rgba, disparity) = (kept.rgba, kept.disparity);
             }
             Residency::LayerByLayer => {
