@@ -3,31 +3,15 @@
 //! foreground and background focus.
 mod common;
 
-use common::{finish, gpu, max_abs_diff, pattern};
+use common::{finish, gpu, max_abs_diff, pattern, square_band_ramp};
 use lensblur::camera::{Aperture, CocModel};
 use lensblur::image::Image;
 use lensblur::render::gather::{render_gather_cpu, Gather};
 use lensblur::render::scatter::{render_scatter_cpu, Scatter};
-use lensblur::render::Lens;
+use lensblur::render::{Lens, SingleImageGpu};
 
 fn lens(k: f32, focus: f32, aperture: Aperture) -> Lens {
     Lens { coc: CocModel::new(k, focus).unwrap(), aperture }
-}
-
-/// A near square, a far ramp and a mid band: CoC radii from 0 to about 12 px of both signs.
-fn disparity(w: usize, h: usize) -> Vec<f32> {
-    (0..w * h)
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            if (10..22).contains(&x) && (8..20).contains(&y) {
-                0.9
-            } else if (28..36).contains(&x) {
-                0.55
-            } else {
-                0.1 + 0.3 * y as f32 / h as f32
-            }
-        })
-        .collect()
 }
 
 fn lenses() -> Vec<Lens> {
@@ -52,7 +36,7 @@ fn gather_gpu_matches_cpu_reference() {
     let ctx = gpu();
     let gather = Gather::new(&ctx).unwrap();
     let (w, h) = (45, 37);
-    let (image, disparity) = (pattern(w, h), disparity(w, h));
+    let (image, disparity) = (pattern(w, h), square_band_ramp(w, h));
     for (i, lens) in lenses().iter().enumerate() {
         let gpu_out = gather.run(&image, &disparity, lens).unwrap();
         let cpu_out = render_gather_cpu(&image, &disparity, lens);
@@ -71,7 +55,7 @@ fn scatter_gpu_matches_cpu_reference() {
     let ctx = gpu();
     let scatter = Scatter::new(&ctx).unwrap();
     let (w, h) = (45, 37);
-    let (image, disparity) = (pattern(w, h), disparity(w, h));
+    let (image, disparity) = (pattern(w, h), square_band_ramp(w, h));
     for (i, lens) in lenses().iter().enumerate() {
         let gpu_out = scatter.run(&image, &disparity, lens).unwrap();
         let cpu_out = render_scatter_cpu(&image, &disparity, lens);
@@ -89,7 +73,7 @@ fn gpu_baselines_keep_a_constant_image_constant() {
     let ctx = gpu();
     let (gather, scatter) = (Gather::new(&ctx).unwrap(), Scatter::new(&ctx).unwrap());
     let image = Image::filled(40, 30, [0.2, 0.4, 3.0, 1.0]);
-    let disparity = disparity(40, 30);
+    let disparity = square_band_ramp(40, 30);
     let lens = lens(16.0, 0.3, Aperture::Disk);
     for out in [gather.run(&image, &disparity, &lens).unwrap(), scatter.run(&image, &disparity, &lens).unwrap()] {
         // Normalised averages of equal values: exact up to f32 rounding of the sums.

@@ -2,7 +2,7 @@
 //! properties the paper claims (no bleeding, tilt-shift, several focal planes).
 mod common;
 
-use common::{finish, gpu, max_abs_diff, pattern};
+use common::{finish, gpu, max_abs_diff, pattern, square_band_ramp};
 use lensblur::camera::{Aperture, CocModel};
 use lensblur::image::Image;
 use lensblur::render::vdslr::{render_vdslr_cpu, FocusField, Highlight, Vdslr, VdslrParams};
@@ -12,30 +12,13 @@ fn lens(k: f32, focus: f32) -> Lens {
     Lens { coc: CocModel::new(k, focus).unwrap(), aperture: Aperture::Disk }
 }
 
-/// A near square (0.9), a background ramp (0.1 .. 0.4) and a mid band: every code path
-/// (valid hits, symmetric fill, guard) is exercised.
-fn scene_disparity(w: usize, h: usize) -> Vec<f32> {
-    (0..w * h)
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            if (10..22).contains(&x) && (8..20).contains(&y) {
-                0.9
-            } else if (28..36).contains(&x) {
-                0.55
-            } else {
-                0.1 + 0.3 * y as f32 / h as f32
-            }
-        })
-        .collect()
-}
-
 #[test]
 fn gpu_matches_cpu_reference() {
     let ctx = gpu();
     let vdslr = Vdslr::new(&ctx).unwrap();
     let (w, h) = (45, 37);
     let image = pattern(w, h);
-    let disparity = scene_disparity(w, h);
+    let disparity = square_band_ramp(w, h);
     let variants = [
         (lens(14.0, 0.5), VdslrParams::default()),
         (lens(20.0, 0.3), VdslrParams { iterations: 1, samples: 30, highlight: Some(Highlight { sigma: 0.3, white: 1.0 }), ..Default::default() }),
@@ -76,7 +59,7 @@ fn constant_image_stays_constant() {
     let value = [0.3, 0.6, 2.5, 1.0];
     let image = Image::filled(40, 30, value);
     let params = VdslrParams { highlight: Some(Highlight { sigma: 0.2, white: 1.0 }), ..Default::default() };
-    let out = render_vdslr_cpu(&image, &scene_disparity(40, 30), &lens(25.0, 0.5), &params).unwrap();
+    let out = render_vdslr_cpu(&image, &square_band_ramp(40, 30), &lens(25.0, 0.5), &params).unwrap();
     // Any choice of pixels averages the same value: f32 rounding of a mean of ~64 terms.
     assert!(max_abs_diff(&out, &image) <= 1e-5 * 2.5);
 }

@@ -99,17 +99,27 @@ where
     }
 }
 
+/// A single-image baseline's pass on the Vulkan device ([`crate::render::gather::Gather`],
+/// [`crate::render::scatter::Scatter`]): one image and its per-pixel disparity in, the
+/// defocused image out.
+pub trait SingleImageGpu: Send + Sync + 'static {
+    /// Renders `image` (linear, premultiplied) with per-pixel `disparity` through `lens` on frame
+    /// tiles cut as `options` says; the same pixels for every tile size.
+    fn run_with(&self, image: &Image, disparity: &[f32], lens: &Lens, options: &RenderOptions) -> Result<(Image, RenderStats)>;
+
+    /// [`Self::run_with`] with the default options (tiles as large as the device allows).
+    fn run(&self, image: &Image, disparity: &[f32], lens: &Lens) -> Result<Image> {
+        Ok(self.run_with(image, disparity, lens, &RenderOptions::default())?.0)
+    }
+}
+
 /// The renderer of a single-image baseline (gather, scatter): its one tiled pass on the device
 /// when `gpu` was made, else its CPU reference.
-pub(crate) fn single_image_baseline<G: Send + Sync + 'static>(
-    gpu: Option<G>,
-    run: fn(&G, &Image, &[f32], &Lens, &RenderOptions) -> Result<(Image, RenderStats)>,
-    cpu: fn(&Image, &[f32], &Lens) -> Image,
-) -> Box<dyn Renderer> {
+pub(crate) fn single_image_baseline<G: SingleImageGpu>(gpu: Option<G>, cpu: fn(&Image, &[f32], &Lens) -> Image) -> Box<dyn Renderer> {
     Box::new(move |input: MethodInput<'_>, lens: &Lens, options: &RenderOptions, _: &MethodSettings| {
         let (image, disparity) = input.single_image()?;
         match &gpu {
-            Some(gpu) => Ok(run(gpu, image, disparity, lens, options)?.0),
+            Some(gpu) => Ok(gpu.run_with(image, disparity, lens, options)?.0),
             None => Ok(cpu(image, disparity, lens)),
         }
     })

@@ -2,7 +2,7 @@
 //! `glsl/<method>_<pass>.comp`) and a CPU reference of the same math, used by tests.
 use crate::camera::{Aperture, CocModel};
 
-pub use method::{Highlight, InputKind, Method, MethodInput, MethodSettings, MethodSpec, Renderer, Setting};
+pub use method::{Highlight, InputKind, Method, MethodInput, MethodSettings, MethodSpec, Renderer, Setting, SingleImageGpu};
 
 pub mod disk;
 pub mod drbokeh;

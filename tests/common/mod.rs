@@ -53,6 +53,24 @@ pub fn pattern(width: usize, height: usize) -> Image {
     })
 }
 
+/// The disparity of the single-image tests' scene (for [`pattern`]'s image): a near square
+/// (0.9), a mid band (0.55) and a background ramp (0.1 at the top to 0.4 at the bottom), so
+/// that the CoC takes both signs and jumps at the square's and the band's edges.
+pub fn square_band_ramp(w: usize, h: usize) -> Vec<f32> {
+    (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if (10..22).contains(&x) && (8..20).contains(&y) {
+                0.9
+            } else if (28..36).contains(&x) {
+                0.55
+            } else {
+                0.1 + 0.3 * y as f32 / h as f32
+            }
+        })
+        .collect()
+}
+
 /// A fresh, empty scratch directory for one test (`lensblur-<suite>-<test>-<pid>`), so
 /// parallel tests and earlier runs never see each other's files; removed if the test passes.
 pub fn temp_dir(suite: &str, test: &str) -> ScratchDir {

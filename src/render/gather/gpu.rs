@@ -6,8 +6,8 @@ use crate::image::Image;
 use crate::render::tiler::{
     crop_rows, rect_push, render_image_tiles, Footprint, FrameTiling, RenderOptions, RenderStats,
 };
-use crate::render::Lens;
-use crate::shaders;
+use crate::render::{Lens, SingleImageGpu};
+use crate::shaders::{self, ShaderSource};
 use crate::tile_grid::{MaxPyramid, Rect};
 use crate::vk::{Buffer, ComputePipeline, Context, Slot, TexelFormat};
 use crate::{Error, Result};
@@ -32,58 +32,70 @@ struct GatherPush {
 const _: () = assert!(std::mem::size_of::<GatherPush>() == 80);
 
 /// The gather baseline on the GPU.
-pub struct Gather {
-    ctx: Context,
-    pipeline: ComputePipeline,
-}
+pub struct Gather(ImageBaseline);
 
 impl Gather {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline =
-            ComputePipeline::with_slots(ctx, &shaders::GATHER, &IMAGE_PASS_SLOTS, std::mem::size_of::<GatherPush>())?;
-        Ok(Self { ctx: ctx.clone(), pipeline })
+        Ok(Self(ImageBaseline::new::<GatherPush>(ctx, &shaders::GATHER, "gather")?))
     }
+}
 
-    /// Renders `image` (linear, premultiplied) with per-pixel `disparity` through `lens`.
-    pub fn run(&self, image: &Image, disparity: &[f32], lens: &Lens) -> Result<Image> {
-        Ok(self.run_with(image, disparity, lens, &RenderOptions::default())?.0)
-    }
-
-    /// [`Self::run`] on frame tiles cut as `options` says; the same pixels for every tile size.
-    pub fn run_with(
-        &self,
-        image: &Image,
-        disparity: &[f32],
-        lens: &Lens,
-        options: &RenderOptions,
-    ) -> Result<(Image, RenderStats)> {
+impl SingleImageGpu for Gather {
+    fn run_with(&self, image: &Image, disparity: &[f32], lens: &Lens, options: &RenderOptions) -> Result<(Image, RenderStats)> {
         check_input(image, disparity)?;
-        let (kernel_size, kernel) = lens.aperture.kernel_texels();
         // A pixel's taps reach ceil(r + edge / 2) of its own radius, so a core's halo is its
         // largest radius's reach; + 1 covers the shader's f32 radius rounding the other way.
         let radius: Vec<f32> = disparity.iter().map(|&d| lens.coc.radius(d)).collect();
         let pyramid = MaxPyramid::new(image.width, image.height, &radius);
         let reach = |r: f32| (r + 0.5 * EDGE_WIDTH).ceil() as usize + 1;
         let whole = Rect { x0: 0, y0: 0, x1: image.width, y1: image.height };
-        let pass =
-            ImagePass { ctx: &self.ctx, pipeline: &self.pipeline, name: "gather", image, disparity, kernel: &kernel };
-        pass.run(
-            options,
-            reach(pyramid.max_in(whole)),
-            |core| reach(pyramid.max_in(core)),
-            |core, read| GatherPush {
-                width: image.width as i32,
-                height: image.height as i32,
-                k: lens.coc.k_px,
-                focus: lens.coc.focus_disparity,
-                edge_width: EDGE_WIDTH,
-                kernel_size: kernel_size as i32,
-                pad: [0.0; 2],
-                aperture: lens.aperture.gpu_params(),
-                core: rect_push(core),
-                read: rect_push(read),
-            },
-        )
+        let push = |core, read, kernel_size| GatherPush {
+            width: image.width as i32,
+            height: image.height as i32,
+            k: lens.coc.k_px,
+            focus: lens.coc.focus_disparity,
+            edge_width: EDGE_WIDTH,
+            kernel_size,
+            pad: [0.0; 2],
+            aperture: lens.aperture.gpu_params(),
+            core: rect_push(core),
+            read: rect_push(read),
+        };
+        self.0.run(image, disparity, lens, options, reach(pyramid.max_in(whole)), |core| reach(pyramid.max_in(core)), push)
+    }
+}
+
+/// A single-image baseline's one compute pipeline on a device ([`Gather`] and
+/// [`crate::render::scatter::Scatter`]): the input checked, the aperture's kernel texels
+/// made, then its [`ImagePass`] on tiles.
+pub(crate) struct ImageBaseline {
+    ctx: Context,
+    pipeline: ComputePipeline,
+    name: &'static str,
+}
+
+impl ImageBaseline {
+    /// The pipeline of `shader`, whose push constants are a `P`.
+    pub fn new<P: bytemuck::Pod>(ctx: &Context, shader: &ShaderSource, name: &'static str) -> Result<Self> {
+        let pipeline = ComputePipeline::with_slots(ctx, shader, &IMAGE_PASS_SLOTS, std::mem::size_of::<P>())?;
+        Ok(Self { ctx: ctx.clone(), pipeline, name })
+    }
+
+    /// Renders on tiles whose halo is `halo(core)` (at most `max_halo`), each dispatched with
+    /// `push(core, read, kernel side)` (the side 0: no kernel image).
+    pub fn run<P: bytemuck::Pod>(
+        &self,
+        image: &Image,
+        disparity: &[f32],
+        lens: &Lens,
+        options: &RenderOptions,
+        max_halo: usize,
+        halo: impl Fn(Rect) -> usize,
+        push: impl Fn(Rect, Rect, i32) -> P,
+    ) -> Result<(Image, RenderStats)> {
+        let (kernel_size, kernel) = lens.aperture.kernel_texels();
+        let pass = ImagePass { ctx: &self.ctx, pipeline: &self.pipeline, name: self.name, image, disparity, kernel: &kernel };
+        pass.run(options, max_halo, halo, |core, read| push(core, read, kernel_size as i32))
     }
 }
 

@@ -27,7 +27,7 @@ pub const METHOD: MethodSpec = MethodSpec {
     input: InputKind::SingleImage,
     uses_gpu: true,
     settings: &[],
-    prepare: |ctx| Ok(single_image_baseline(ctx.map(Gather::new).transpose()?, Gather::run_with, render_gather_cpu)),
+    prepare: |ctx| Ok(single_image_baseline(ctx.map(Gather::new).transpose()?, render_gather_cpu)),
     differentiable: None,
 };
 

@@ -3,11 +3,11 @@
 //! scatter written as a gather, no atomics) over its core, reads back.
 use super::{AREA_EPSILON, EDGE_SHARPNESS, WINDOW_MARGIN};
 use crate::image::Image;
-use crate::render::gather::gpu::{check_input, ImagePass, IMAGE_PASS_SLOTS};
+use crate::render::gather::gpu::{check_input, ImageBaseline};
 use crate::render::tiler::{rect_push, RenderOptions, RenderStats};
-use crate::render::Lens;
+use crate::render::{Lens, SingleImageGpu};
 use crate::shaders;
-use crate::vk::{ComputePipeline, Context};
+use crate::vk::Context;
 use crate::Result;
 
 /// Push constants of `glsl/scatter.comp`.
@@ -32,55 +32,33 @@ struct ScatterPush {
 const _: () = assert!(std::mem::size_of::<ScatterPush>() == 80);
 
 /// The scatter baseline on the GPU.
-pub struct Scatter {
-    ctx: Context,
-    pipeline: ComputePipeline,
-}
+pub struct Scatter(ImageBaseline);
 
 impl Scatter {
     pub fn new(ctx: &Context) -> Result<Self> {
-        let pipeline =
-            ComputePipeline::with_slots(ctx, &shaders::SCATTER, &IMAGE_PASS_SLOTS, std::mem::size_of::<ScatterPush>())?;
-        Ok(Self { ctx: ctx.clone(), pipeline })
+        Ok(Self(ImageBaseline::new::<ScatterPush>(ctx, &shaders::SCATTER, "scatter")?))
     }
+}
 
-    /// Renders `image` (linear, premultiplied) with per-pixel `disparity` through `lens`.
-    pub fn run(&self, image: &Image, disparity: &[f32], lens: &Lens) -> Result<Image> {
-        Ok(self.run_with(image, disparity, lens, &RenderOptions::default())?.0)
-    }
-
-    /// [`Self::run`] on frame tiles cut as `options` says; the same pixels for every tile size.
-    pub fn run_with(
-        &self,
-        image: &Image,
-        disparity: &[f32],
-        lens: &Lens,
-        options: &RenderOptions,
-    ) -> Result<(Image, RenderStats)> {
+impl SingleImageGpu for Scatter {
+    fn run_with(&self, image: &Image, disparity: &[f32], lens: &Lens, options: &RenderOptions) -> Result<(Image, RenderStats)> {
         check_input(image, disparity)?;
-        let (kernel_size, kernel) = lens.aperture.kernel_texels();
         let largest = disparity.iter().map(|&d| lens.coc.radius(d)).fold(0.0f32, f32::max);
         // Every pixel sums the whole window of the largest CoC: that window is the halo.
         let reach = largest.ceil() as usize + WINDOW_MARGIN as usize;
-        let pass =
-            ImagePass { ctx: &self.ctx, pipeline: &self.pipeline, name: "scatter", image, disparity, kernel: &kernel };
-        pass.run(
-            options,
-            reach,
-            |_| reach,
-            |core, read| ScatterPush {
-                width: image.width as i32,
-                height: image.height as i32,
-                reach: reach as i32,
-                kernel_size: kernel_size as i32,
-                k: lens.coc.k_px,
-                focus: lens.coc.focus_disparity,
-                edge_sharpness: EDGE_SHARPNESS,
-                area_epsilon: AREA_EPSILON,
-                aperture: lens.aperture.gpu_params(),
-                core: rect_push(core),
-                read: rect_push(read),
-            },
-        )
+        let push = |core, read, kernel_size| ScatterPush {
+            width: image.width as i32,
+            height: image.height as i32,
+            reach: reach as i32,
+            kernel_size,
+            k: lens.coc.k_px,
+            focus: lens.coc.focus_disparity,
+            edge_sharpness: EDGE_SHARPNESS,
+            area_epsilon: AREA_EPSILON,
+            aperture: lens.aperture.gpu_params(),
+            core: rect_push(core),
+            read: rect_push(read),
+        };
+        self.0.run(image, disparity, lens, options, reach, |_| reach, push)
     }
 }

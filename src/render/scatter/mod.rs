@@ -29,7 +29,7 @@ pub const METHOD: MethodSpec = MethodSpec {
     input: InputKind::SingleImage,
     uses_gpu: true,
     settings: &[],
-    prepare: |ctx| Ok(single_image_baseline(ctx.map(Scatter::new).transpose()?, Scatter::run_with, render_scatter_cpu)),
+    prepare: |ctx| Ok(single_image_baseline(ctx.map(Scatter::new).transpose()?, render_scatter_cpu)),
     differentiable: None,
 };
 
