@@ -178,6 +178,14 @@ fn blender_group(focuses: &[Focus], out: &Path, side: usize, repeats: usize) -> 
             r.camera.focus_distance,
             r.lensblur_png.display()
         );
+        for (what, steps) in [("layered", &r.lensblur_steps_ms), ("flat", &r.flat_steps_ms)] {
+            // In the order a process takes them (the report's map is sorted by name).
+            let order = ["read", "layering", "device_open", "warm_up", "prepare", "render", "device_close", "write", "total"];
+            let mut names: Vec<&String> = steps.keys().collect();
+            names.sort_by_key(|name| order.iter().position(|o| o == name).unwrap_or(order.len()));
+            let steps: Vec<String> = names.iter().map(|&step| format!("{step} {:.1}", steps[step].as_f64().unwrap_or(f64::NAN))).collect();
+            println!("  inside the {what} process, medians (ms; the device opens beside read and layering): {}", steps.join(", "));
+        }
         for b in &r.blenders {
             println!(
                 "  Blender {} Defocus ({:?}) compositing median {:.3} s (process {:.1} s); ratio {:.3} (goal <= 0.5), \

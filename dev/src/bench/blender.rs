@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-use super::end_to_end::time_render_process;
+use super::end_to_end::{median_steps, run_render_process};
 use super::large::{layered_stack, Focus};
 use super::perf::median;
 use lensblur::camera::PhysicalCamera;
@@ -193,10 +193,14 @@ pub struct BlenderComparison {
     /// Whole `lensblur render` processes of the layers.
     pub lensblur_seconds: Vec<f64>,
     pub lensblur_median_seconds: f64,
+    /// The median of each step inside those processes (their `--json` `timings_ms`).
+    pub lensblur_steps_ms: serde_json::Map<String, serde_json::Value>,
     /// Whole `lensblur render` processes of the RGB+Z file the Physical node reads (one image
     /// and its Z pass, split into layers by lensblur): what most compositors hand over.
     pub flat_seconds: Vec<f64>,
     pub flat_median_seconds: f64,
+    /// The same steps for those: where a one-shot process of one image goes (issue 43).
+    pub flat_steps_ms: serde_json::Map<String, serde_json::Value>,
     pub lensblur_png: PathBuf,
 }
 
@@ -305,10 +309,14 @@ pub fn compare_with_blender(exe: &Path, dir: &Path, focus: Focus, side: usize, r
     .to_vec();
     let (_, flat_input) = inputs.for_node(DefocusNode::Physical);
     // Alternated, so that a drift of the machine's speed reaches both alike.
-    let (mut lensblur_seconds, mut flat_seconds) = (Vec::new(), Vec::new());
+    let (mut lensblur_seconds, mut flat_seconds, mut layered_reports, mut flat_reports) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for _ in 0..repeats.max(1) {
-        lensblur_seconds.push(time_render_process(exe, &inputs.layered, &args, &ours_exr, &[])?);
-        flat_seconds.push(time_render_process(exe, flat_input, &flat_args, &flat_exr, &[])?);
+        let layered = run_render_process(exe, &inputs.layered, &args, &ours_exr, &[])?;
+        let flat = run_render_process(exe, flat_input, &flat_args, &flat_exr, &[])?;
+        lensblur_seconds.push(layered.seconds);
+        layered_reports.push(layered.report);
+        flat_seconds.push(flat.seconds);
+        flat_reports.push(flat.report);
     }
     write_png_preview(&ours_png, &read_rgba(&ours_exr, None, u64::MAX)?)?;
     let lensblur_median_seconds = median(&mut lensblur_seconds);
@@ -338,8 +346,10 @@ pub fn compare_with_blender(exe: &Path, dir: &Path, focus: Focus, side: usize, r
         blenders,
         lensblur_seconds,
         lensblur_median_seconds,
+        lensblur_steps_ms: median_steps(&layered_reports),
         flat_seconds,
         flat_median_seconds,
+        flat_steps_ms: median_steps(&flat_reports),
         lensblur_png: ours_png,
     })
 }

@@ -55,19 +55,47 @@ pub fn render_args(output: &Path, lens: &Lens) -> Vec<String> {
     ]
 }
 
-/// Runs `exe render INPUT ARGS` once and returns its wall time; errors if it fails or the
-/// output is missing.
-pub fn time_render_process(exe: &Path, input: &Path, args: &[String], output: &Path, env: &[(&str, &str)]) -> Result<f64> {
+/// One whole `lensblur render` process: its wall time, from spawn to exit, and its `--json`
+/// report (the camera, the layers, and `timings_ms`: how long each step took inside).
+pub struct RenderProcess {
+    pub seconds: f64,
+    pub report: serde_json::Value,
+}
+
+/// Runs `exe render INPUT ARGS --json` once (ARGS name the output, `output`); errors if it
+/// fails, the output is missing or it prints no report.
+pub fn run_render_process(exe: &Path, input: &Path, args: &[String], output: &Path, env: &[(&str, &str)]) -> Result<RenderProcess> {
     let _ = std::fs::remove_file(output);
     let start = Instant::now();
-    let result = Command::new(exe).arg("render").arg(input).args(args).envs(env.iter().copied()).output();
+    let result = Command::new(exe).arg("render").arg(input).args(args).arg("--json").envs(env.iter().copied()).output();
     let seconds = start.elapsed().as_secs_f64();
     let out = result.map_err(|e| Error::input(exe, format!("cannot run: {e}")))?;
     if !out.status.success() || !output.exists() {
         let stderr = String::from_utf8_lossy(&out.stderr);
-        return Err(Error::input(input, format!("lensblur render failed ({}): {stderr}", out.status)));
+        return Err(Error::input(input, format!("lensblur render failed ({}): {}", out.status, stderr.trim())));
     }
-    Ok(seconds)
+    let report = serde_json::from_slice(&out.stdout)
+        .map_err(|e| Error::input(input, format!("lensblur render printed no JSON report: {e}")))?;
+    Ok(RenderProcess { seconds, report })
+}
+
+/// [`run_render_process`]'s wall time alone.
+pub fn time_render_process(exe: &Path, input: &Path, args: &[String], output: &Path, env: &[(&str, &str)]) -> Result<f64> {
+    Ok(run_render_process(exe, input, args, output, env)?.seconds)
+}
+
+/// The median over `reports` of each step of their `timings_ms` (read, layering, device_open,
+/// ...), in the first report's order.
+pub fn median_steps(reports: &[serde_json::Value]) -> serde_json::Map<String, serde_json::Value> {
+    let steps = reports.first().and_then(|r| r["timings_ms"].as_object()).map(|o| o.keys().cloned().collect::<Vec<_>>());
+    steps
+        .unwrap_or_default()
+        .into_iter()
+        .map(|key| {
+            let mut values: Vec<f64> = reports.iter().filter_map(|r| r["timings_ms"][&key].as_f64()).collect();
+            (key, serde_json::Value::from(median(&mut values)))
+        })
+        .collect()
 }
 
 /// `runs` (at least 5) whole `lensblur render` processes of a `side`^2 two-layer stack: with

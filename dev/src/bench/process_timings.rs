@@ -3,10 +3,9 @@
 //! machine it runs on, then times the binary rendering it on the device: start-up, reading,
 //! the render, writing. Each run's `--json` report gives the steps and the peak device memory
 //! of the render's buffers.
-use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::time::Instant;
+use std::path::Path;
 
+use super::end_to_end::{median_steps, run_render_process};
 use super::large::{layered_stack, Focus};
 use super::perf::median;
 use lensblur::stack::{write_stack, DepthKind, StackWriteOptions};
@@ -72,31 +71,22 @@ pub fn time_process_case(exe: &Path, dir: &Path, case: &ProcessCase, repeats: us
     write_stack(&input, &stack, &StackWriteOptions { depth_kind: DepthKind::Disparity, ..StackWriteOptions::default() })?;
     drop(stack);
     let args: Vec<String> = [
-        "--device", "gpu", "--depth-kind", "disparity", "--blur", &lens.coc.k_px.to_string(),
-        "--focus-disparity", &lens.coc.focus_disparity.to_string(), "--json",
+        "-o", &output.display().to_string(), "--device", "gpu", "--depth-kind", "disparity", "--blur",
+        &lens.coc.k_px.to_string(), "--focus-disparity", &lens.coc.focus_disparity.to_string(),
     ]
     .map(String::from)
     .to_vec();
-    run_once(exe, &input, &output, &args)?;
+    run_render_process(exe, &input, &args, &output, &[])?;
     let mut walls = Vec::new();
     let mut reports = Vec::new();
     for _ in 0..repeats.max(1) {
-        let start = Instant::now();
-        let report = run_once(exe, &input, &output, &args)?;
-        walls.push(start.elapsed().as_secs_f64() * 1e3);
-        reports.push(report);
+        let run = run_render_process(exe, &input, &args, &output, &[])?;
+        walls.push(run.seconds * 1e3);
+        reports.push(run.report);
     }
     let _ = std::fs::remove_file(&input);
     let _ = std::fs::remove_file(&output);
-    let steps = reports.first().and_then(|r| r["timings_ms"].as_object()).map(|o| o.keys().cloned().collect::<Vec<_>>());
-    let steps_ms = steps
-        .unwrap_or_default()
-        .into_iter()
-        .map(|key| {
-            let mut values: Vec<f64> = reports.iter().filter_map(|r| r["timings_ms"][&key].as_f64()).collect();
-            (key, serde_json::Value::from(median(&mut values)))
-        })
-        .collect();
+    let steps_ms = median_steps(&reports);
     let peak_device_bytes = reports.iter().filter_map(|r| r["device_peak_bytes"].as_u64()).max();
     let wall_ms_runs = walls.clone();
     let wall_ms = median(&mut walls);
@@ -110,23 +100,6 @@ pub fn time_process_case(exe: &Path, dir: &Path, case: &ProcessCase, repeats: us
         peak_over_stack: peak_device_bytes.map(|peak| peak as f64 / case.stack_bytes() as f64),
         meets_goal: case.goal_ms.map(|goal| wall_ms <= goal),
     })
-}
-
-/// One `exe render INPUT -o OUTPUT ARGS`, its `--json` report.
-fn run_once(exe: &Path, input: &PathBuf, output: &Path, args: &[String]) -> Result<serde_json::Value> {
-    let out = Command::new(exe)
-        .arg("render")
-        .arg(input)
-        .arg("-o")
-        .arg(output)
-        .args(args)
-        .output()
-        .map_err(|e| Error::input(exe, format!("cannot run: {e}")))?;
-    if !out.status.success() {
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        return Err(Error::input(input, format!("lensblur render failed ({}): {}", out.status, stderr.trim())));
-    }
-    serde_json::from_slice(&out.stdout).map_err(|e| Error::input(input, format!("lensblur render printed no JSON report: {e}")))
 }
 
 #[cfg(test)]
