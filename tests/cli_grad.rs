@@ -214,7 +214,7 @@ fn channels_in(stack: &LayerStack, kind: DepthKind) -> Vec<(String, FlatSamples)
 }
 
 fn write_channels(path: &Path, channels: Vec<(String, FlatSamples)>) {
-    common::write_parts(path, (40, 32), vec![common::Part { name: None, origin: (0, 0), size: (40, 32), channels }]);
+    common::write_single_part(path, (40, 32), channels);
 }
 
 fn named<'a>(channels: &'a [(String, Vec<f32>)], name: &str) -> &'a [f32] {

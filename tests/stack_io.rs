@@ -119,16 +119,7 @@ fn blender_multilayer_with_half_colour_and_float_depth() {
     ));
     channels.push(("Back.Normal.X".into(), float((0..n).map(|i| i as f32))));
     channels.push(("Back.Normal.Z".into(), float((0..n).map(|_| 1.0))));
-    write_parts(
-        &path,
-        (W, H),
-        vec![Part {
-            name: None,
-            origin: (0, 0),
-            size: (W, H),
-            channels,
-        }],
-    );
+    write_single_part(&path, channels);
 
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
     let stack = &file.stack;
@@ -179,16 +170,7 @@ fn blender_file_output_value_depth() {
         opaque,
         n,
     );
-    write_parts(
-        &path,
-        (W, H),
-        vec![Part {
-            name: None,
-            origin: (0, 0),
-            size: (W, H),
-            channels,
-        }],
-    );
+    write_single_part(&path, channels);
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
     assert_eq!(file.stack.layers.len(), 1);
     assert_layer(&file.stack.layers[0], 2, 0.25);
@@ -201,7 +183,7 @@ fn blender_file_output_value_depth() {
 
 /// One single-part file of `channels` at W x H.
 fn write_single_part(path: &Path, channels: Vec<(String, FlatSamples)>) {
-    write_parts(path, (W, H), vec![Part { name: None, origin: (0, 0), size: (W, H), channels }]);
+    common::write_single_part(path, (W, H), channels);
 }
 
 #[test]
@@ -276,16 +258,7 @@ fn oiio_long_names_and_inverse_z() {
         opaque,
         n,
     ));
-    write_parts(
-        &path,
-        (W, H),
-        vec![Part {
-            name: None,
-            origin: (0, 0),
-            size: (W, H),
-            channels,
-        }],
-    );
+    write_single_part(&path, channels);
     let options = ReadOptions {
         depth_kind: DepthKind::InverseZ,
         ..ReadOptions::default()
@@ -314,16 +287,7 @@ fn unprefixed_rgbz_is_one_single_image_layer() {
         n,
     );
     channels.retain(|(name, _)| name != "A");
-    write_parts(
-        &path,
-        (W, H),
-        vec![Part {
-            name: None,
-            origin: (0, 0),
-            size: (W, H),
-            channels,
-        }],
-    );
+    write_single_part(&path, channels);
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
     let layer = &file.stack.layers[0];
     assert!(file.info.single_image);
@@ -414,16 +378,7 @@ fn transparent_pixels_get_depth_from_nearby_opaque_ones() {
         _ => -3.0,
     };
     let channels = layer_channels(0, as_refs(&names("a.", false, "Z")), depth, alpha, W * H);
-    write_parts(
-        &path,
-        (W, H),
-        vec![Part {
-            name: None,
-            origin: (0, 0),
-            size: (W, H),
-            channels,
-        }],
-    );
+    write_single_part(&path, channels);
     let file = read_stack(&path, &ReadOptions::default()).unwrap();
     let d = &file.stack.layers[0].disparity;
     for (i, &v) in d.iter().enumerate() {
@@ -450,16 +405,7 @@ fn layer_selection_by_name_and_glob_in_any_order() {
             W * H,
         ));
     }
-    write_parts(
-        &path,
-        (W, H),
-        vec![Part {
-            name: None,
-            origin: (0, 0),
-            size: (W, H),
-            channels,
-        }],
-    );
+    write_single_part(&path, channels);
     let options = ReadOptions {
         layers: Some(vec!["bg".into(), "fg_h*".into()]),
         ..ReadOptions::default()
@@ -521,16 +467,7 @@ fn errors_name_the_problem() {
         W * H,
     );
     channels.retain(|(n, _)| n != "fg.Z");
-    write_parts(
-        &no_depth,
-        (W, H),
-        vec![Part {
-            name: None,
-            origin: (0, 0),
-            size: (W, H),
-            channels,
-        }],
-    );
+    write_single_part(&no_depth, channels);
     let message = read_stack(&no_depth, &ReadOptions::default())
         .unwrap_err()
         .to_string();
@@ -558,16 +495,7 @@ fn errors_name_the_problem() {
         W * H,
     );
     channels[1].1 = half((0..W * H).map(|i| if i < 3 { f32::NAN } else { 0.5 }));
-    write_parts(
-        &nan,
-        (W, H),
-        vec![Part {
-            name: None,
-            origin: (0, 0),
-            size: (W, H),
-            channels,
-        }],
-    );
+    write_single_part(&nan, channels);
     let message = read_stack(&nan, &ReadOptions::default())
         .unwrap_err()
         .to_string();

@@ -107,6 +107,11 @@ pub struct Part {
     pub channels: Vec<(String, FlatSamples)>,
 }
 
+/// Writes `channels` as one unnamed part filling the display window `size` at (0, 0).
+pub fn write_single_part(path: &Path, size: (usize, usize), channels: Vec<(String, FlatSamples)>) {
+    write_parts(path, size, vec![Part { name: None, origin: (0, 0), size, channels }]);
+}
+
 /// Writes `parts` into one EXR whose display window is `display` at (0, 0).
 pub fn write_parts(path: &Path, display: (usize, usize), parts: Vec<Part>) {
     write_parts_with(path, ((0, 0), display), LayerAttributes::default(), parts)
