@@ -66,8 +66,8 @@ impl SingleImageGpu for Gather {
 }
 
 /// A single-image baseline's one compute pipeline on a device ([`Gather`] and
-/// [`crate::render::scatter::Scatter`]): the input checked, the aperture's kernel texels
-/// made, then its [`ImagePass`] on tiles.
+/// [`crate::render::scatter::Scatter`], which check their input and work out their halos):
+/// the aperture's kernel texels made, then its [`ImagePass`] on tiles.
 pub(crate) struct ImageBaseline {
     ctx: Context,
     pipeline: ComputePipeline,
