@@ -446,7 +446,6 @@ impl KernelImage {
     }
 }
 
-
 /// Bilinear sample of a `size x size` kernel image at `(u, v)` in `[-1, 1]^2`, texel centres at
 /// `(i + 1/2) / size`; zero outside. One body for the f32 image the shaders sample
 /// ([`KernelImage::sample`]) and the f64 CPU reference of Dr.Bokeh's lens term

@@ -559,20 +559,19 @@ impl ForwardBuffers {
         };
         let (core_pixels, read_pixels) = (core.area() as u64, read.area() as u64);
         let (mut rgba, mut disparity) = (Vec::new(), Vec::new());
-        match residency {
-            Residency::Stacked => {
+        match (residency, kept) {
+            (Residency::Stacked, _) => {
                 let (read_n, read_room) = (params.layer_count * read.area(), params.layer_count * room.read);
                 let colours = stack.layers.iter().flat_map(|l| crop_rows(&l.rgba.pixels, params.width, read));
                 let depths = stack.layers.iter().flat_map(|l| crop_rows(&l.disparity, params.width, read));
                 rgba.push(Buffer::from_slices_with_room_in(ctx, batch, "drbokeh rgba", read_n, read_room, colours)?);
                 disparity.push(Buffer::from_slices_with_room_in(ctx, batch, "drbokeh disparity", read_n, read_room, depths)?);
             }
-            Residency::LayerByLayer if kept.is_some() => {
-                let kept = kept.expect("matched above");
+            (Residency::LayerByLayer, Some(kept)) => {
                 debug_assert!(kept.read == read && kept.rgba.len() == stack.layers.len(), "a kept upload of another rect");
                 (rgba, disparity) = (kept.rgba, kept.disparity);
             }
-            Residency::LayerByLayer => {
+            (Residency::LayerByLayer, None) => {
                 for l in &stack.layers {
                     let colours = crop_rows(&l.rgba.pixels, params.width, read);
                     let depths = crop_rows(&l.disparity, params.width, read);
