@@ -29,7 +29,7 @@
 //!    way from where it is seen (1 own, 0 farther), so a layer continues under a wire only
 //!    where it is seen on both sides, not across the sky behind it.
 use rayon::prelude::*;
-use super::fill::{compress, expand, is_hdr, mirror_sources, nearest_known, push_pull, run_from, BoxSums};
+use super::fill::{compress, expand, is_hdr, mirror_sources, nearest_known, push_pull, push_pull_where, run_from, BoxSums};
 use super::matting::{solve_matte, Matte, MatteOptions};
 use super::spill_depth::{assign_spill_depth, upper_median};
 use super::{Layer, LayerStack};
@@ -1140,15 +1140,44 @@ fn build_layer(k: usize, image: &Image, disparity: &[f32], signed: &[f32], label
             Cell::Empty => {}
         }
     }
+    if hidden.contains(&true) {
+        fill_hidden(w, h, &mut rgba, &colour_weight, &seen, &hidden, &mut coverage, &coverage_weight, signed);
+    }
+    let mut layer_disparity: Vec<[f32; 1]> = disparity.iter().map(|&d| [d]).collect();
+    let depth_weight: Vec<f32> = label.iter().map(|&l| if l == k { 1.0 } else { 0.0 }).collect();
+    push_pull(w, h, &mut layer_disparity, &depth_weight);
+    Layer {
+        name: format!("auto{k:02}"),
+        rgba: Image { width: w, height: h, pixels: rgba },
+        disparity: layer_disparity.into_iter().map(|d| d[0]).collect(),
+    }
+}
+
+/// Layer `k`'s colour and coverage at the pixels a nearer layer hides (`hidden`): everything
+/// here is read there only, so a layer nothing hides (the nearest) skips it all, and the
+/// colour fill's finest push skips the pixels that are not hidden.
+#[allow(clippy::too_many_arguments)]
+fn fill_hidden(
+    w: usize,
+    h: usize,
+    rgba: &mut [[f32; 4]],
+    colour_weight: &[f32],
+    seen: &[f32],
+    hidden: &[bool],
+    coverage: &mut [[f32; 1]],
+    coverage_weight: &[f32],
+    signed: &[f32],
+) {
+    let n = w * h;
     let mut filled: Vec<[f32; 4]> = rgba.iter().map(|&c| compress(c)).collect();
-    push_pull(w, h, &mut filled, &colour_weight);
-    push_pull(w, h, &mut coverage, &coverage_weight);
+    push_pull_where(w, h, &mut filled, colour_weight, hidden);
+    push_pull(w, h, coverage, coverage_weight);
     // A light cut by a nearer layer's edge continues under it at full strength (mirrored
     // across the edge) instead of fading into the push-pull average: its bokeh ball is then
     // round, not cut (issue 22, failure 1).
     let own_lights: Vec<bool> = (0..n).map(|p| colour_weight[p] > 0.0 && is_hdr(rgba[p])).collect();
-    let lights = mirror_sources(w, h, &own_lights, &hidden, |p, q| light_reach(signed[p], signed[q]));
-    let near = near_colours(w, h, &rgba, &seen, &hidden);
+    let lights = mirror_sources(w, h, &own_lights, hidden, |p, q| light_reach(signed[p], signed[q]));
+    let near = near_colours(w, h, rgba, seen, hidden);
     for p in (0..n).filter(|&p| hidden[p]) {
         let colour = match (lights[p], near[p]) {
             (Some(q), _) => rgba[q],
@@ -1160,14 +1189,6 @@ fn build_layer(k: usize, image: &Image, disparity: &[f32], signed: &[f32], label
         };
         let alpha = coverage[p][0].clamp(0.0, 1.0);
         rgba[p] = colour.map(|v| v * alpha / colour[3].max(1e-6));
-    }
-    let mut layer_disparity: Vec<[f32; 1]> = disparity.iter().map(|&d| [d]).collect();
-    let depth_weight: Vec<f32> = label.iter().map(|&l| if l == k { 1.0 } else { 0.0 }).collect();
-    push_pull(w, h, &mut layer_disparity, &depth_weight);
-    Layer {
-        name: format!("auto{k:02}"),
-        rgba: Image { width: w, height: h, pixels: rgba },
-        disparity: layer_disparity.into_iter().map(|d| d[0]).collect(),
     }
 }
 

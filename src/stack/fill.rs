@@ -162,14 +162,14 @@ fn full_coarse_taps(width: usize, height: usize, x: usize, y: usize) -> [(usize,
     [(ya + xa, (1.0 - tx) * (1.0 - ty)), (ya + xb, tx * (1.0 - ty)), (yb + xa, (1.0 - tx) * ty), (yb + xb, tx * ty)]
 }
 
-/// The last push, into the caller's `values`: every pixel whose weight is 0 or below takes the
-/// coarse level's sample, as [`push`] gives it a weightless pixel (`0 + 1 c`, the same bits);
-/// the others keep their own value.
-fn push_into_weightless<const N: usize>(width: usize, values: &mut [[f32; N]], weights: &[f32], coarse: &Level<N>) {
+/// The last push, into the caller's `values`: every pixel whose weight is 0 or below (and that
+/// `wanted` names, where given) takes the coarse level's sample, as [`push`] gives it a
+/// weightless pixel (`0 + 1 c`, the same bits); the others keep their own value.
+fn push_into_weightless<const N: usize>(width: usize, values: &mut [[f32; N]], weights: &[f32], wanted: Option<&[bool]>, coarse: &Level<N>) {
     let full = coarse.weights.iter().all(|&w| w == 1.0);
     values.par_chunks_mut(width).zip(weights.par_chunks(width)).enumerate().for_each(|(y, (values, weights))| {
         for x in 0..width {
-            if weights[x] <= 0.0 {
+            if weights[x] <= 0.0 && wanted.map_or(true, |wanted| wanted[y * width + x]) {
                 let c = if full { sample_full_coarse(coarse, x, y) } else { sample_coarse(coarse, x, y) };
                 for (v, c) in values[x].iter_mut().zip(c) {
                     *v = 0.0 + 1.0 * c;
@@ -205,6 +205,18 @@ fn push<const N: usize>(fine: &mut Level<N>, coarse: &Level<N>) {
 /// with positive weight; those keep their value exactly. Returns false (and changes
 /// nothing) when no pixel has weight.
 pub fn push_pull<const N: usize>(width: usize, height: usize, values: &mut [[f32; N]], weights: &[f32]) -> bool {
+    fill_pyramid(width, height, values, weights, None)
+}
+
+/// [`push_pull`] for a caller that reads the fill at the pixels `wanted` names only: the other
+/// weightless pixels keep their value, and the finest level's push, the largest, skips them.
+/// Where `wanted` is true the values are [`push_pull`]'s, bit for bit.
+pub fn push_pull_where<const N: usize>(width: usize, height: usize, values: &mut [[f32; N]], weights: &[f32], wanted: &[bool]) -> bool {
+    assert_eq!(wanted.len(), width * height);
+    fill_pyramid(width, height, values, weights, Some(wanted))
+}
+
+fn fill_pyramid<const N: usize>(width: usize, height: usize, values: &mut [[f32; N]], weights: &[f32], wanted: Option<&[bool]>) -> bool {
     assert_eq!(values.len(), width * height);
     assert_eq!(weights.len(), width * height);
     if width == 0 || height == 0 || !weights.iter().any(|&w| w > 0.0) {
@@ -223,7 +235,7 @@ pub fn push_pull<const N: usize>(width: usize, height: usize, values: &mut [[f32
         let (finer, coarser) = levels.split_at_mut(k);
         push(&mut finer[k - 1], &coarser[0]);
     }
-    push_into_weightless(width, values, weights, &levels[0]);
+    push_into_weightless(width, values, weights, wanted, &levels[0]);
     true
 }
 
@@ -574,6 +586,26 @@ mod tests {
                 _ => assert_eq!(*s, None, "column {x} is beyond reach"),
             }
         }
+    }
+
+    #[test]
+    fn push_pull_where_fills_the_wanted_pixels_as_push_pull_does_and_keeps_the_rest() {
+        // Odd sizes (pyramid edges), partial and zero weights, a wanted set that takes in
+        // weighted and weightless pixels: wanted pixels equal push_pull's bit for bit, the
+        // others keep their input (weightless ones included).
+        let (w, h) = (23, 17);
+        let weights: Vec<f32> = (0..w * h).map(|i| [0.0, 1.0, 0.4, 0.0, 0.0][(i * 7) % 5]).collect();
+        let input: Vec<[f32; 2]> = (0..w * h).map(|i| [(i % 13) as f32 * 0.25, -((i % 7) as f32)]).collect();
+        let wanted: Vec<bool> = (0..w * h).map(|i| (i * 11) % 3 == 0).collect();
+        let mut everywhere = input.clone();
+        assert!(push_pull(w, h, &mut everywhere, &weights));
+        let mut some = input.clone();
+        assert!(push_pull_where(w, h, &mut some, &weights, &wanted));
+        for p in 0..w * h {
+            let expected = if wanted[p] { everywhere[p] } else { input[p] };
+            assert_eq!(some[p].map(f32::to_bits), expected.map(f32::to_bits), "pixel {p} (wanted {}, weight {})", wanted[p], weights[p]);
+        }
+        assert!((0..w * h).any(|p| !wanted[p] && weights[p] <= 0.0 && everywhere[p] != input[p]), "some unwanted pixel would have been filled");
     }
 
     #[test]

@@ -21,7 +21,7 @@
 //! wires keeps its energy in B.
 use rayon::prelude::*;
 
-use super::fill::{compress, expand, is_hdr, push_pull, run_from};
+use super::fill::{compress, expand, is_hdr, push_pull_where, run_from};
 
 /// Parameters of [`solve_matte`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -248,11 +248,14 @@ impl<'a> Laplacian<'a> {
             .into_par_iter()
             .map(|k| {
                 let pixels = window_pixels(windows.centres[k], width);
+                // The window's sums, divided once: four divisions instead of 36, in the hottest
+                // loop of the conjugate gradients.
                 let (mut a, mut s) = (0.0f64, [0.0f64; 3]);
                 for &q in &pixels {
-                    a += x[q] / 9.0;
-                    (0..3).for_each(|c| s[c] += guide[q][c] * x[q] / 9.0);
+                    a += x[q];
+                    (0..3).for_each(|c| s[c] += guide[q][c] * x[q]);
                 }
+                let (a, s) = (a / 9.0, s.map(|v| v / 9.0));
                 let mu = windows.mean[k];
                 let v = mat_vec(&windows.inverse[k], [0, 1, 2].map(|c| s[c] - mu[c] * a));
                 (a - dot3(mu, v), v)
@@ -421,11 +424,12 @@ fn snap(a: f32) -> f32 {
     }
 }
 
-/// Fills one side's colour everywhere from its confident pixels (weight 1), in the
-/// range-compressed space of the layering's fills so that a light does not smear.
-fn side_fill(image: &[[f32; 4]], width: usize, height: usize, weight: &[f32]) -> Vec<[f32; 3]> {
+/// Fills one side's colour from its confident pixels (weight 1) at the pixels `read` names (the
+/// others keep their own colour), in the range-compressed space of the layering's fills so
+/// that a light does not smear.
+fn side_fill(image: &[[f32; 4]], width: usize, height: usize, weight: &[f32], read: &[bool]) -> Vec<[f32; 3]> {
     let mut values: Vec<[f32; 4]> = image.iter().map(|&c| compress(c.map(|v| v.max(0.0)))).collect();
-    push_pull(width, height, &mut values, weight);
+    push_pull_where(width, height, &mut values, weight, read);
     values.into_iter().map(expand).map(|c| [c[0], c[1], c[2]]).collect()
 }
 
@@ -445,8 +449,16 @@ fn estimate_colours(
 ) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
     let known_front: Vec<f32> = (0..alpha.len()).map(|p| if !unknown[p] && alpha[p] >= 0.5 { 1.0 } else { 0.0 }).collect();
     let known_back: Vec<f32> = (0..alpha.len()).map(|p| if !unknown[p] && alpha[p] < 0.5 { 1.0 } else { 0.0 }).collect();
-    let mut foreground = side_fill(image, width, height, &known_front);
-    let mut background = side_fill(image, width, height, &known_back);
+    // The fills are read in the band and, by the sweeps, at its pixels' 4-neighbours only.
+    let read: Vec<bool> = (0..alpha.len())
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % width, p / width);
+            unknown[p] || (x > 0 && unknown[p - 1]) || (x + 1 < width && unknown[p + 1]) || (y > 0 && unknown[p - width]) || (y + 1 < height && unknown[p + width])
+        })
+        .collect();
+    let mut foreground = side_fill(image, width, height, &known_front, &read);
+    let mut background = side_fill(image, width, height, &known_back, &read);
     // Outside the band the pixel is all one side: that side's colour is the pixel's.
     for p in (0..alpha.len()).filter(|&p| !unknown[p]) {
         let c = [image[p][0], image[p][1], image[p][2]];
