@@ -244,36 +244,66 @@ fn fill_pyramid<const N: usize>(width: usize, height: usize, values: &mut [[f32;
 /// Danielsson 1980; off the exact nearest by under a pixel). `None` where nothing is known.
 pub fn nearest_known(width: usize, height: usize, known: &[bool]) -> Vec<Option<usize>> {
     assert_eq!(known.len(), width * height);
+    assert!(width <= i32::MAX as usize && height <= i32::MAX as usize, "frame too large for nearest_known");
     // Each pixel's seed as coordinates, with its squared distance kept beside it: the same
     // comparisons in the same order as measuring both distances at every relaxation, without
-    // a division per candidate (this ran twice per layer of every auto-layered frame).
-    const NONE: (i64, i64) = (i64::MIN, i64::MIN);
-    let mut seed: Vec<(i64, i64)> = (0..known.len()).map(|i| if known[i] { ((i % width) as i64, (i / width) as i64) } else { NONE }).collect();
+    // a division per candidate (this runs once or twice per layer of every auto-layered
+    // frame). The neighbours are visited in a fixed order, each behind the frame-edge tests
+    // it needs, and ties keep the first seed found, as the sequential transform defines.
+    const NONE: (i32, i32) = (i32::MIN, i32::MIN);
+    let mut seed: Vec<(i32, i32)> = (0..known.len()).map(|i| if known[i] { ((i % width) as i32, (i / width) as i32) } else { NONE }).collect();
     let mut best: Vec<i64> = known.iter().map(|&k| if k { 0 } else { i64::MAX }).collect();
-    let mut relax = |x: usize, y: usize, offsets: &[(i64, i64)]| {
-        let p = y * width + x;
-        let (px, py) = (x as i64, y as i64);
-        for &(dx, dy) in offsets {
-            let (nx, ny) = (px + dx, py + dy);
-            if nx < 0 || ny < 0 || nx >= width as i64 || ny >= height as i64 {
-                continue;
-            }
-            let s = seed[ny as usize * width + nx as usize];
-            if s != NONE {
-                let d = (px - s.0).pow(2) + (py - s.1).pow(2);
-                if d < best[p] {
-                    (seed[p], best[p]) = (s, d);
-                }
+    let mut relax = |p: usize, x: usize, y: usize, q: usize| {
+        let s = seed[q];
+        if s != NONE {
+            let d = (x as i64 - i64::from(s.0)).pow(2) + (y as i64 - i64::from(s.1)).pow(2);
+            if d < best[p] {
+                (seed[p], best[p]) = (s, d);
             }
         }
     };
+    let last_x = width.saturating_sub(1);
     for y in 0..height {
-        (0..width).for_each(|x| relax(x, y, &[(-1, 0), (-1, -1), (0, -1), (1, -1)]));
-        (0..width).rev().for_each(|x| relax(x, y, &[(1, 0)]));
+        let row = y * width;
+        for x in 0..width {
+            let p = row + x;
+            if x > 0 {
+                relax(p, x, y, p - 1);
+            }
+            if y > 0 {
+                if x > 0 {
+                    relax(p, x, y, p - width - 1);
+                }
+                relax(p, x, y, p - width);
+                if x < last_x {
+                    relax(p, x, y, p - width + 1);
+                }
+            }
+        }
+        for x in (0..last_x).rev() {
+            relax(row + x, x, y, row + x + 1);
+        }
     }
     for y in (0..height).rev() {
-        (0..width).rev().for_each(|x| relax(x, y, &[(1, 0), (1, 1), (0, 1), (-1, 1)]));
-        (0..width).for_each(|x| relax(x, y, &[(-1, 0)]));
+        let row = y * width;
+        for x in (0..width).rev() {
+            let p = row + x;
+            if x < last_x {
+                relax(p, x, y, p + 1);
+            }
+            if y + 1 < height {
+                if x < last_x {
+                    relax(p, x, y, p + width + 1);
+                }
+                relax(p, x, y, p + width);
+                if x > 0 {
+                    relax(p, x, y, p + width - 1);
+                }
+            }
+        }
+        for x in 1..width {
+            relax(row + x, x, y, row + x - 1);
+        }
     }
     seed.into_iter().map(|s| (s != NONE).then(|| s.1 as usize * width + s.0 as usize)).collect()
 }
