@@ -29,7 +29,7 @@
 //!    way from where it is seen (1 own, 0 farther), so a layer continues under a wire only
 //!    where it is seen on both sides, not across the sky behind it.
 use rayon::prelude::*;
-use super::fill::{compress, expand, is_hdr, mirror_sources, nearest_known, push_pull, push_pull_where, run_from, BoxSums};
+use super::fill::{compress, expand, four_neighbours, is_hdr, mirror_sources, nearest_known, push_pull, push_pull_where, run_from, BoxSums};
 use super::matting::{solve_matte, Matte, MatteOptions};
 use super::spill_depth::{assign_spill_depth, upper_median};
 use super::{Layer, LayerStack};
@@ -933,11 +933,7 @@ fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], optio
         // Pixels beside a real discontinuity across this cut (not a slice of one slanted surface).
         let edge: Vec<bool> = (0..w * h)
             .into_par_iter()
-            .map(|p| {
-                let (x, y) = (p % w, p / w);
-                let near = [(x > 0).then(|| p - 1), (x + 1 < w).then(|| p + 1), (y > 0).then(|| p - w), (y + 1 < h).then(|| p + w)];
-                near.into_iter().flatten().any(|q| front[q] != front[p] && (coc[q] - coc[p]).abs() >= options.matte_jump_px)
-            })
+            .map(|p| four_neighbours(p, w, h).into_iter().flatten().any(|q| front[q] != front[p] && (coc[q] - coc[p]).abs() >= options.matte_jump_px))
             .collect();
         // The Z prior says "front" where the sample hit the front, except for HDR light that
         // comes from behind it: a light seen between wires lights the wire pixels beside it
@@ -991,9 +987,7 @@ const CONCURRENT_CUTS_MAX_PIXELS: usize = 1024 * 1024;
 /// outline is still inside (dev-212 of issue 46 +0.16 dB, dev-398 +0.10 over the eight
 /// neighbours; on the dev split 25 scenes up, one down by 0.01).
 fn inside_front(label: &[usize], w: usize, h: usize, p: usize, f: usize) -> bool {
-    let (x, y) = (p % w, p / w);
-    let neighbours = [(x > 0).then(|| p - 1), (x + 1 < w).then(|| p + 1), (y > 0).then(|| p - w), (y + 1 < h).then(|| p + w)];
-    label[p] <= f && neighbours.into_iter().flatten().all(|q| label[q] <= f)
+    label[p] <= f && four_neighbours(p, w, h).into_iter().flatten().all(|q| label[q] <= f)
 }
 
 /// The least coverage by which a front over `background` can show colour `c`: whatever of the
@@ -1153,7 +1147,7 @@ fn build_layer(k: usize, image: &Image, disparity: &[f32], signed: &[f32], label
     }
 }
 
-/// Layer `k`'s colour and coverage at the pixels a nearer layer hides (`hidden`): everything
+/// A layer's colour and coverage at the pixels a nearer layer hides (`hidden`): everything
 /// here is read there only, so a layer nothing hides (the nearest) skips it all, and the
 /// colour fill's finest push skips the pixels that are not hidden.
 #[allow(clippy::too_many_arguments)]

@@ -24,6 +24,13 @@ pub(crate) fn is_hdr(c: [f32; 4]) -> bool {
     c[0].max(c[1]).max(c[2]) > 1.0
 }
 
+/// The 4-neighbours of pixel `p` in a `width` x `height` frame, in a fixed order (left, right,
+/// up, down); `None` beyond the frame's edge.
+pub(crate) fn four_neighbours(p: usize, width: usize, height: usize) -> [Option<usize>; 4] {
+    let (x, y) = (p % width, p / width);
+    [(x > 0).then(|| p - 1), (x + 1 < width).then(|| p + 1), (y > 0).then(|| p - width), (y + 1 < height).then(|| p + width)]
+}
+
 /// How many pixels in a row from pixel `p` on (not counting it), one way along `step`, `lit`
 /// accepts, up to `max`: one side of a run through `p` (the image's edge ends it).
 pub(crate) fn run_from(width: usize, height: usize, p: usize, step: (i64, i64), max: usize, lit: impl Fn(usize) -> bool) -> usize {

@@ -21,7 +21,7 @@
 //! wires keeps its energy in B.
 use rayon::prelude::*;
 
-use super::fill::{compress, expand, is_hdr, push_pull_where, run_from};
+use super::fill::{compress, expand, four_neighbours, is_hdr, push_pull_where, run_from};
 
 /// Parameters of [`solve_matte`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -450,13 +450,8 @@ fn estimate_colours(
     let known_front: Vec<f32> = (0..alpha.len()).map(|p| if !unknown[p] && alpha[p] >= 0.5 { 1.0 } else { 0.0 }).collect();
     let known_back: Vec<f32> = (0..alpha.len()).map(|p| if !unknown[p] && alpha[p] < 0.5 { 1.0 } else { 0.0 }).collect();
     // The fills are read in the band and, by the sweeps, at its pixels' 4-neighbours only.
-    let read: Vec<bool> = (0..alpha.len())
-        .into_par_iter()
-        .map(|p| {
-            let (x, y) = (p % width, p / width);
-            unknown[p] || (x > 0 && unknown[p - 1]) || (x + 1 < width && unknown[p + 1]) || (y > 0 && unknown[p - width]) || (y + 1 < height && unknown[p + width])
-        })
-        .collect();
+    let read: Vec<bool> =
+        (0..alpha.len()).into_par_iter().map(|p| unknown[p] || four_neighbours(p, width, height).into_iter().flatten().any(|q| unknown[q])).collect();
     let mut foreground = side_fill(image, width, height, &known_front, &read);
     let mut background = side_fill(image, width, height, &known_back, &read);
     // Outside the band the pixel is all one side: that side's colour is the pixel's.
@@ -532,12 +527,10 @@ const SWEPT: u32 = 1 << 31;
 
 impl SweepPixel {
     fn new(p: usize, width: usize, height: usize, alpha: &[f32], unknown: &[bool], slot: &[u32]) -> Self {
-        let (x, y) = (p % width, p / width);
         let a = alpha[p];
         let (mut a00, a01, mut a11) = (a * a, a * (1.0 - a), (1.0 - a) * (1.0 - a));
         let (mut taps, mut count) = ([(0.0f32, 0u32); 4], 0);
-        let neighbours = [(x > 0).then(|| p - 1), (x + 1 < width).then(|| p + 1), (y > 0).then(|| p - width), (y + 1 < height).then(|| p + width)];
-        for q in neighbours.into_iter().flatten() {
+        for q in four_neighbours(p, width, height).into_iter().flatten() {
             let w = COLOUR_REGULARISATION + (a - alpha[q]).abs();
             a00 += w;
             a11 += w;
@@ -635,8 +628,7 @@ mod tests {
     fn edges(front: &[bool], size: usize) -> Vec<bool> {
         (0..front.len())
             .map(|p| {
-                let (x, y) = (p % size, p / size);
-                [(x > 0).then(|| p - 1), (x + 1 < size).then(|| p + 1), (y > 0).then(|| p - size), (y + 1 < size).then(|| p + size)]
+                four_neighbours(p, size, size)
                     .into_iter()
                     .flatten()
                     .any(|q| front[q] != front[p])
