@@ -481,3 +481,57 @@ fn a_stack_memo_keeps_the_scan_and_the_upload_and_changes_no_pixel() {
     drop(renderer);
     finish(ctx);
 }
+
+/// A layer pass skips the pixels the layers in front already hide completely (their
+/// transmittance exactly 0: an opaque front layer's interior, where its V is exactly 1). The
+/// skip is exact: with an opaque 80x64 square in front of a HDR back layer, the optimised
+/// kernel stays within the span paths' 5e-5 of the baseline kernel (which gathers every pixel),
+/// the square's interior is opaque (alpha exactly 1), and scrambling the back layer where the
+/// square hides it beyond any tap's reach changes no pixel. Square in focus (CoC 1 px: the
+/// in-layer occlusion terms) and blurred (3 px), back 8-10 px; a disk and a polygon.
+#[test]
+fn pixels_hidden_by_opaque_layers_in_front_change_nothing() {
+    use lensblur::image::Image;
+    use lensblur::stack::Layer;
+    let ctx = gpu();
+    let optimised = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
+    let baseline = DrBokehGpu::with_kernel(&ctx, LayerKernel::Baseline).unwrap();
+    let (w, h) = (96, 80);
+    let square = |x: usize, y: usize| (8..88).contains(&x) && (8..72).contains(&y);
+    // 20 px inside the square: the front's V is below 1 at most ~5 px inside, and the back
+    // layer's taps from there reach less than 12 px further.
+    let deep = |x: usize, y: usize| (28..68).contains(&x) && (28..52).contains(&y);
+    let stack_with = |back: &dyn Fn(usize, usize) -> [f32; 4]| {
+        let front = Layer {
+            name: "front".into(),
+            rgba: Image::from_fn(w, h, |x, y| if square(x, y) { [0.8, 0.3, 0.1, 1.0] } else { [0.0; 4] }),
+            disparity: vec![0.65; w * h],
+        };
+        let far = Layer { name: "far".into(), rgba: Image::from_fn(w, h, back), disparity: vec![0.1; w * h] };
+        LayerStack::new(w, h, vec![front, far]).expect("a valid stack")
+    };
+    let back = |x: usize, y: usize| {
+        let v = ((x * 3 + y * 5) % 17) as f32 / 17.0;
+        let highlight = if (x * 7 + y * 13) % 29 == 0 { 40.0 } else { 0.0 };
+        [v + highlight, 0.5 * v, 1.0 - v, 1.0]
+    };
+    let scrambled = |x: usize, y: usize| if deep(x, y) { [1000.0, 0.0, 7.0, 1.0] } else { back(x, y) };
+    let (stack, other) = (stack_with(&back), stack_with(&scrambled));
+    for focus in [0.6, 0.5] {
+        for aperture in [Aperture::Disk, Aperture::polygon(6, 0.0, 0.0).unwrap()] {
+            let label = format!("focus {focus}, {aperture:?}");
+            let lens = Lens { coc: CocModel::new(20.0, focus).unwrap(), aperture: aperture.clone() };
+            let fast = optimised.render(&stack, &lens, Model::DrBokeh).unwrap();
+            let first = baseline.render(&stack, &lens, Model::DrBokeh).unwrap();
+            let worst = worst_relative(&fast, &first);
+            assert!(worst < 5e-5, "{label}: worst relative difference {worst} from the baseline kernel");
+            let translucent = (0..w * h).filter(|i| deep(i % w, i / w) && fast.pixels[*i][3] != 1.0).count();
+            assert_eq!(translucent, 0, "{label}: deep inside the square, alpha is not exactly 1");
+            let changed = optimised.render(&other, &lens, Model::DrBokeh).unwrap();
+            let differing = changed.pixels.iter().zip(&fast.pixels).filter(|(a, b)| a != b).count();
+            assert_eq!(differing, 0, "{label}: {differing} pixels changed with the hidden back layer");
+        }
+    }
+    drop((optimised, baseline));
+    finish(ctx);
+}

@@ -653,6 +653,15 @@ void main() {
     ivec2 x0 = pc.core.xy + local;
     // Centres past the core (only at the image's right edge) repeat the last one, unwritten.
     int last = min(RUN, pc.core.z - local.x) - 1;
+    // Centres hidden by the layers in front leave the composite as it is: a run of them
+    // skips its gather (lavapipe runs the lanes of a SIMD row that all return no further).
+    bool hidden = true;
+    for (int k = 0; k <= last; ++k) {
+        hidden = hidden && drbokeh_layer_hidden(x0 + ivec2(k, 0));
+    }
+    if (hidden) {
+        return;
+    }
     int tile = pc.layer * pc.tiles_x * pc.tiles_y + (x0.y / DRBOKEH_TILE) * pc.tiles_x + x0.x / DRBOKEH_TILE;
     int h = tile_window[tile];
     vec4 cw[RUN];

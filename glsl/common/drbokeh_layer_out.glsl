@@ -18,3 +18,12 @@ void drbokeh_layer_out(int i, vec4 cw, float v) {
     layer_cw[i] = outp;
     layer_vis[i] = transmittance;
 }
+
+// Whether the layers in front already hide core pixel p completely (folding only): their
+// transmittance is exactly 0 there, so this layer's step adds T v C / W = 0 and keeps T = 0
+// whatever it gathers (C, W and V are finite), and its pass may skip the pixel. Exact, not
+// a threshold: an opaque front layer's V is exactly 1 inside it (its visibility sum and
+// weight add the same terms), so the pixels behind its interior cost nothing.
+bool drbokeh_layer_hidden(ivec2 p) {
+    return pc.fold != 0 && pc.layer > 0 && layer_vis[drbokeh_core_index(0, p)] == 0.0;
+}
