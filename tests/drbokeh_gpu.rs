@@ -487,11 +487,13 @@ fn a_stack_memo_keeps_the_scan_and_the_upload_and_changes_no_pixel() {
 /// skip is exact: with an opaque 80x64 square in front of a HDR back layer, the optimised
 /// kernel stays within the span paths' 5e-5 of the baseline kernel (which gathers every pixel),
 /// the square's interior is opaque (alpha exactly 1), and scrambling the back layer where the
-/// square hides it beyond any tap's reach changes no pixel. Square in focus (CoC 1 px: the
-/// in-layer occlusion terms) and blurred (3 px), back 8-10 px; a disk and a polygon.
+/// square hides it beyond any tap's reach changes no pixel, nor does cutting the frame into
+/// 32-px tiles. Square in focus (CoC 1 px: the in-layer occlusion terms) and blurred (3 px),
+/// back 8-10 px; a disk and a polygon.
 #[test]
 fn pixels_hidden_by_opaque_layers_in_front_change_nothing() {
     use lensblur::image::Image;
+    use lensblur::render::drbokeh::RenderOptions;
     use lensblur::stack::Layer;
     let ctx = gpu();
     let optimised = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
@@ -530,6 +532,11 @@ fn pixels_hidden_by_opaque_layers_in_front_change_nothing() {
             let changed = optimised.render(&other, &lens, Model::DrBokeh).unwrap();
             let differing = changed.pixels.iter().zip(&fast.pixels).filter(|(a, b)| a != b).count();
             assert_eq!(differing, 0, "{label}: {differing} pixels changed with the hidden back layer");
+            // Each tile folds (and skips) over its own core: the same bits in 32-px tiles.
+            let options = RenderOptions { tile: Some(32), ..RenderOptions::default() };
+            let (tiled, stats) = optimised.render_with(&stack, &lens, Model::DrBokeh, &options).unwrap();
+            assert_eq!(stats.tiles, 9, "{label}: the tiled plan");
+            assert_eq!(tiled.pixels, fast.pixels, "{label}: the tiles change the image");
         }
     }
     drop((optimised, baseline));
