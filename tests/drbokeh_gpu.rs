@@ -542,3 +542,63 @@ fn pixels_hidden_by_opaque_layers_in_front_change_nothing() {
     drop((optimised, baseline));
     finish(ctx);
 }
+
+/// Tiles a layer's sources do not reach (`EMPTY_WINDOW`) are left alone by its pass when the
+/// layers fold one after another (`drbokeh_layer_adds_nothing`): a sparse middle layer (a disc
+/// covering a few of the frame's tiles) between a small front square and a full back layer.
+/// The optimised kernel stays within 5e-5 of the baseline kernel (which writes every pixel of
+/// every layer), and 32-px frame tiles give the same bits. Middle layer in focus (its own tiles'
+/// windows are 0: a skip of anything but the empty ones loses the disc) and blurred (4 px).
+#[test]
+fn tiles_a_layer_does_not_reach_are_left_alone() {
+    use lensblur::image::Image;
+    use lensblur::render::drbokeh::bounds::{windows_and_ranges, EMPTY_WINDOW};
+    use lensblur::render::drbokeh::{Params, RenderOptions};
+    use lensblur::stack::Layer;
+    let ctx = gpu();
+    let optimised = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
+    let baseline = DrBokehGpu::with_kernel(&ctx, LayerKernel::Baseline).unwrap();
+    let (w, h) = (112, 96);
+    let layer = |name: &str, disparity: f32, rgba: &dyn Fn(usize, usize) -> [f32; 4]| Layer {
+        name: name.into(),
+        rgba: Image::from_fn(w, h, rgba),
+        disparity: vec![disparity; w * h],
+    };
+    let front = layer("front", 0.65, &|x, y| {
+        if (16..40).contains(&x) && (16..40).contains(&y) { [0.8, 0.3, 0.1, 1.0] } else { [0.0; 4] }
+    });
+    // A disc with a soft (half-covered) rim, bright at its centre.
+    let middle = layer("middle", 0.4, &|x, y| {
+        let d = ((x as f32 - 80.0).powi(2) + (y as f32 - 64.0).powi(2)).sqrt();
+        let a = (10.5 - d).clamp(0.0, 1.0);
+        let glow = if d < 2.0 { 30.0 } else { 1.0 };
+        [0.1 * a * glow, 0.9 * a, 0.4 * a, a]
+    });
+    let back = layer("back", 0.1, &|x, y| {
+        let v = ((x * 3 + y * 5) % 17) as f32 / 17.0;
+        [v, 0.5 * v, 1.0 - v, 1.0]
+    });
+    let stack = LayerStack::new(w, h, vec![front, middle, back]).expect("a valid stack");
+    for focus in [0.4, 0.2] {
+        for aperture in [Aperture::Disk, Aperture::polygon(5, 0.0, 0.0).unwrap()] {
+            let label = format!("focus {focus}, {aperture:?}");
+            let lens = Lens { coc: CocModel::new(20.0, focus).unwrap(), aperture: aperture.clone() };
+            // The test needs both kinds of the middle layer's tiles.
+            let params = Params::new(&stack, &lens, Model::DrBokeh).unwrap();
+            let (windows, _) = windows_and_ranges(&params, &stack);
+            let middle = &windows[params.tiles_x * params.tiles_y..2 * params.tiles_x * params.tiles_y];
+            let empty = middle.iter().filter(|&&w| w == EMPTY_WINDOW).count();
+            assert!(empty > middle.len() / 2 && empty < middle.len(), "{label}: {empty} of {} tiles empty", middle.len());
+            let fast = optimised.render(&stack, &lens, Model::DrBokeh).unwrap();
+            let first = baseline.render(&stack, &lens, Model::DrBokeh).unwrap();
+            let worst = worst_relative(&fast, &first);
+            assert!(worst < 5e-5, "{label}: worst relative difference {worst} from the baseline kernel");
+            let options = RenderOptions { tile: Some(32), ..RenderOptions::default() };
+            let (tiled, stats) = optimised.render_with(&stack, &lens, Model::DrBokeh, &options).unwrap();
+            assert_eq!(stats.tiles, 12, "{label}: the tiled plan");
+            assert_eq!(tiled.pixels, fast.pixels, "{label}: the tiles change the image");
+        }
+    }
+    drop((optimised, baseline));
+    finish(ctx);
+}

@@ -653,7 +653,14 @@ void main() {
     ivec2 x0 = pc.core.xy + local;
     // Centres past the core (only at the image's right edge) repeat the last one, unwritten.
     int last = min(RUN, pc.core.z - local.x) - 1;
-    // Centres hidden by the layers in front leave the composite as it is: a run of them
+    int tile = pc.layer * pc.tiles_x * pc.tiles_y + (x0.y / DRBOKEH_TILE) * pc.tiles_x + x0.x / DRBOKEH_TILE;
+    int h = tile_window[tile];
+    // A tile this layer adds nothing to leaves the composite as it is: the whole workgroup
+    // returns before its loads and stores (one value per workgroup: a true branch).
+    if (drbokeh_layer_adds_nothing(h)) {
+        return;
+    }
+    // Centres hidden by the layers in front leave the composite as it is too: a run of them
     // skips its gather (lavapipe runs the lanes of a SIMD row that all return no further).
     bool hidden = true;
     for (int k = 0; k <= last; ++k) {
@@ -662,8 +669,6 @@ void main() {
     if (hidden) {
         return;
     }
-    int tile = pc.layer * pc.tiles_x * pc.tiles_y + (x0.y / DRBOKEH_TILE) * pc.tiles_x + x0.x / DRBOKEH_TILE;
-    int h = tile_window[tile];
     vec4 cw[RUN];
     float vis[RUN];
 #ifdef DRBOKEH_LAYER_SPANS

@@ -27,3 +27,16 @@ void drbokeh_layer_out(int i, vec4 cw, float v) {
 bool drbokeh_layer_hidden(ivec2 p) {
     return pc.fold != 0 && pc.layer > 0 && layer_vis[drbokeh_core_index(0, p)] == 0.0;
 }
+
+// Window of a tile no source of the layer reaches (EMPTY_WINDOW in src/render/drbokeh/bounds.rs,
+// default model only): its gathers run zero times.
+const int DRBOKEH_EMPTY_WINDOW = -1;
+
+// Whether the layer pass may leave a tile of window `window` unwritten (folding, after the
+// first layer, whose pass starts the composite): no source reaches it, so C = W = 0 and V = 0,
+// and the composite step adds T 0 = 0 and keeps T. Exact (a stored 0 would only turn a -0 of
+// the running composite into +0). A sparse layer (a flat frame's nearer auto-layers cover a
+// fifth to a third of the frame's tiles) then costs only the tiles it reaches.
+bool drbokeh_layer_adds_nothing(int window) {
+    return pc.fold != 0 && pc.layer > 0 && window == DRBOKEH_EMPTY_WINDOW;
+}

@@ -304,7 +304,8 @@ pub fn receiver_radii(params: &Params, ranges: &SourceRanges, reach: &[i32]) -> 
         .collect()
 }
 
-/// Window of a tile that no source reaches: the gather loops `-h..=h` run zero times.
+/// Window of a tile that no source reaches: the gather loops `-h..=h` run zero times, and a
+/// layer-by-layer pass leaves the tile alone (`DRBOKEH_EMPTY_WINDOW`, `glsl/common/drbokeh_layer_out.glsl`).
 pub const EMPTY_WINDOW: i32 = -1;
 
 /// Pixel gap along one axis between two tiles `k` tiles apart: `16k - 15`, or 0 for the same.
