@@ -22,7 +22,7 @@
 // - Layer by layer (pc.fold), a run of centres the layers in front hide completely
 //   (transmittance exactly 0, as inside an opaque layer) returns before its gather: the
 //   composite step would add exactly 0 and keep T = 0 (drbokeh_layer_hidden); so does every
-//   tile no source of the layer reaches (drbokeh_layer_adds_nothing), without a load.
+//   tile no source of the layer reaches (drbokeh_layer_adds_nothing), before any per-pixel load.
 // - Every other model or aperture runs the first kernel's per-tap terms over the clipped disk
 //   (this file); the disk path is glsl/drbokeh_layer_disk.comp, the same body
 //   (glsl/common/drbokeh_layer.glsl) with DRBOKEH_LAYER_DISK, which the host picks for the
