@@ -482,6 +482,22 @@ fn a_stack_memo_keeps_the_scan_and_the_upload_and_changes_no_pixel() {
     finish(ctx);
 }
 
+/// The optimised kernel's render of `stack` (returned) against the baseline kernel's, which
+/// gathers and writes every pixel of every layer: within 5e-5 relative, and the same bits cut
+/// into 32-px frame tiles (`tiles` of them), where each tile folds and skips over its own core.
+fn assert_skips_are_exact(optimised: &DrBokehGpu, baseline: &DrBokehGpu, stack: &LayerStack, lens: &Lens, tiles: usize, label: &str) -> lensblur::image::Image {
+    use lensblur::render::drbokeh::RenderOptions;
+    let fast = optimised.render(stack, lens, Model::DrBokeh).unwrap();
+    let first = baseline.render(stack, lens, Model::DrBokeh).unwrap();
+    let worst = worst_relative(&fast, &first);
+    assert!(worst < 5e-5, "{label}: worst relative difference {worst} from the baseline kernel");
+    let options = RenderOptions { tile: Some(32), ..RenderOptions::default() };
+    let (tiled, stats) = optimised.render_with(stack, lens, Model::DrBokeh, &options).unwrap();
+    assert_eq!(stats.tiles, tiles, "{label}: the tiled plan");
+    assert_eq!(tiled.pixels, fast.pixels, "{label}: the tiles change the image");
+    fast
+}
+
 /// A layer pass skips the pixels the layers in front already hide completely (their
 /// transmittance exactly 0: an opaque front layer's interior, where its V is exactly 1). The
 /// skip is exact: with an opaque 80x64 square in front of a HDR back layer, the optimised
@@ -493,7 +509,6 @@ fn a_stack_memo_keeps_the_scan_and_the_upload_and_changes_no_pixel() {
 #[test]
 fn pixels_hidden_by_opaque_layers_in_front_change_nothing() {
     use lensblur::image::Image;
-    use lensblur::render::drbokeh::RenderOptions;
     use lensblur::stack::Layer;
     let ctx = gpu();
     let optimised = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
@@ -523,20 +538,12 @@ fn pixels_hidden_by_opaque_layers_in_front_change_nothing() {
         for aperture in [Aperture::Disk, Aperture::polygon(6, 0.0, 0.0).unwrap()] {
             let label = format!("focus {focus}, {aperture:?}");
             let lens = Lens { coc: CocModel::new(20.0, focus).unwrap(), aperture: aperture.clone() };
-            let fast = optimised.render(&stack, &lens, Model::DrBokeh).unwrap();
-            let first = baseline.render(&stack, &lens, Model::DrBokeh).unwrap();
-            let worst = worst_relative(&fast, &first);
-            assert!(worst < 5e-5, "{label}: worst relative difference {worst} from the baseline kernel");
+            let fast = assert_skips_are_exact(&optimised, &baseline, &stack, &lens, 9, &label);
             let translucent = (0..w * h).filter(|i| deep(i % w, i / w) && fast.pixels[*i][3] != 1.0).count();
             assert_eq!(translucent, 0, "{label}: deep inside the square, alpha is not exactly 1");
             let changed = optimised.render(&other, &lens, Model::DrBokeh).unwrap();
             let differing = changed.pixels.iter().zip(&fast.pixels).filter(|(a, b)| a != b).count();
             assert_eq!(differing, 0, "{label}: {differing} pixels changed with the hidden back layer");
-            // Each tile folds (and skips) over its own core: the same bits in 32-px tiles.
-            let options = RenderOptions { tile: Some(32), ..RenderOptions::default() };
-            let (tiled, stats) = optimised.render_with(&stack, &lens, Model::DrBokeh, &options).unwrap();
-            assert_eq!(stats.tiles, 9, "{label}: the tiled plan");
-            assert_eq!(tiled.pixels, fast.pixels, "{label}: the tiles change the image");
         }
     }
     drop((optimised, baseline));
@@ -553,7 +560,7 @@ fn pixels_hidden_by_opaque_layers_in_front_change_nothing() {
 fn tiles_a_layer_does_not_reach_are_left_alone() {
     use lensblur::image::Image;
     use lensblur::render::drbokeh::bounds::{windows_and_ranges, EMPTY_WINDOW};
-    use lensblur::render::drbokeh::{Params, RenderOptions};
+    use lensblur::render::drbokeh::Params;
     use lensblur::stack::Layer;
     let ctx = gpu();
     let optimised = DrBokehGpu::with_kernel(&ctx, LayerKernel::Optimised).unwrap();
@@ -589,14 +596,7 @@ fn tiles_a_layer_does_not_reach_are_left_alone() {
             let middle = &windows[params.tiles_x * params.tiles_y..2 * params.tiles_x * params.tiles_y];
             let empty = middle.iter().filter(|&&w| w == EMPTY_WINDOW).count();
             assert!(empty > middle.len() / 2 && empty < middle.len(), "{label}: {empty} of {} tiles empty", middle.len());
-            let fast = optimised.render(&stack, &lens, Model::DrBokeh).unwrap();
-            let first = baseline.render(&stack, &lens, Model::DrBokeh).unwrap();
-            let worst = worst_relative(&fast, &first);
-            assert!(worst < 5e-5, "{label}: worst relative difference {worst} from the baseline kernel");
-            let options = RenderOptions { tile: Some(32), ..RenderOptions::default() };
-            let (tiled, stats) = optimised.render_with(&stack, &lens, Model::DrBokeh, &options).unwrap();
-            assert_eq!(stats.tiles, 12, "{label}: the tiled plan");
-            assert_eq!(tiled.pixels, fast.pixels, "{label}: the tiles change the image");
+            assert_skips_are_exact(&optimised, &baseline, &stack, &lens, 12, &label);
         }
     }
     drop((optimised, baseline));

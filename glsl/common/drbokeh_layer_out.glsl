@@ -19,13 +19,19 @@ void drbokeh_layer_out(int i, vec4 cw, float v) {
     layer_vis[i] = transmittance;
 }
 
+// Whether this pass folds onto a running composite that the layers in front started, and so
+// may leave a pixel of it as it is (the first layer's pass starts it: every pixel written).
+bool drbokeh_folding_onto_layers_in_front() {
+    return pc.fold != 0 && pc.layer > 0;
+}
+
 // Whether the layers in front already hide core pixel p completely (folding only): their
 // transmittance is exactly 0 there, so this layer's step adds T v C / W = 0 and keeps T = 0
 // whatever it gathers (C, W and V are finite), and its pass may skip the pixel. Exact, not
 // a threshold: an opaque front layer's V is exactly 1 inside it (its visibility sum and
 // weight add the same terms), so the pixels behind its interior cost nothing.
 bool drbokeh_layer_hidden(ivec2 p) {
-    return pc.fold != 0 && pc.layer > 0 && layer_vis[drbokeh_core_index(0, p)] == 0.0;
+    return drbokeh_folding_onto_layers_in_front() && layer_vis[drbokeh_core_index(0, p)] == 0.0;
 }
 
 // Window of a tile no source of the layer reaches (EMPTY_WINDOW in src/render/drbokeh/bounds.rs,
@@ -38,5 +44,5 @@ const int DRBOKEH_EMPTY_WINDOW = -1;
 // the running composite into +0). A sparse layer (a flat frame's nearer auto-layers cover a
 // fifth to a third of the frame's tiles) then costs only the tiles it reaches.
 bool drbokeh_layer_adds_nothing(int window) {
-    return pc.fold != 0 && pc.layer > 0 && window == DRBOKEH_EMPTY_WINDOW;
+    return drbokeh_folding_onto_layers_in_front() && window == DRBOKEH_EMPTY_WINDOW;
 }
