@@ -9,6 +9,7 @@ use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
 
+use super::kept::KeptTables;
 use super::bounds::{scanned_windows_and_ranges, search_tiles, span_radii, SourceRanges, StackScan, NO_SPAN_RADII};
 use super::{AperturePath, DrBokehPush, LensView, Model, Params, TILE};
 use crate::camera::{aperture_row_table, closed_form_gauge, kernel_run_table, Aperture, EMPTY_APERTURE_ROW};
@@ -707,21 +708,13 @@ impl<'a> ForwardFrame<'a> {
 /// tables are kept for the process: every frame of a shot, and every render of a benchmark,
 /// shares its aperture's.
 fn aperture_rows(aperture: &Aperture) -> Arc<Vec<[f32; 4]>> {
-    const KEPT: usize = 4;
-    static TABLES: Mutex<Vec<(Aperture, Arc<Vec<[f32; 4]>>)>> = Mutex::new(Vec::new());
-    if let Some((_, rows)) = TABLES.lock().unwrap_or_else(|e| e.into_inner()).iter().find(|(a, _)| a == aperture) {
-        return rows.clone();
-    }
-    let rows = Arc::new(match (closed_form_gauge(aperture), aperture_row_table(aperture)) {
-        (Some(gauge), Some(rows)) => std::iter::once(gauge).chain(rows).collect(),
-        _ => vec![EMPTY_APERTURE_ROW],
-    });
-    let mut tables = TABLES.lock().unwrap_or_else(|e| e.into_inner());
-    if tables.len() == KEPT {
-        tables.remove(0);
-    }
-    tables.push((aperture.clone(), rows.clone()));
-    rows
+    static TABLES: KeptTables<Aperture, Vec<[f32; 4]>> = KeptTables::new();
+    TABLES.get_or_make(aperture.clone(), || {
+        Arc::new(match (closed_form_gauge(aperture), aperture_row_table(aperture)) {
+            (Some(gauge), Some(rows)) => std::iter::once(gauge).chain(rows).collect(),
+            _ => vec![EMPTY_APERTURE_ROW],
+        })
+    })
 }
 
 /// Pixels around `core` its gathers read: the largest window over its search tiles and layers.

@@ -43,6 +43,7 @@ pub mod bounds;
 pub mod cpu;
 mod gpu;
 mod gpu_backward;
+mod kept;
 pub mod math;
 mod params;
 
