@@ -11,27 +11,35 @@ pub struct Image {
     pub pixels: Vec<[f32; 4]>,
 }
 
-/// Pixels from which [`Image::new`] zeroes its memory on every core. A render's output frame
-/// is allocated from the heap once earlier frames have been freed (glibc's mmap threshold
-/// grows with the blocks it frees), and calloc then clears it on one thread: 1.6 ms of a
-/// 1024^2 frame's render, as long as the device took for it on an H200.
-const PARALLEL_ZEROING_PIXELS: usize = 1 << 18;
+/// Items from which [`filled_vec`] fills on every core. A render's output frame is allocated
+/// from the heap once earlier frames have been freed (glibc's mmap threshold grows with the
+/// blocks it frees), and calloc then clears it on one thread: 1.6 ms of a 1024^2 frame's
+/// render, as long as the device took for it on an H200. Where calloc gets fresh pages from
+/// the kernel it clears nothing, and the pages are faulted in where they are first written:
+/// filling those costs the writes. So this is for frames, which renders of one size allocate
+/// again and again, and not for the backward's 120 MB of gradients at 1024^2 five layers
+/// (filled on every core, its preparation grew by 65 ms on lavapipe, and its read-back, where
+/// the pages were first touched, fell by only 55 ms).
+const PARALLEL_FILL_ITEMS: usize = 1 << 18;
+
+/// `vec![value; n]`, written on every core when it is large (256K items and more).
+pub fn filled_vec<T: Copy + Send + Sync>(value: T, n: usize) -> Vec<T> {
+    use rayon::prelude::*;
+    if n >= PARALLEL_FILL_ITEMS {
+        (0..n).into_par_iter().map(|_| value).collect()
+    } else {
+        vec![value; n]
+    }
+}
 
 impl Image {
     /// A transparent black image.
     pub fn new(width: usize, height: usize) -> Self {
-        use rayon::prelude::*;
-        let n = width * height;
-        let pixels = if n >= PARALLEL_ZEROING_PIXELS {
-            (0..n).into_par_iter().map(|_| [0.0; 4]).collect()
-        } else {
-            vec![[0.0; 4]; n]
-        };
-        Self { width, height, pixels }
+        Self::filled(width, height, [0.0; 4])
     }
 
     pub fn filled(width: usize, height: usize, value: [f32; 4]) -> Self {
-        Self { width, height, pixels: vec![value; width * height] }
+        Self { width, height, pixels: filled_vec(value, width * height) }
     }
 
     pub fn from_fn(width: usize, height: usize, mut f: impl FnMut(usize, usize) -> [f32; 4]) -> Self {
