@@ -399,6 +399,16 @@ pub fn layers_for(
     (layered, Some(count), margin)
 }
 
+/// The frame size `path`'s header declares (an EXR's display window, a PNG's or JPEG's size),
+/// read without the pixels; None where the header does not say (the read reports why).
+pub fn declared_frame_size(path: &Path) -> Option<(usize, usize)> {
+    if crate::stack::is_ldr_path(path) {
+        let (width, height) = crate::stack::ldr_size(path, u64::MAX).ok()?;
+        return Some((width as usize, height as usize));
+    }
+    crate::stack::exr_read::declared_size(path)
+}
+
 /// One flat image split into layers spaced by CoC under `coc` (how many: the second value),
 /// on a canvas extended beyond the frame by the third value on every side when `options`
 /// guess what lies there ([`extend_beyond_frame`]): what a render job renders of it.

@@ -135,8 +135,9 @@ fn a_device_lost_mid_render_is_an_error_and_leaves_the_old_output_untouched() {
     let before: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
     let fault = [("LENSBLUR_TEST_FAULT", "device-lost")];
     let (input, out_s) = (input.to_str().unwrap(), out.to_str().unwrap());
+    // `--device gpu`: in auto, a frame this small renders on the CPU without opening a device.
     for args in [
-        vec!["render", input, "-o", out_s],
+        vec!["render", input, "-o", out_s, "--device", "gpu"],
         vec!["render", input, "-o", out_s, "--method", "gather", "--layers", "*"],
         vec!["grad", input, "--grad-output", grad_output.to_str().unwrap(), "-o", grads.to_str().unwrap()],
     ] {
@@ -156,9 +157,11 @@ fn a_device_lost_mid_render_is_an_error_and_leaves_the_old_output_untouched() {
 fn without_vulkan_auto_falls_back_to_the_cpu_and_gpu_refuses() {
     let dir = common::temp_dir("cli-device", "novulkan");
     let input = write_input(&dir);
-    let (fallback, warning) = render(&input, &dir.join("auto.exr"), &[], &common::NO_VULKAN);
+    // A hexagon: a lens drbokeh's fast CPU path does not render, so auto tries the device.
+    let hexagon = ["--aperture", "polygon:6"];
+    let (fallback, warning) = render(&input, &dir.join("auto.exr"), &hexagon, &common::NO_VULKAN);
     assert!(warning.contains("no usable Vulkan device") && warning.contains("on the CPU"), "{warning}");
-    let (cpu, _) = render(&input, &dir.join("cpu.exr"), &["--device", "cpu"], &[]);
+    let (cpu, _) = render(&input, &dir.join("cpu.exr"), &[&hexagon[..], &["--device", "cpu"]].concat(), &[]);
     assert_eq!(fallback.pixels, cpu.pixels, "the fallback is the CPU path");
     let out = dir.join("gpu.exr");
     let output = common::lensblur(&["render", input.to_str().unwrap(), "-o", out.to_str().unwrap(), "--device", "gpu"], &common::NO_VULKAN);
@@ -166,6 +169,32 @@ fn without_vulkan_auto_falls_back_to_the_cpu_and_gpu_refuses() {
     assert!(!output.status.success() && !stderr.contains("panicked"), "{stderr}");
     assert!(stderr.contains("opening the Vulkan device") && stderr.contains("--device cpu"), "{stderr}");
     assert!(!out.exists());
+}
+
+/// A small one-shot drbokeh frame through a disk renders on the CPU in auto, opening no device:
+/// without Vulkan it renders as on a machine with one, without a warning, and with the bytes of
+/// `--device cpu`; `--device gpu` still renders it on the device, equal within the GPU's
+/// tolerance. A frame above 512x512 pixels, or a lens the fast path does not render, opens the
+/// device (the fallback test above).
+#[test]
+fn a_small_disk_frame_renders_on_the_cpu_without_opening_a_device() {
+    let dir = common::temp_dir("cli-device", "small-frame");
+    let input = write_input(&dir);
+    let report = |stdout: &[u8]| serde_json::from_slice::<serde_json::Value>(stdout).unwrap();
+    let auto_out = dir.join("auto.exr");
+    let output = common::lensblur(&["render", input.to_str().unwrap(), "-o", auto_out.to_str().unwrap(), "--json"], &common::NO_VULKAN);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success() && !stderr.contains("warning"), "{stderr}");
+    assert!(report(&output.stdout)["device"].is_null(), "no device opened");
+    let auto = read_rgba(&auto_out);
+    let (cpu, _) = render(&input, &dir.join("cpu.exr"), &["--device", "cpu"], &[]);
+    assert_eq!(auto.pixels, cpu.pixels, "auto renders the small frame as --device cpu does");
+    let gpu_out = dir.join("gpu.exr");
+    let output = common::lensblur(&["render", input.to_str().unwrap(), "-o", gpu_out.to_str().unwrap(), "--device", "gpu", "--json"], &[]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(report(&output.stdout)["device"].as_str().is_some_and(|name| !name.is_empty()), "--device gpu opens the device");
+    let worst = worst_relative(&read_rgba(&gpu_out), &cpu);
+    assert!(worst < 5e-5, "the device and the CPU path agree as in the test above: worst relative difference {worst}");
 }
 
 #[test]

@@ -111,7 +111,10 @@ pub struct Args {
     #[arg(long, value_name = "SIZE", value_parser = parse_size, help_heading = "Output")]
     pub max_memory: Option<u64>,
     /// Where Vulkan methods run: auto (the Vulkan device; the CPU, with a warning, if none can
-    /// be opened), gpu (fail without one), cpu (the CPU references: slow, for checking).
+    /// be opened; a frame of at most 512x512 pixels that drbokeh renders through a plain disk,
+    /// with no lens character or tiling, on the CPU: opening a device costs more than that
+    /// render), gpu (fail without one), cpu (the CPU paths: drbokeh's disk fast, the other
+    /// references slow, for checking).
     #[arg(long, value_enum, default_value = "auto", help_heading = "Output")]
     pub device: DeviceChoice,
     /// Print a JSON report (camera and aperture, layers and their order, CoC range, timings) on
@@ -194,7 +197,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (loaded, opened) = std::thread::scope(|scope| {
         let opening = scope.spawn(|| {
             let start = Instant::now();
-            let ctx = open_device(&job);
+            // A small frame may render on the CPU without a device (`RenderJob::place_frame`).
+            let ctx = open_device(&job, lensblur::input::declared_frame_size(&args.input));
             let device_open = start.elapsed();
             if let Ok(Some(ctx)) = &ctx {
                 // A failure here is the render's to report, in its own words: it compiles
@@ -383,10 +387,11 @@ impl DeviceChoice {
 
 /// The Vulkan context `job` runs on, or None for the CPU path (the library's policy:
 /// [`RenderJob::place`]), saying on stderr why the CPU path runs when the user may not expect it.
-pub(super) fn open_device(job: &RenderJob) -> anyhow::Result<Option<Context>> {
+/// `frame`: the size of the frames rendered (None where no header says).
+pub(super) fn open_device(job: &RenderJob, frame: Option<(usize, usize)>) -> anyhow::Result<Option<Context>> {
     let method = job.method();
     let named = ContextOptions::from_env().device.is_some();
-    let placement = job.place().with_context(|| {
+    let placement = job.place_frame(frame).with_context(|| {
         if named {
             "opening the Vulkan device named by LENSBLUR_DEVICE (see `lensblur devices`; unset it, or --device cpu)"
         } else {
@@ -395,13 +400,13 @@ pub(super) fn open_device(job: &RenderJob) -> anyhow::Result<Option<Context>> {
     })?;
     match &placement {
         Placement::Cpu(CpuReason::Asked) => {
-            eprintln!("lensblur: warning: rendering {method} on the CPU (reference path, slow)");
+            eprintln!("lensblur: warning: rendering {method} on the CPU (--device cpu: slow but for drbokeh through a disk)");
         }
         Placement::Cpu(CpuReason::NoDevice(error)) => eprintln!(
             "lensblur: warning: no usable Vulkan device ({error}); rendering {method} on the CPU \
              (slow); --device cpu says so explicitly, --device gpu makes this an error"
         ),
-        Placement::Gpu(_) | Placement::Cpu(CpuReason::CpuMethod) => {}
+        Placement::Gpu(_) | Placement::Cpu(CpuReason::CpuMethod | CpuReason::SmallFrame) => {}
     }
     Ok(placement.into_context())
 }

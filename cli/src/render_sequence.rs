@@ -101,7 +101,10 @@ pub fn run(args: &Args, frames: &str) -> anyhow::Result<()> {
     let spinner = progress::spinner(args.json);
     spinner.set_message("opening the device");
     let start = Instant::now();
-    let ctx = open_device(&setup.job)?;
+    // Placed as a one-shot render of its first frame is (`RenderJob::place_frame`), so that
+    // every frame has the bytes of its single render.
+    let frame_size = shot.files().find_map(|file| lensblur::input::declared_frame_size(&file.input));
+    let ctx = open_device(&setup.job, frame_size)?;
     let device_open = start.elapsed();
     let mut reports = Vec::new();
     let count = shot.frames.len();

@@ -16,7 +16,7 @@ use crate::character::Character;
 use crate::image::Image;
 use crate::input::{load, CameraRequest, InputOptions, ReadInput};
 pub use crate::input::LoadedInput;
-use crate::render::placement::{place, DevicePreference, Placement};
+use crate::render::placement::{place, place_frame, DevicePreference, Placement};
 use crate::render::tiler::{RenderOptions, StackMemo};
 use crate::render::vdslr::Highlight;
 use crate::render::{Lens, Method, MethodSettings, Renderer, Setting};
@@ -284,17 +284,32 @@ impl RenderJob {
     /// the method, the aperture and the lens character, all known before the file is. The
     /// context keeps them for the render's own renderer.
     pub fn warm_up(&self, ctx: &Context) -> Result<()> {
-        let method = self.spec.method;
-        // Any CoC: the pipelines do not depend on it.
+        let (_, lens) = self.method_lens()?;
+        self.spec.method.prepare(Some(ctx))?.warm_up(&lens)
+    }
+
+    /// The character left for the method's passes and the lens they render through, at any
+    /// CoC (known before the file is read: what the pipelines and the placement follow).
+    fn method_lens(&self) -> Result<(Character, Lens)> {
         let lens = Lens { coc: crate::camera::CocModel::new(1.0, 0.5)?, aperture: self.spec.camera.aperture.clone() };
-        let (_, lens) = self.spec.character.for_method(method, &lens);
-        method.prepare(Some(ctx))?.warm_up(&lens)
+        Ok(self.spec.character.for_method(self.spec.method, &lens))
     }
 
     /// Where the method runs: the Vulkan device (`LENSBLUR_DEVICE` picks one), or the CPU
     /// reference, with the reason (see [`place`]).
     pub fn place(&self) -> Result<Placement> {
         place(self.spec.method, self.spec.device, &ContextOptions::from_env())
+    }
+
+    /// [`Self::place`] for a one-shot render of one frame of `frame` pixels (None where
+    /// unknown): a small frame whose method renders the job's lens fast on the CPU, with no
+    /// further lens character and no device tiling asked for (`tile`, `max_memory`), opens no
+    /// device ([`place_frame`]).
+    pub fn place_frame(&self, frame: Option<(usize, usize)>) -> Result<Placement> {
+        let (look, lens) = self.method_lens()?;
+        let device_tiling = self.spec.tile.is_some() || self.spec.max_memory.is_some();
+        let frame = frame.filter(|_| look == Character::default() && !device_tiling);
+        place_frame(self.spec.method, self.spec.device, &ContextOptions::from_env(), &lens, frame)
     }
 
     /// Reads `path` for this job: the camera resolved (the job's values, then the header, then

@@ -50,6 +50,7 @@ pub const METHOD: MethodSpec = MethodSpec {
     settings: &[],
     prepare: |_| Ok(Box::new(|input: MethodInput<'_>, lens: &Lens, _: &RenderOptions, _: &MethodSettings| render(input.layers()?, lens))),
     differentiable: Some(|_, _| Ok(Box::new(GaussPsf::default()))),
+    fast_on_cpu: crate::render::method::never_fast_on_cpu,
 };
 
 /// The forward pass of the default [`GaussPsf`], for `lensblur render`.

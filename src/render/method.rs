@@ -142,6 +142,15 @@ pub struct MethodSpec {
     pub prepare: fn(Option<&Context>) -> Result<Box<dyn Renderer>>,
     /// Makes its backward pass on `ctx` (`lensblur grad`, `fit-depth`), if it has one.
     pub differentiable: Option<fn(&Context, Slope) -> Result<Box<dyn Differentiable>>>,
+    /// Whether its CPU path renders a lens as fast as its device passes would on a small frame
+    /// (without a device it renders that lens through a fast path, not only its reference):
+    /// a one-shot render of a small frame then opens no device ([`crate::render::placement`]).
+    pub fast_on_cpu: fn(&Lens) -> bool,
+}
+
+/// [`MethodSpec::fast_on_cpu`] of a method whose CPU path is its reference alone.
+pub fn never_fast_on_cpu(_: &Lens) -> bool {
+    false
 }
 
 /// A rendering method: a handle on its [`MethodSpec`] in the registry.
@@ -185,6 +194,11 @@ impl Method {
     /// Whether the method runs on the Vulkan device (and so needs a [`Context`]).
     pub fn uses_gpu(self) -> bool {
         self.0.uses_gpu
+    }
+
+    /// Whether its CPU path renders `lens` fast ([`MethodSpec::fast_on_cpu`]).
+    pub fn fast_on_cpu(self, lens: &Lens) -> bool {
+        (self.0.fast_on_cpu)(lens)
     }
 
     /// Whether the method has a backward pass.

@@ -21,6 +21,7 @@ pub const METHOD: MethodSpec = MethodSpec {
     settings: &[],
     prepare: |_| Ok(Box::new(|input: MethodInput<'_>, lens: &Lens, _: &RenderOptions, _: &MethodSettings| Ok(render_oracle(input.layers()?, lens)))),
     differentiable: None,
+    fast_on_cpu: crate::render::method::never_fast_on_cpu,
 };
 
 /// Renders `stack` (front to back, premultiplied) through `lens`, one aperture image per layer.

@@ -166,6 +166,15 @@ pub fn read_parts(path: &Path, max_pixels: u64) -> Result<(Vec<PartInfo>, BTreeM
     Ok((parts, camera_attributes(&meta)))
 }
 
+/// The frame size (display window) an EXR's headers declare, read without its pixels: what a
+/// caller decides on before the read (`RenderJob::place_frame`). None where the file is not a
+/// readable EXR: the read itself says why.
+pub fn declared_size(path: &Path) -> Option<(usize, usize)> {
+    let meta = read_headers(path, u64::MAX).ok()?;
+    let window = meta.headers.first()?.shared_attributes.display_window;
+    Some((window.size.x(), window.size.y()))
+}
+
 pub(super) fn read_headers(path: &Path, max_pixels: u64) -> Result<MetaData> {
     let mut magic = [0u8; 4];
     let mut file = std::fs::File::open(path).map_err(Error::io(path))?;

@@ -45,6 +45,7 @@ mod gpu;
 mod gpu_backward;
 mod kept;
 pub mod math;
+pub mod native;
 mod params;
 
 #[cfg(test)]
@@ -69,6 +70,7 @@ pub const METHOD: MethodSpec = MethodSpec {
     settings: &[],
     prepare: |ctx| renderer(ctx, Model::DrBokeh),
     differentiable: Some(|ctx, slope| differentiable(ctx, Model::DrBokeh, slope)),
+    fast_on_cpu: |lens| native::supports(lens, Model::DrBokeh),
 };
 
 /// Dr.Bokeh with the formulas of its released code ([`Model::Compat`]); otherwise as [`METHOD`].
@@ -78,6 +80,7 @@ pub const METHOD_COMPAT: MethodSpec = MethodSpec {
     summary: "Dr.Bokeh with the formulas of its released code (Vulkan)",
     prepare: |ctx| renderer(ctx, Model::Compat),
     differentiable: Some(|ctx, slope| differentiable(ctx, Model::Compat, slope)),
+    fast_on_cpu: crate::render::method::never_fast_on_cpu,
     ..METHOD
 };
 
@@ -102,6 +105,8 @@ impl Renderer for DrBokehRenderer {
                 Ok(gpu.render_resident(stack, &resident, lens, self.model, options)?.0)
             }
             (Some(gpu), None) => Ok(gpu.render_with(stack, lens, self.model, options)?.0),
+            // Without a device: the fast CPU path where it renders the lens, else the reference.
+            (None, _) if native::supports(lens, self.model) => native::render_native(stack, lens),
             (None, _) => render_cpu(stack, lens, self.model),
         }
     }

@@ -29,6 +29,7 @@ pub const METHOD: MethodSpec = MethodSpec {
     settings: &[],
     prepare: |ctx| Ok(single_image_baseline(ctx.map(Gather::new).transpose()?, render_gather_cpu)),
     differentiable: None,
+    fast_on_cpu: crate::render::method::never_fast_on_cpu,
 };
 
 /// Width in pixels of the anti-aliased rim of the acceptance test.

@@ -52,6 +52,7 @@ pub const METHOD: MethodSpec = MethodSpec {
     settings: &[Setting::Samples],
     prepare: renderer,
     differentiable: None,
+    fast_on_cpu: crate::render::method::never_fast_on_cpu,
 };
 
 fn renderer(ctx: Option<&Context>) -> Result<Box<dyn Renderer>> {

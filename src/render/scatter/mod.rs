@@ -31,6 +31,7 @@ pub const METHOD: MethodSpec = MethodSpec {
     settings: &[],
     prepare: |ctx| Ok(single_image_baseline(ctx.map(Scatter::new).transpose()?, render_scatter_cpu)),
     differentiable: None,
+    fast_on_cpu: crate::render::method::never_fast_on_cpu,
 };
 
 /// Sharpness of the soft disk edge (BokehMe's constant): the weight falls from 0.98 to 0.02
