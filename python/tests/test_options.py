@@ -87,7 +87,8 @@ def test_render_file_equals_the_command_lines_render(cli, example, tmp_path, fla
     expected = cli_render(cli, tmp_path, "cli", [str(layers), *flags])
     image = lensblur.render_file(layers, **options)
     assert image.shape == expected.shape
-    # One library, one device: the same float32 image.
+    # One library: the same float32 image, up to the command line's CPU path on a small frame
+    # with no lens character against the device.
     assert np.abs(image - expected).max() <= 1e-5
 
 
