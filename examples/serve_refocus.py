@@ -1,7 +1,7 @@
 """Resident refocus through `lensblur serve`, measured as a host sees it: one server, one stack
 loaded once, focus pulled over it; against one-shot `lensblur render` processes of the same file
 and camera, and against the device time of the render (LENSBLUR_PROFILE's sum of the compute
-shaders' timestamps). Also the server's resident memory after 10 and after N renders (a leak
+shaders' timestamps, the one-shot render run with `--device gpu`). Also the server's resident memory after 10 and after N renders (a leak
 shows as growth). Standard library only: any host can run it.
 
     python3 examples/serve_refocus.py STACK.exr [LENSBLUR_BINARY] [RENDERS] [-- CAMERA FLAGS]
@@ -29,8 +29,9 @@ def resident_mib(pid):
 
 
 def one_shot(binary, path, out, camera, profile=False):
-    """(wall ms, device ms or None) of one `lensblur render` process."""
-    command = [binary, "render", path, "-o", out, *flags(camera)]
+    """(wall ms, device ms or None) of one `lensblur render` process. Profiled, it renders on the
+    device (`--device gpu`): a small frame's one-shot render otherwise opens none."""
+    command = [binary, "render", path, "-o", out, *flags(camera), *(["--device", "gpu"] if profile else [])]
     env = dict(os.environ, LENSBLUR_PROFILE="1") if profile else None
     start = time.perf_counter()
     done = subprocess.run(command, check=True, capture_output=True, text=True, env=env)
@@ -82,13 +83,14 @@ def main():
         server = Server(binary)
         loaded = server.ask("load", path=path)
         first = server.ask("render", stack=loaded["stack"], output=os.path.join(out, "o.raw"), camera=camera(focus[0]))
-        resident, rendering, relayered, memory = [], [], 0, {}
+        resident, rendering, relayered, on_cpu, memory = [], [], 0, 0, {}
         for i in range(renders):
             start = time.perf_counter()
             answer = server.ask("render", stack=loaded["stack"], output=os.path.join(out, "o.raw"), camera=camera(focus[(i + 1) % len(focus)]))
             resident.append((time.perf_counter() - start) * 1e3)
             rendering.append(answer["timings_ms"]["render"])
             relayered += answer["relayered"]
+            on_cpu += answer["cpu"]
             if i + 1 in (10, renders):
                 memory[i + 1] = resident_mib(server.proc.pid)
         server.close()
@@ -100,7 +102,7 @@ def main():
     print(f"serve: load {loaded['timings_ms']['load']:.1f} ms, first render {first['timings_ms']['total']:.1f} ms "
           f"(builds the pipelines)")
     print(f"serve refocus: median {statistics.median(resident):.1f} ms per request at the host, of which "
-          f"rendering {statistics.median(rendering):.1f} ms; {relayered} of {renders} re-layered")
+          f"rendering {statistics.median(rendering):.1f} ms; {relayered} of {renders} re-layered, {on_cpu} on the CPU")
     print(f"  ratio to the one-shot process {statistics.median(resident) / statistics.median(walls):.2f} (goal <= 0.4); "
           f"to its device time {statistics.median(resident) / device:.2f} (goal <= 1.3)")
     growth = (memory[renders] / memory[10] - 1) * 100

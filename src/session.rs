@@ -25,6 +25,8 @@ pub struct SessionRender {
     pub relayered: bool,
     /// The method's renderer was prepared for this render (its first use in the session).
     pub prepared: bool,
+    /// It rendered on the CPU: the session has no device, or a small frame on a CPU device.
+    pub cpu: bool,
     /// Milliseconds: layering (0 when reused), rendering, and the whole call.
     pub layering_ms: f64,
     pub render_ms: f64,
@@ -45,7 +47,8 @@ struct Layered {
 /// A resident renderer over one input (see the module note).
 pub struct Session {
     // Declared before the context: dropped first, while the device still exists.
-    renderers: HashMap<&'static str, Box<dyn Renderer>>,
+    /// Each method's renderer, on the device or (true) on the CPU.
+    renderers: HashMap<(&'static str, bool), Box<dyn Renderer>>,
     input: ReadInput,
     layered: Option<Layered>,
     // Shared: a server keeps one device for every stack it holds.
@@ -89,12 +92,18 @@ impl Session {
             stats.layering_ms = ms(layering.elapsed());
         }
         let Layered { loaded, memo, .. } = self.layered.as_ref().expect("set above");
-        if !self.renderers.contains_key(method.name()) {
-            let renderer = method.prepare(self.context.as_deref())?;
-            self.renderers.insert(method.name(), renderer);
+        // On a CPU device (lavapipe) a frame the one-shot render takes to the CPU renders there
+        // too: the method's own CPU path is faster than the emulated device, and the session's
+        // render keeps the one-shot's bytes. A GPU keeps every frame.
+        let on_cpu = self.context.as_ref().is_some_and(|c| c.info().is_cpu()) && job.small_frame_on_cpu(Some(loaded.frame_size()))?;
+        let key = (method.name(), on_cpu);
+        stats.cpu = on_cpu || self.context.is_none();
+        if !self.renderers.contains_key(&key) {
+            let renderer = method.prepare(if on_cpu { None } else { self.context.as_deref() })?;
+            self.renderers.insert(key, renderer);
             stats.prepared = true;
         }
-        let renderer = self.renderers[method.name()].as_ref();
+        let renderer = self.renderers[&key].as_ref();
         let rendering = Instant::now();
         let rendered = job.render_resident(renderer, loaded, None, Some(memo))?;
         let image = job.output(&rendered.image, loaded)?.into_owned();

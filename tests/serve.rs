@@ -100,6 +100,9 @@ fn served_renders_equal_one_shot_renders_for_three_cameras_and_two_apertures() {
     let flat = dir.join("flat.exr");
     write_flat(&flat);
 
+    // Whether the device lensblur uses is a CPU device (`lensblur devices` marks it `*`).
+    let devices = String::from_utf8(common::lensblur(&["devices"], &[]).stdout).unwrap();
+    let cpu_device = devices.lines().any(|line| line.starts_with('*') && line.ends_with("[CPU]"));
     let (mut server, greeting) = Server::start();
     assert_eq!(greeting["protocol"], json!("lensblur-serve"));
     assert_eq!(greeting["version"], json!(1));
@@ -126,6 +129,12 @@ fn served_renders_equal_one_shot_renders_for_three_cameras_and_two_apertures() {
                 let expected = one_shot(input, &dir.join("one-shot.exr"), &[&args[..], &["--focus-distance", &focus.to_string()]].concat());
                 let difference = common::max_abs_diff(&read_rgba(&served, None, u64::MAX).unwrap(), &expected);
                 assert!(difference <= TOLERANCE, "{name}, focus {focus}, {aperture}: served and one-shot differ by {difference}");
+                // A small frame through a disk renders where the one-shot render does: on a CPU
+                // device (lavapipe) on the CPU path, with its very bytes; a hexagon on the device.
+                assert_eq!(answer["cpu"], json!(aperture == "disk" && cpu_device), "{answer}");
+                if aperture == "disk" && cpu_device {
+                    assert_eq!(difference, 0.0, "{name}, focus {focus}: the CPU path's bytes");
+                }
             }
         }
         // True layers are layered once; a flat image again for each new focus (its cut moves),

@@ -323,7 +323,7 @@ impl Server {
         write(output, format, &image).map_err(|e| e.with_causes())?;
         Ok(json!({
             "id": id, "ok": true, "output": output, "width": image.width, "height": image.height,
-            "relayered": stats.relayered, "prepared": stats.prepared,
+            "relayered": stats.relayered, "prepared": stats.prepared, "cpu": stats.cpu,
             "timings_ms": {
                 "layering": stats.layering_ms, "render": stats.render_ms, "write": ms(writing.elapsed()), "total": ms(start.elapsed()),
             },

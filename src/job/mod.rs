@@ -16,7 +16,7 @@ use crate::character::Character;
 use crate::image::Image;
 use crate::input::{load, CameraRequest, InputOptions, ReadInput};
 pub use crate::input::LoadedInput;
-use crate::render::placement::{place, place_frame, DevicePreference, Placement};
+use crate::render::placement::{place, place_frame, small_frame_on_cpu, DevicePreference, Placement};
 use crate::render::tiler::{RenderOptions, StackMemo};
 use crate::render::vdslr::Highlight;
 use crate::render::{Lens, Method, MethodSettings, Renderer, Setting};
@@ -306,10 +306,23 @@ impl RenderJob {
     /// further lens character and no device tiling asked for (`tile`, `max_memory`), opens no
     /// device ([`place_frame`]).
     pub fn place_frame(&self, frame: Option<(usize, usize)>) -> Result<Placement> {
+        let (lens, frame) = self.frame_for_cpu(frame)?;
+        place_frame(self.spec.method, self.spec.device, &ContextOptions::from_env(), &lens, frame)
+    }
+
+    /// Whether [`Self::place_frame`] renders a frame of `frame` pixels on the CPU, opening no
+    /// device (a resident [`crate::session::Session`] on a CPU device follows it too).
+    pub fn small_frame_on_cpu(&self, frame: Option<(usize, usize)>) -> Result<bool> {
+        let (lens, frame) = self.frame_for_cpu(frame)?;
+        Ok(small_frame_on_cpu(self.spec.method, self.spec.device, &ContextOptions::from_env(), &lens, frame))
+    }
+
+    /// The lens the method renders through and `frame`, or None for the frame where a lens
+    /// character or device tiling (`tile`, `max_memory`) keeps the render on the device.
+    fn frame_for_cpu(&self, frame: Option<(usize, usize)>) -> Result<(Lens, Option<(usize, usize)>)> {
         let (look, lens) = self.method_lens()?;
         let device_tiling = self.spec.tile.is_some() || self.spec.max_memory.is_some();
-        let frame = frame.filter(|_| look == Character::default() && !device_tiling);
-        place_frame(self.spec.method, self.spec.device, &ContextOptions::from_env(), &lens, frame)
+        Ok((lens, frame.filter(|_| look == Character::default() && !device_tiling)))
     }
 
     /// Reads `path` for this job: the camera resolved (the job's values, then the header, then

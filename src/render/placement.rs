@@ -98,8 +98,9 @@ pub fn place_frame(method: Method, preference: DevicePreference, options: &Conte
     place(method, preference, options)
 }
 
-/// [`place_frame`]'s exception to [`place`].
-fn small_frame_on_cpu(method: Method, preference: DevicePreference, options: &ContextOptions, lens: &Lens, frame: Option<(usize, usize)>) -> bool {
+/// [`place_frame`]'s exception to [`place`]: whether the frame renders on the CPU, opening no
+/// device.
+pub fn small_frame_on_cpu(method: Method, preference: DevicePreference, options: &ContextOptions, lens: &Lens, frame: Option<(usize, usize)>) -> bool {
     let small = frame.is_some_and(|(width, height)| width.saturating_mul(height) <= SMALL_FRAME_PIXELS);
     small && preference == DevicePreference::Auto && options.device.is_none() && method.uses_gpu() && method.fast_on_cpu(lens)
 }

@@ -77,6 +77,13 @@ pub struct DeviceInfo {
     pub timestamp_period_ns: Option<f32>,
 }
 
+impl DeviceInfo {
+    /// A CPU device (a software rasterizer such as lavapipe): its shaders run on the host's cores.
+    pub fn is_cpu(&self) -> bool {
+        self.kind == kind_name(vk::PhysicalDeviceType::CPU)
+    }
+}
+
 /// Device memory available to this process, as [`Context::memory_budget`] measures it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct MemoryBudget {
@@ -435,7 +442,7 @@ impl Context {
         let heap_bytes = memory.memory_heaps[heap].size;
         // A CPU device (lavapipe, CI's device) allocates from system memory, which the kernel
         // accounts for: the heap less what this context holds, and at most what is available.
-        if device.info.kind == kind_name(vk::PhysicalDeviceType::CPU) {
+        if device.info.is_cpu() {
             if let Some(system) = system_available_bytes() {
                 let held = self.allocated_bytes().saturating_sub(idle);
                 let available_bytes = heap_bytes.saturating_sub(held).min(system + idle);

@@ -58,9 +58,9 @@ pub fn render_native(stack: &LayerStack, lens: &Lens) -> Result<Image> {
                 if window[tile] == EMPTY_WINDOW {
                     continue;
                 }
-                let r_x = sources.pixels[y * width + x].s.abs();
+                let r_x = sources.s[y * width + x].abs();
                 if !matches!(&footprint, Some((fh, fr, _)) if *fh == h && *fr == r_x) {
-                    footprint = Some((h, r_x, DiskRows::new(h, r_x)));
+                    footprint = Some((h, r_x, DiskRows::new(h, r_x, width)));
                 }
                 let rows = Rows { scatter: &scatter_rows[tile], footprint: &footprint.as_ref().expect("set above").2 };
                 let (cw, visibility) = sources.gather(x, y, h, rows);
@@ -100,15 +100,68 @@ struct DiskRows {
     spans: Vec<Span>,
     weights: Vec<f64>,
     tabulated: bool,
+    /// Tabulated rows as flat offsets, for centres whose window lies inside the image.
+    stencil: Option<Stencil>,
+}
+
+/// Tabulated [`DiskRows`] as offsets from a centre in a `width`-pixel frame, row by row in the
+/// order the row loop adds them (left rim, right rim, summed span): the same sums, without the
+/// per-row clipping and set-up that cost more than the few taps of a rim.
+struct Stencil {
+    rows: Vec<StencilRow>,
+    /// (pixel offset `oy width + ox`, weight).
+    taps: Vec<(isize, f64)>,
+    /// The sum of the weights and counts, added in the rows' order: a footprint's `sum of D`
+    /// for every centre inside the image, the same bits as adding them centre by centre.
+    weight_sum: f64,
+}
+
+/// One window row of a [`Stencil`]: its rim taps (a range of `taps`) and its summed span
+/// (offsets of the prefix entries left of it and at its right end, and its column count).
+struct StencilRow {
+    taps: std::ops::Range<usize>,
+    summed: Option<(isize, isize, f64)>,
+}
+
+impl Stencil {
+    fn new(spans: &[Span], weights: &[f64], h: i64, width: usize) -> Self {
+        let (mut rows, mut taps) = (Vec::new(), Vec::new());
+        for (span, oy) in spans.iter().zip(-h..=h) {
+            let first = taps.len();
+            let mut tap = |ox: i64| taps.push(((oy * width as i64 + ox) as isize, weights[span.weights + (ox + span.outer) as usize]));
+            let summed = if span.outer < 0 {
+                None
+            } else if span.inner < 0 {
+                (-span.outer..=span.outer).for_each(&mut tap);
+                None
+            } else {
+                (-span.outer..-span.inner).for_each(&mut tap);
+                (span.inner + 1..=span.outer).for_each(&mut tap);
+                let line = oy * (width as i64 + 1);
+                Some(((line - span.inner) as isize, (line + span.inner + 1) as isize, (2 * span.inner + 1) as f64))
+            };
+            rows.push(StencilRow { taps: first..taps.len(), summed });
+        }
+        let mut weight_sum = 0.0;
+        for row in &rows {
+            for &(_, weight) in &taps[row.taps.clone()] {
+                weight_sum += weight;
+            }
+            if let Some((_, _, count)) = row.summed {
+                weight_sum += count;
+            }
+        }
+        Self { rows, taps, weight_sum }
+    }
 }
 
 impl DiskRows {
     /// The rows of one radius (a footprint, or the sources of a layer of one depth).
-    fn new(h: i64, radius: f64) -> Self {
-        Self::spanning(h, radius, radius)
+    fn new(h: i64, radius: f64, width: usize) -> Self {
+        Self::spanning(h, radius, radius, width)
     }
 
-    fn spanning(h: i64, least: f64, most: f64) -> Self {
+    fn spanning(h: i64, least: f64, most: f64, width: usize) -> Self {
         let tabulated = least == most;
         let mut weights = Vec::new();
         let spans = (-h..=h)
@@ -120,8 +173,9 @@ impl DiskRows {
                 }
                 span
             })
-            .collect();
-        Self { spans, weights, tabulated }
+            .collect::<Vec<Span>>();
+        let stencil = tabulated.then(|| Stencil::new(&spans, &weights, h, width));
+        Self { spans, weights, tabulated, stencil }
     }
 
     /// The term at offset (ox, oy) of `span` (row oy) for a radius of `radius`.
@@ -142,123 +196,194 @@ struct Rows<'r> {
     footprint: &'r DiskRows,
 }
 
-/// One source pixel's terms (`drbokeh_layer_sources.comp`'s, in f64).
-#[derive(Clone, Copy, Default)]
-struct Source {
-    /// `P / A(r)`, premultiplied RGBA; exactly 0 where alpha <= 0 (such sources add nothing to
-    /// C and W, as the reference's `alpha_y > 0` test).
-    pa: [f64; 4],
-    alpha: f64,
-    /// Signed CoC radius.
-    s: f64,
-    /// `coverage_radius(|s|)`: the scatter is `smoothstep(0, 1, cov + 1/2 - g)`.
-    cov: f64,
-}
-
-/// A layer's sources and their row prefix sums of `(P / A, alpha)`.
+/// A layer's sources, one array per term (`drbokeh_layer_sources.comp`'s, in f64), and their
+/// row prefix sums.
 struct Sources<'a> {
     params: &'a Params,
-    pixels: Vec<Source>,
-    /// Per row, `width + 1` running sums: entry `i` is the sum over columns `0..i`.
-    prefix: Vec<[f64; 5]>,
+    /// `P / A(r)`, premultiplied RGBA; exactly 0 where alpha <= 0 (such sources add nothing to
+    /// C and W, as the reference's `alpha_y > 0` test).
+    pa: Vec<[f64; 4]>,
+    alpha: Vec<f64>,
+    /// Signed CoC radius.
+    s: Vec<f64>,
+    /// `coverage_radius(|s|)`: the scatter is `smoothstep(0, 1, cov + 1/2 - g)`.
+    cov: Vec<f64>,
+    /// Per row, `width + 1` running sums of `pa` and of `alpha`: entry `i` is the sum over
+    /// columns `0..i`.
+    prefix_pa: Vec<[f64; 4]>,
+    prefix_alpha: Vec<f64>,
 }
 
 impl<'a> Sources<'a> {
     fn new(params: &'a Params, layer: &Layer) -> Self {
-        let (width, lens) = (params.width, &params.lens);
-        let mut pixels = vec![Source::default(); width * params.height];
-        let mut prefix = vec![[0.0f64; 5]; (width + 1) * params.height];
-        pixels.par_chunks_mut(width).zip(prefix.par_chunks_mut(width + 1)).enumerate().for_each(|(y, (row, sums))| {
+        let (width, height, lens) = (params.width, params.height, &params.lens);
+        let mut pa = vec![[0.0f64; 4]; width * height];
+        let (mut alpha, mut s, mut cov) = (vec![0.0f64; width * height], vec![0.0f64; width * height], vec![0.0f64; width * height]);
+        let mut prefix_pa = vec![[0.0f64; 4]; (width + 1) * height];
+        let mut prefix_alpha = vec![0.0f64; (width + 1) * height];
+        let rows = pa.par_chunks_mut(width).zip(alpha.par_chunks_mut(width)).zip(s.par_chunks_mut(width)).zip(cov.par_chunks_mut(width));
+        let sums = prefix_pa.par_chunks_mut(width + 1).zip(prefix_alpha.par_chunks_mut(width + 1));
+        rows.zip(sums).enumerate().for_each(|(y, ((((pa, alpha), s), cov), (prefix_pa, prefix_alpha)))| {
             // A layer's disparity is often one value over long runs: its radius, area and
             // coverage radius are worked out once per run.
             let mut last: Option<(u32, f64, f64, f64)> = None;
-            let mut sum = [0.0f64; 5];
-            for (x, source) in row.iter_mut().enumerate() {
+            let (mut sum, mut alpha_sum) = ([0.0f64; 4], 0.0f64);
+            for x in 0..width {
                 let i = y * width + x;
                 let p = layer.rgba.pixels[i];
                 let d = layer.disparity[i];
-                let (s, area, cov) = match last {
-                    Some((bits, s, area, cov)) if bits == d.to_bits() => (s, area, cov),
+                let (radius, area, coverage) = match last {
+                    Some((bits, radius, area, coverage)) if bits == d.to_bits() => (radius, area, coverage),
                     _ => {
-                        let s = lens.signed_radius(d);
-                        let terms = (s, params.area(s.abs()), math::coverage_radius(s.abs()));
+                        let radius = lens.signed_radius(d);
+                        let terms = (radius, params.area(radius.abs()), math::coverage_radius(radius.abs()));
                         last = Some((d.to_bits(), terms.0, terms.1, terms.2));
                         terms
                     }
                 };
-                let alpha = p[3] as f64;
-                let pa = if alpha > 0.0 { p.map(|v| v as f64 / area) } else { [0.0; 4] };
-                *source = Source { pa, alpha, s, cov };
+                alpha[x] = p[3] as f64;
+                pa[x] = if alpha[x] > 0.0 { p.map(|v| v as f64 / area) } else { [0.0; 4] };
+                (s[x], cov[x]) = (radius, coverage);
                 for c in 0..4 {
-                    sum[c] += pa[c];
+                    sum[c] += pa[x][c];
                 }
-                sum[4] += alpha;
-                sums[x + 1] = sum;
+                alpha_sum += alpha[x];
+                (prefix_pa[x + 1], prefix_alpha[x + 1]) = (sum, alpha_sum);
             }
         });
-        Self { params, pixels, prefix }
+        Self { params, pa, alpha, s, cov, prefix_pa, prefix_alpha }
     }
 
     /// `[C.rgb, W]` and `V` of centre (x, y) over its tile's window `h`.
-    fn gather(&self, x: usize, y: usize, h: i64, rows: Rows) -> ([f64; 4], f64) {
+    fn gather<'s>(&'s self, x: usize, y: usize, h: i64, rows: Rows) -> ([f64; 4], f64) {
         let (width, height) = (self.params.width, self.params.height as i64);
-        let centre = self.pixels[y * width + x];
-        let r_x = centre.s.abs();
-        let occluder = centre.alpha * (1.0 - math::smoothstep(0.5, 1.5, r_x));
+        let (s_x, alpha_x) = (self.s[y * width + x], self.alpha[y * width + x]);
+        let r_x = s_x.abs();
+        let occluder = alpha_x * (1.0 - math::smoothstep(0.5, 1.5, r_x));
         let mut cw = [0.0f64; 4];
-        let (mut vis_sum, mut vis_weight) = (0.0f64, 0.0f64);
+        let mut vis = [0.0f64; 2]; // sum of alpha D, sum of D
         let (xi, yi) = (x as i64, y as i64);
+        // A window inside the image: tabulated rows add through their stencil, the same sums.
+        let inside = yi >= h && yi + h < height && xi >= h && xi + h < width as i64;
+        let scatter_stencil = rows.scatter.stencil.as_ref().filter(|_| inside && occluder == 0.0);
+        let footprint_stencil = rows.footprint.stencil.as_ref().filter(|_| inside);
+        if let Some(stencil) = scatter_stencil {
+            let (pixel, line) = (y * width + x, y * (width + 1) + x);
+            for row in &stencil.rows {
+                for &(offset, weight) in &stencil.taps[row.taps.clone()] {
+                    add(&mut cw, &self.pa[pixel.wrapping_add_signed(offset)], weight);
+                }
+                if let Some((left, right, _)) = row.summed {
+                    let (first, last) = (&self.prefix_pa[line.wrapping_add_signed(left)], &self.prefix_pa[line.wrapping_add_signed(right)]);
+                    for c in 0..4 {
+                        cw[c] += last[c] - first[c];
+                    }
+                }
+            }
+        }
+        if let Some(stencil) = footprint_stencil {
+            let (pixel, line) = (y * width + x, y * (width + 1) + x);
+            for row in &stencil.rows {
+                for &(offset, weight) in &stencil.taps[row.taps.clone()] {
+                    vis[0] += self.alpha[pixel.wrapping_add_signed(offset)] * weight;
+                }
+                if let Some((left, right, _)) = row.summed {
+                    vis[0] += self.prefix_alpha[line.wrapping_add_signed(right)] - self.prefix_alpha[line.wrapping_add_signed(left)];
+                }
+            }
+            vis[1] = stencil.weight_sum;
+        }
+        if scatter_stencil.is_some() && footprint_stencil.is_some() {
+            let visibility = if vis[1] > 0.0 { vis[0] / vis[1] } else { 0.0 };
+            return (cw, visibility);
+        }
         for oy in (-h).max(-yi)..=h.min(height - 1 - yi) {
-            let source_row = (yi + oy) as usize;
-            let sources = &self.pixels[source_row * width..][..width];
-            let sums = &self.prefix[source_row * (width + 1)..][..width + 1];
-            let distance = |column: usize| {
-                let ox = column as i64 - xi;
-                ((ox * ox + oy * oy) as f64).sqrt()
-            };
+            let row = (yi + oy) as usize;
+            let line = |values: &'s [f64]| &values[row * width..][..width];
+            let (pa, alpha, cov) = (&self.pa[row * width..][..width], line(&self.alpha), line(&self.cov));
+            let (prefix_pa, prefix_alpha) = (&self.prefix_pa[row * (width + 1)..][..width + 1], &self.prefix_alpha[row * (width + 1)..][..width + 1]);
             // C and W over the row's columns `lo..=hi`, `a..=b` of them summed.
             let span = rows.scatter.spans[(oy + h) as usize];
             let ((lo, hi), (a, b)) = (columns(xi, span.outer, width), columns(xi, span.inner, width));
-            let scatter = |column: usize, source: &Source| rows.scatter.term(&span, column as i64 - xi, || distance(column), source.cov);
-            if occluder > 0.0 {
-                for (column, source) in (lo..).zip(&sources[lo..=hi]) {
-                    let mut s = scatter(column, source);
-                    if column != x || oy != 0 {
-                        s *= 1.0 - occluder * (1.0 - math::smoothstep(-0.5, 0.0, source.s - centre.s));
+            // (Added above through the stencil.)
+            let scatter_left = scatter_stencil.is_none();
+            if scatter_left && occluder > 0.0 {
+                let s = line(&self.s);
+                for column in lo..=hi {
+                    let ox = column as i64 - xi;
+                    let mut weight = rows.scatter.term(&span, ox, || distance(ox, oy), cov[column]);
+                    if ox != 0 || oy != 0 {
+                        weight *= 1.0 - occluder * (1.0 - math::smoothstep(-0.5, 0.0, s[column] - s_x));
                     }
-                    add(&mut cw, &source.pa, s);
+                    add(&mut cw, &pa[column], weight);
                 }
-            } else if a > b {
-                for (column, source) in (lo..).zip(&sources[lo..=hi]) {
-                    add(&mut cw, &source.pa, scatter(column, source));
-                }
-            } else {
-                for column in (lo..a).chain(b + 1..=hi) {
-                    add(&mut cw, &sources[column].pa, scatter(column, &sources[column]));
-                }
-                let (first, last) = (&sums[a], &sums[b + 1]);
+            } else if scatter_left && a > b {
+                rows.scatter.add_scatter(&mut cw, &span, (x, oy), lo..hi + 1, pa, cov);
+            } else if scatter_left {
+                rows.scatter.add_scatter(&mut cw, &span, (x, oy), lo..a, pa, cov);
+                rows.scatter.add_scatter(&mut cw, &span, (x, oy), b + 1..hi + 1, pa, cov);
                 for c in 0..4 {
-                    cw[c] += last[c] - first[c];
+                    cw[c] += prefix_pa[b + 1][c] - prefix_pa[a][c];
                 }
             }
             // V, the same way.
             let span = rows.footprint.spans[(oy + h) as usize];
             let ((lo, hi), (a, b)) = (columns(xi, span.outer, width), columns(xi, span.inner, width));
-            let mut footprint = |column: usize| {
-                let d = rows.footprint.term(&span, column as i64 - xi, || distance(column), r_x);
-                vis_sum += sources[column].alpha * d;
-                vis_weight += d;
-            };
-            if a > b {
-                (lo..=hi).for_each(&mut footprint);
-            } else {
-                (lo..a).chain(b + 1..=hi).for_each(&mut footprint);
-                vis_sum += sums[b + 1][4] - sums[a][4];
-                vis_weight += (b - a + 1) as f64;
+            let footprint_left = footprint_stencil.is_none();
+            if footprint_left && a > b {
+                rows.footprint.add_footprint(&mut vis, &span, (x, oy), lo..hi + 1, alpha, r_x);
+            } else if footprint_left {
+                rows.footprint.add_footprint(&mut vis, &span, (x, oy), lo..a, alpha, r_x);
+                rows.footprint.add_footprint(&mut vis, &span, (x, oy), b + 1..hi + 1, alpha, r_x);
+                vis[0] += prefix_alpha[b + 1] - prefix_alpha[a];
+                vis[1] += (b - a + 1) as f64;
             }
         }
-        let visibility = if vis_weight > 0.0 { vis_sum / vis_weight } else { 0.0 };
+        let visibility = if vis[1] > 0.0 { vis[0] / vis[1] } else { 0.0 };
         (cw, visibility)
+    }
+}
+
+/// The Euclidean distance of offset (ox, oy), as every tap computes it.
+#[inline]
+fn distance(ox: i64, oy: i64) -> f64 {
+    ((ox * ox + oy * oy) as f64).sqrt()
+}
+
+impl DiskRows {
+    /// Adds the scatter of the sources in `columns` of row `oy` (whose span is `span`) at
+    /// centre column `x` to `cw`: `pa` times the term of each source's coverage radius.
+    #[inline]
+    fn add_scatter(&self, cw: &mut [f64; 4], span: &Span, (x, oy): (usize, i64), columns: std::ops::Range<usize>, pa: &[[f64; 4]], cov: &[f64]) {
+        if columns.is_empty() {
+            return;
+        }
+        if self.tabulated {
+            let weights = &self.weights[span.weights + columns.start + span.outer as usize - x..][..columns.len()];
+            for (p, &weight) in pa[columns].iter().zip(weights) {
+                add(cw, p, weight);
+            }
+        } else {
+            for column in columns {
+                let ox = column as i64 - x as i64;
+                add(cw, &pa[column], math::smoothstep(0.0, 1.0, cov[column] + 0.5 - distance(ox, oy)));
+            }
+        }
+    }
+
+    /// Adds the footprint of radius `r_x` over `columns` of row `oy` at centre column `x` to
+    /// `vis`: `[sum of alpha D, sum of D]`.
+    #[inline]
+    fn add_footprint(&self, vis: &mut [f64; 2], span: &Span, (x, oy): (usize, i64), columns: std::ops::Range<usize>, alpha: &[f64], r_x: f64) {
+        if columns.is_empty() {
+            return;
+        }
+        let first = span.weights + columns.start + span.outer as usize - x;
+        for (k, column) in columns.enumerate() {
+            let d = if self.tabulated { self.weights[first + k] } else { math::smoothstep(0.0, 1.0, r_x + 0.5 - distance(column as i64 - x as i64, oy)) };
+            vis[0] += alpha[column] * d;
+            vis[1] += d;
+        }
     }
 }
 
@@ -319,10 +444,11 @@ fn scatter_rows(params: &Params, sources: &Sources, window: &[i32]) -> Vec<DiskR
             let (tx, ty) = (t % tiles_x, t / tiles_x);
             let (mut least, mut most) = (f64::INFINITY, f64::NEG_INFINITY);
             for y in ty * TILE..((ty + 1) * TILE).min(params.height) {
-                for source in &sources.pixels[y * params.width + tx * TILE..y * params.width + ((tx + 1) * TILE).min(params.width)] {
-                    if source.alpha > 0.0 {
-                        least = least.min(source.cov);
-                        most = most.max(source.cov);
+                let columns = y * params.width + tx * TILE..y * params.width + ((tx + 1) * TILE).min(params.width);
+                for (&alpha, &cov) in sources.alpha[columns.clone()].iter().zip(&sources.cov[columns]) {
+                    if alpha > 0.0 {
+                        least = least.min(cov);
+                        most = most.max(cov);
                     }
                 }
             }
@@ -333,7 +459,7 @@ fn scatter_rows(params: &Params, sources: &Sources, window: &[i32]) -> Vec<DiskR
         .into_par_iter()
         .map(|t| {
             if window[t] == EMPTY_WINDOW {
-                return DiskRows { spans: Vec::new(), weights: Vec::new(), tabulated: false };
+                return DiskRows { spans: Vec::new(), weights: Vec::new(), tabulated: false, stencil: None };
             }
             let h = window[t] as i64;
             let (tx, ty) = (t % tiles_x, t / tiles_x);
@@ -346,7 +472,7 @@ fn scatter_rows(params: &Params, sources: &Sources, window: &[i32]) -> Vec<DiskR
                     most = most.max(m);
                 }
             }
-            DiskRows::spanning(h, least, most)
+            DiskRows::spanning(h, least, most, params.width)
         })
         .collect()
 }
@@ -420,7 +546,7 @@ mod tests {
     #[test]
     fn disk_rows_hold_exactly_the_columns_within_their_levels() {
         for (h, least, most) in [(0, 0.5, 0.5), (3, 0.9, 1.0), (7, 4.2, 4.7), (7, 5.5, 8.5), (12, 10.49, 10.5), (6, f64::INFINITY, f64::INFINITY), (9, 0.0, 0.0), (11, 10.0, 10.0)] {
-            let rows = DiskRows::spanning(h, least, most);
+            let rows = DiskRows::spanning(h, least, most, 64);
             assert_eq!(rows.tabulated, least == most);
             for (span, oy) in rows.spans.iter().zip(-h..=h) {
                 for ox in -h - 1..=h + 1 {
