@@ -528,13 +528,16 @@ impl Session {
     }
 
     /// What the last render did: `relayered` (the camera changed the layering), `prepared` (the
-    /// method's first render), and `layering_ms`, `render_ms`, `total_ms`.
+    /// method's first render where it ran), `cpu` (it ran on the CPU: no device, or a small
+    /// frame through a disk on a CPU device, as a one-shot render would), and `layering_ms`,
+    /// `render_ms`, `total_ms`.
     #[getter]
     fn last_render<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let stats = *lock(&self.last);
         let out = PyDict::new(py);
         out.set_item("relayered", stats.relayered)?;
         out.set_item("prepared", stats.prepared)?;
+        out.set_item("cpu", stats.cpu)?;
         out.set_item("layering_ms", stats.layering_ms)?;
         out.set_item("render_ms", stats.render_ms)?;
         out.set_item("total_ms", stats.total_ms)?;

@@ -15,13 +15,19 @@ def test_a_sessions_renders_equal_one_shot_renders(flat):
     if flat:  # one image and its depth: auto-layered, re-layered only when the camera moves
         layers, depth = np.ascontiguousarray(layers[1]), np.ascontiguousarray(depth[1])
     with lensblur.Session(layers, depth) as session:
+        placed = set()
         for i, camera in enumerate(CAMERAS):
             for j, aperture in enumerate(APERTURES):
                 image = session.render(camera, aperture=aperture)
                 expected = lensblur.render(layers, depth, camera, aperture=aperture)
                 assert np.abs(image - expected).max() <= 1e-5, (camera, aperture)
                 stats = session.last_render
-                assert stats["prepared"] == (i == 0 and j == 0)
+                # The method is prepared once where it runs: on a CPU device (lavapipe) a disk
+                # renders this small frame on the CPU path, the hexagon always on the device.
+                if aperture != "disk":
+                    assert not stats["cpu"], stats
+                assert stats["prepared"] == (stats["cpu"] not in placed), (i, j, stats)
+                placed.add(stats["cpu"])
                 # A new camera re-layers a flat image; another aperture never does.
                 assert stats["relayered"] == (j == 0 and (flat or i == 0)), (i, j, stats)
         # Options and another method, as lensblur.render takes them.
