@@ -163,17 +163,26 @@ fn composite_pixel(params: &Params, layers: &[LayerTerms], i: usize) -> [f64; 4]
     let mut out = [0.0f64; 4];
     let mut transmittance = 1.0f64;
     for terms in layers {
-        let [c0, c1, c2, w] = terms.cw[i];
-        let mut v = terms.visibility[i];
-        if params.model == Model::DrBokeh {
-            v *= math::existence_gate(w);
-        }
-        let colour = if w > 0.0 { [c0 / w, c1 / w, c2 / w] } else { [0.0; 3] };
-        for c in 0..3 {
-            out[c] += transmittance * v * colour[c];
-        }
-        out[3] += transmittance * v;
-        transmittance *= 1.0 - v;
+        composite_step(params.model, terms.cw[i], terms.visibility[i], &mut out, &mut transmittance);
     }
     out
+}
+
+/// One layer of the front-to-back composite (`drbokeh_composite_step`): the layer's colour
+/// `C_l / W_l` (`cw = [C_l.rgb, W_l]`) at visibility `V_l`, gated by existence under the default
+/// model, added to `out` through `transmittance`, which the layer then reduces. Shared by the
+/// reference and the fast CPU path (`native.rs`), so both blend with the same arithmetic.
+#[inline]
+pub(super) fn composite_step(model: Model, cw: [f64; 4], visibility: f64, out: &mut [f64; 4], transmittance: &mut f64) {
+    let [c0, c1, c2, w] = cw;
+    let mut v = visibility;
+    if model == Model::DrBokeh {
+        v *= math::existence_gate(w);
+    }
+    let colour = if w > 0.0 { [c0 / w, c1 / w, c2 / w] } else { [0.0; 3] };
+    for c in 0..3 {
+        out[c] += *transmittance * v * colour[c];
+    }
+    out[3] += *transmittance * v;
+    *transmittance *= 1.0 - v;
 }

@@ -16,6 +16,7 @@
 use rayon::prelude::*;
 
 use super::bounds::{tile_bounds_cpu, tile_window_cpu, EMPTY_WINDOW};
+use super::cpu::composite_step;
 use super::{math, AperturePath, LensView, Model, Params, TILE};
 use crate::image::{self, Image};
 use crate::render::Lens;
@@ -64,15 +65,7 @@ pub fn render_native(stack: &LayerStack, lens: &Lens) -> Result<Image> {
                 }
                 let rows = Rows { scatter: &scatter_rows[tile], footprint: &footprint.as_ref().expect("set above").2 };
                 let (cw, visibility) = sources.gather(x, y, h, rows);
-                // The reference's composite step (`cpu.rs` `composite_pixel`).
-                let v = visibility * math::existence_gate(cw[3]);
-                let w = cw[3];
-                for c in 0..3 {
-                    let colour = if w > 0.0 { cw[c] / w } else { 0.0 };
-                    out[x][c] += t[x] * v * colour;
-                }
-                out[x][3] += t[x] * v;
-                t[x] *= 1.0 - v;
+                composite_step(Model::DrBokeh, cw, visibility, &mut out[x], &mut t[x]);
             }
         });
     }
@@ -99,8 +92,8 @@ struct Span {
 struct DiskRows {
     spans: Vec<Span>,
     weights: Vec<f64>,
-    tabulated: bool,
-    /// Tabulated rows as flat offsets, for centres whose window lies inside the image.
+    /// Tabulated rows (where every radius is one) as flat offsets, for centres whose window
+    /// lies inside the image; None where the rows are not tabulated.
     stencil: Option<Stencil>,
 }
 
@@ -175,13 +168,18 @@ impl DiskRows {
             })
             .collect::<Vec<Span>>();
         let stencil = tabulated.then(|| Stencil::new(&spans, &weights, h, width));
-        Self { spans, weights, tabulated, stencil }
+        Self { spans, weights, stencil }
+    }
+
+    /// Whether the rows' term is tabulated (one radius): `weights` holds it.
+    fn tabulated(&self) -> bool {
+        self.stencil.is_some()
     }
 
     /// The term at offset (ox, oy) of `span` (row oy) for a radius of `radius`.
     #[inline]
     fn term(&self, span: &Span, ox: i64, g: impl FnOnce() -> f64, radius: f64) -> f64 {
-        if self.tabulated {
+        if self.tabulated() {
             self.weights[span.weights + (ox + span.outer) as usize]
         } else {
             math::smoothstep(0.0, 1.0, radius + 0.5 - g())
@@ -358,7 +356,7 @@ impl DiskRows {
         if columns.is_empty() {
             return;
         }
-        if self.tabulated {
+        if self.tabulated() {
             let weights = &self.weights[span.weights + columns.start + span.outer as usize - x..][..columns.len()];
             for (p, &weight) in pa[columns].iter().zip(weights) {
                 add(cw, p, weight);
@@ -380,7 +378,7 @@ impl DiskRows {
         }
         let first = span.weights + columns.start + span.outer as usize - x;
         for (k, column) in columns.enumerate() {
-            let d = if self.tabulated { self.weights[first + k] } else { math::smoothstep(0.0, 1.0, r_x + 0.5 - distance(column as i64 - x as i64, oy)) };
+            let d = if self.tabulated() { self.weights[first + k] } else { math::smoothstep(0.0, 1.0, r_x + 0.5 - distance(column as i64 - x as i64, oy)) };
             vis[0] += alpha[column] * d;
             vis[1] += d;
         }
@@ -459,7 +457,7 @@ fn scatter_rows(params: &Params, sources: &Sources, window: &[i32]) -> Vec<DiskR
         .into_par_iter()
         .map(|t| {
             if window[t] == EMPTY_WINDOW {
-                return DiskRows { spans: Vec::new(), weights: Vec::new(), tabulated: false, stencil: None };
+                return DiskRows { spans: Vec::new(), weights: Vec::new(), stencil: None };
             }
             let h = window[t] as i64;
             let (tx, ty) = (t % tiles_x, t / tiles_x);
@@ -547,7 +545,7 @@ mod tests {
     fn disk_rows_hold_exactly_the_columns_within_their_levels() {
         for (h, least, most) in [(0, 0.5, 0.5), (3, 0.9, 1.0), (7, 4.2, 4.7), (7, 5.5, 8.5), (12, 10.49, 10.5), (6, f64::INFINITY, f64::INFINITY), (9, 0.0, 0.0), (11, 10.0, 10.0)] {
             let rows = DiskRows::spanning(h, least, most, 64);
-            assert_eq!(rows.tabulated, least == most);
+            assert_eq!(rows.tabulated(), least == most);
             for (span, oy) in rows.spans.iter().zip(-h..=h) {
                 for ox in -h - 1..=h + 1 {
                     let (g, in_disk) = (((ox * ox + oy * oy) as f64).sqrt(), ox * ox + oy * oy < (h + 1) * (h + 1));
@@ -563,7 +561,7 @@ mod tests {
                                 assert_eq!(term, 1.0, "h {h}, oy {oy}, ox {ox}");
                             }
                         }
-                        if rows.tabulated {
+                        if rows.tabulated() {
                             assert_eq!(rows.term(span, ox, || g, most), math::smoothstep(0.0, 1.0, most + 0.5 - g));
                         }
                     } else if g.is_finite() && most.is_finite() {
