@@ -1,8 +1,8 @@
 //! Time of Dr.Bokeh's fast CPU render alone (`drbokeh::native`, what a one-shot render of a
 //! small frame runs without a device) on one flat RGB+Z input split into layers as `lensblur
-//! render` splits it, and a hash of the image, so that two builds can be checked to give the
+//! render` splits it, or on a layered file's own layers, and a hash of the image, so that two builds can be checked to give the
 //! same bytes. A benchmark that prints numbers (median and fastest of RUNS), not a test:
-//! `cargo run --release -p lensblur-dev --example cpu_render_speed -- FLAT.exr RUNS K_PX FOCUS_DISPARITY`
+//! `cargo run --release -p lensblur-dev --example cpu_render_speed -- STACK.exr RUNS K_PX FOCUS_DISPARITY`
 //! (`lensblur render --json` prints the `k_px` and `focus_disparity` it used).
 use std::path::Path;
 use std::time::Instant;
@@ -10,10 +10,10 @@ use std::time::Instant;
 use lensblur::camera::{Aperture, CocModel};
 use lensblur::render::drbokeh::native::render_native;
 use lensblur::render::Lens;
-use lensblur::stack::{split_into_layers, AutoLayerOptions};
+use lensblur::stack::{split_into_layers, AutoLayerOptions, LayerStack};
 type Failure = Box<dyn std::error::Error>;
 
-const USAGE: &str = "usage: cpu_render_speed FLAT.exr RUNS K_PX FOCUS_DISPARITY";
+const USAGE: &str = "usage: cpu_render_speed STACK.exr RUNS K_PX FOCUS_DISPARITY";
 
 fn number<T: std::str::FromStr>(text: Option<String>, what: &str) -> Result<T, Failure> {
     let text = text.ok_or_else(|| format!("missing {what}; {USAGE}"))?;
@@ -26,9 +26,11 @@ fn main() -> Result<(), Failure> {
     let runs: usize = number(args.next(), "RUNS")?;
     let (k_px, focus_disparity): (f32, f32) = (number(args.next(), "K_PX")?, number(args.next(), "FOCUS_DISPARITY")?);
     let (stack, _, _, _) = lensblur::input::read(Path::new(&input), &Default::default())?;
-    let [flat] = <[_; 1]>::try_from(stack.layers).map_err(|layers| format!("{input}: {} layers, not one flat image", layers.len()))?;
     let coc = CocModel::new(k_px, focus_disparity)?;
-    let stack = split_into_layers(&flat.rgba, &flat.disparity, &coc, &AutoLayerOptions::default());
+    let stack = match <[_; 1]>::try_from(stack.layers) {
+        Ok([flat]) => split_into_layers(&flat.rgba, &flat.disparity, &coc, &AutoLayerOptions::default()),
+        Err(layers) => LayerStack::new(stack.width, stack.height, layers)?,
+    };
     let lens = Lens { coc, aperture: Aperture::Disk };
     let mut times = Vec::new();
     for _ in 0..runs.max(1) {
