@@ -42,10 +42,12 @@ pub fn render_native(stack: &LayerStack, lens: &Lens) -> Result<Image> {
     // The running composite, front to back: premultiplied RGBA and the transmittance.
     let mut composite = vec![[0.0f64; 4]; width * height];
     let mut transmittance = vec![1.0f64; width * height];
+    let mut sources = Sources::new(&params);
     for layer in &stack.layers {
         let window = tile_window_cpu(&params, &tile_bounds_cpu(&params, layer));
-        let sources = Sources::new(&params, layer);
-        let scatter_rows = scatter_rows(&params, &sources, &window);
+        sources.load(layer);
+        let sources = &sources;
+        let scatter_rows = scatter_rows(&params, sources, &window);
         composite.par_chunks_mut(width).zip(transmittance.par_chunks_mut(width)).enumerate().for_each(|(y, (out, t))| {
             // The footprint's rows follow the centre's radius: a layer's neighbours share it.
             let mut footprint: Option<(i64, f64, DiskRows)> = None;
@@ -97,55 +99,79 @@ struct DiskRows {
     stencil: Option<Stencil>,
 }
 
-/// Tabulated [`DiskRows`] as offsets from a centre in a `width`-pixel frame, row by row in the
-/// order the row loop adds them (left rim, right rim, summed span): the same sums, without the
-/// per-row clipping and set-up that cost more than the few taps of a rim.
+/// Tabulated [`DiskRows`] as offsets from a centre in a `width`-pixel frame: every row's rim
+/// taps in one list and its summed span in another, so that a centre whose window lies inside
+/// the image adds them without the per-row clipping and set-up that cost more than the few
+/// taps of a rim.
 struct Stencil {
-    rows: Vec<StencilRow>,
-    /// (pixel offset `oy width + ox`, weight).
+    /// (pixel offset `oy width + ox`, weight) of every rim tap.
     taps: Vec<(isize, f64)>,
-    /// The sum of the weights and counts, added in the rows' order: a footprint's `sum of D`
-    /// for every centre inside the image, the same bits as adding them centre by centre.
+    /// Per summed span, the offsets of the row prefix entries left of it and at its right end.
+    spans: Vec<(isize, isize)>,
+    /// The sum of the weights and the spans' column counts: a footprint's `sum of D` for every
+    /// centre inside the image.
     weight_sum: f64,
-}
-
-/// One window row of a [`Stencil`]: its rim taps (a range of `taps`) and its summed span
-/// (offsets of the prefix entries left of it and at its right end, and its column count).
-struct StencilRow {
-    taps: std::ops::Range<usize>,
-    summed: Option<(isize, isize, f64)>,
 }
 
 impl Stencil {
     fn new(spans: &[Span], weights: &[f64], h: i64, width: usize) -> Self {
-        let (mut rows, mut taps) = (Vec::new(), Vec::new());
+        let mut stencil = Self { taps: Vec::new(), spans: Vec::new(), weight_sum: 0.0 };
         for (span, oy) in spans.iter().zip(-h..=h) {
-            let first = taps.len();
-            let mut tap = |ox: i64| taps.push(((oy * width as i64 + ox) as isize, weights[span.weights + (ox + span.outer) as usize]));
-            let summed = if span.outer < 0 {
-                None
+            let mut tap = |ox: i64| stencil.taps.push(((oy * width as i64 + ox) as isize, weights[span.weights + (ox + span.outer) as usize]));
+            if span.outer < 0 {
+                continue;
             } else if span.inner < 0 {
                 (-span.outer..=span.outer).for_each(&mut tap);
-                None
             } else {
                 (-span.outer..-span.inner).for_each(&mut tap);
                 (span.inner + 1..=span.outer).for_each(&mut tap);
                 let line = oy * (width as i64 + 1);
-                Some(((line - span.inner) as isize, (line + span.inner + 1) as isize, (2 * span.inner + 1) as f64))
-            };
-            rows.push(StencilRow { taps: first..taps.len(), summed });
-        }
-        let mut weight_sum = 0.0;
-        for row in &rows {
-            for &(_, weight) in &taps[row.taps.clone()] {
-                weight_sum += weight;
-            }
-            if let Some((_, _, count)) = row.summed {
-                weight_sum += count;
+                stencil.spans.push(((line - span.inner) as isize, (line + span.inner + 1) as isize));
+                stencil.weight_sum += (2 * span.inner + 1) as f64;
             }
         }
-        Self { rows, taps, weight_sum }
+        stencil.weight_sum += stencil.taps.iter().map(|&(_, weight)| weight).sum::<f64>();
+        stencil
     }
+}
+
+/// `sum of term(item)` over `items`, in four running sums: with one, each add waits for the one
+/// before, and a rim's taps and a window's spans are most of a small blur's work.
+#[inline]
+fn running_sum<T>(items: &[T], term: impl Fn(&T) -> f64) -> f64 {
+    let mut sums = [0.0f64; 4];
+    let mut quads = items.chunks_exact(4);
+    for quad in &mut quads {
+        for (sum, item) in sums.iter_mut().zip(quad) {
+            *sum += term(item);
+        }
+    }
+    for (sum, item) in sums.iter_mut().zip(quads.remainder()) {
+        *sum += term(item);
+    }
+    (sums[0] + sums[1]) + (sums[2] + sums[3])
+}
+
+/// [`running_sum`] of RGBA terms, in two running sums of four channels.
+#[inline]
+fn running_sum4<T>(items: &[T], term: impl Fn(&T) -> [f64; 4]) -> [f64; 4] {
+    let mut sums = [[0.0f64; 4]; 2];
+    let mut pairs = items.chunks_exact(2);
+    for pair in &mut pairs {
+        for (sum, item) in sums.iter_mut().zip(pair) {
+            let t = term(item);
+            for c in 0..4 {
+                sum[c] += t[c];
+            }
+        }
+    }
+    for item in pairs.remainder() {
+        let t = term(item);
+        for c in 0..4 {
+            sums[0][c] += t[c];
+        }
+    }
+    [0, 1, 2, 3].map(|c| sums[0][c] + sums[1][c])
 }
 
 impl DiskRows {
@@ -213,12 +239,27 @@ struct Sources<'a> {
 }
 
 impl<'a> Sources<'a> {
-    fn new(params: &'a Params, layer: &Layer) -> Self {
-        let (width, height, lens) = (params.width, params.height, &params.lens);
-        let mut pa = vec![[0.0f64; 4]; width * height];
-        let (mut alpha, mut s, mut cov) = (vec![0.0f64; width * height], vec![0.0f64; width * height], vec![0.0f64; width * height]);
-        let mut prefix_pa = vec![[0.0f64; 4]; (width + 1) * height];
-        let mut prefix_alpha = vec![0.0f64; (width + 1) * height];
+    /// The arrays of `params`' frame, allocated (and zeroed) once per render, then filled layer
+    /// by layer ([`Self::load`]).
+    fn new(params: &'a Params) -> Self {
+        let n = params.width * params.height;
+        let lines = (params.width + 1) * params.height;
+        Self {
+            params,
+            pa: vec![[0.0; 4]; n],
+            alpha: vec![0.0; n],
+            s: vec![0.0; n],
+            cov: vec![0.0; n],
+            prefix_pa: vec![[0.0; 4]; lines],
+            prefix_alpha: vec![0.0; lines],
+        }
+    }
+
+    /// Fills every array with `layer`'s values (each line's prefix entry 0 stays 0).
+    fn load(&mut self, layer: &Layer) {
+        let (params, width) = (self.params, self.params.width);
+        let lens = &params.lens;
+        let Self { pa, alpha, s, cov, prefix_pa, prefix_alpha, .. } = self;
         let rows = pa.par_chunks_mut(width).zip(alpha.par_chunks_mut(width)).zip(s.par_chunks_mut(width)).zip(cov.par_chunks_mut(width));
         let sums = prefix_pa.par_chunks_mut(width + 1).zip(prefix_alpha.par_chunks_mut(width + 1));
         rows.zip(sums).enumerate().for_each(|(y, ((((pa, alpha), s), cov), (prefix_pa, prefix_alpha)))| {
@@ -249,7 +290,6 @@ impl<'a> Sources<'a> {
                 (prefix_pa[x + 1], prefix_alpha[x + 1]) = (sum, alpha_sum);
             }
         });
-        Self { params, pa, alpha, s, cov, prefix_pa, prefix_alpha }
     }
 
     /// `[C.rgb, W]` and `V` of centre (x, y) over its tile's window `h`.
@@ -261,35 +301,29 @@ impl<'a> Sources<'a> {
         let mut cw = [0.0f64; 4];
         let mut vis = [0.0f64; 2]; // sum of alpha D, sum of D
         let (xi, yi) = (x as i64, y as i64);
-        // A window inside the image: tabulated rows add through their stencil, the same sums.
+        // A window inside the image: tabulated rows add through their stencil (the same terms).
         let inside = yi >= h && yi + h < height && xi >= h && xi + h < width as i64;
         let scatter_stencil = rows.scatter.stencil.as_ref().filter(|_| inside && occluder == 0.0);
         let footprint_stencil = rows.footprint.stencil.as_ref().filter(|_| inside);
-        if let Some(stencil) = scatter_stencil {
-            let (pixel, line) = (y * width + x, y * (width + 1) + x);
-            for row in &stencil.rows {
-                for &(offset, weight) in &stencil.taps[row.taps.clone()] {
-                    add(&mut cw, &self.pa[pixel.wrapping_add_signed(offset)], weight);
-                }
-                if let Some((left, right, _)) = row.summed {
-                    let (first, last) = (&self.prefix_pa[line.wrapping_add_signed(left)], &self.prefix_pa[line.wrapping_add_signed(right)]);
-                    for c in 0..4 {
-                        cw[c] += last[c] - first[c];
-                    }
-                }
-            }
+        let (pixel, line) = (y * width + x, y * (width + 1) + x);
+        // Rim taps, then the summed spans' prefix differences.
+        let tap = |&(offset, _): &(isize, f64)| pixel.wrapping_add_signed(offset);
+        let span = |&(left, right): &(isize, isize)| (line.wrapping_add_signed(left), line.wrapping_add_signed(right));
+        if let Some(Stencil { taps, spans, .. }) = scatter_stencil {
+            let rim = running_sum4(taps, |t| self.pa[tap(t)].map(|v| v * t.1));
+            let summed = running_sum4(spans, |s| {
+                let (left, right) = span(s);
+                [0, 1, 2, 3].map(|c| self.prefix_pa[right][c] - self.prefix_pa[left][c])
+            });
+            cw = [0, 1, 2, 3].map(|c| rim[c] + summed[c]);
         }
-        if let Some(stencil) = footprint_stencil {
-            let (pixel, line) = (y * width + x, y * (width + 1) + x);
-            for row in &stencil.rows {
-                for &(offset, weight) in &stencil.taps[row.taps.clone()] {
-                    vis[0] += self.alpha[pixel.wrapping_add_signed(offset)] * weight;
-                }
-                if let Some((left, right, _)) = row.summed {
-                    vis[0] += self.prefix_alpha[line.wrapping_add_signed(right)] - self.prefix_alpha[line.wrapping_add_signed(left)];
-                }
-            }
-            vis[1] = stencil.weight_sum;
+        if let Some(Stencil { taps, spans, weight_sum }) = footprint_stencil {
+            let rim = running_sum(taps, |t| self.alpha[tap(t)] * t.1);
+            let summed = running_sum(spans, |s| {
+                let (left, right) = span(s);
+                self.prefix_alpha[right] - self.prefix_alpha[left]
+            });
+            vis = [rim + summed, *weight_sum];
         }
         if scatter_stencil.is_some() && footprint_stencil.is_some() {
             let visibility = if vis[1] > 0.0 { vis[0] / vis[1] } else { 0.0 };
