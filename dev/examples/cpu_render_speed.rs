@@ -35,7 +35,7 @@ fn main() -> Result<(), Failure> {
     let mut times = Vec::new();
     for _ in 0..runs.max(1) {
         let start = Instant::now();
-        let image = render_native(&stack, &lens)?;
+        let image = render_native(&stack, &lens, None)?;
         times.push(start.elapsed().as_secs_f64() * 1e3);
         if times.len() == 1 {
             // FNV-1a over every value's bits: equal hashes, equal images.

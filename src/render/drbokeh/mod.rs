@@ -99,14 +99,18 @@ impl Renderer for DrBokehRenderer {
         let stack = input.layers()?;
         match (&self.gpu, options.stack_memo) {
             // A resident stack: its scan (and upload) are made by its first render and kept for
-            // the others.
+            // the others, on the device and on the CPU path.
             (Some(gpu), Some(memo)) => {
                 let resident = memo.get_or_insert_with(|| ResidentStack::new(stack, lens.coc.focus_disparity));
                 Ok(gpu.render_resident(stack, &resident, lens, self.model, options)?.0)
             }
             (Some(gpu), None) => Ok(gpu.render_with(stack, lens, self.model, options)?.0),
             // Without a device: the fast CPU path where it renders the lens, else the reference.
-            (None, _) if native::supports(lens, self.model) => native::render_native(stack, lens),
+            (None, Some(memo)) if native::supports(lens, self.model) => {
+                let resident = memo.get_or_insert_with(|| ResidentStack::new(stack, lens.coc.focus_disparity));
+                native::render_native(stack, lens, Some(resident.scan()))
+            }
+            (None, _) if native::supports(lens, self.model) => native::render_native(stack, lens, None),
             (None, _) => render_cpu(stack, lens, self.model),
         }
     }

@@ -2,7 +2,7 @@
 //! the same terms as the f64 reference (`cpu.rs`), summed as the disk shader sums them, in row
 //! spans. Where a frame is small, this is what a one-shot render runs instead of opening a
 //! device: on lavapipe, opening the device and compiling four pipelines costs more CPU than
-//! this whole render (`RenderJob::place_for_frame`).
+//! this whole render (`RenderJob::place_frame`).
 //!
 //! Why it is exact, not an approximation: along window row `oy`, a source `y` at Euclidean
 //! distance `g <= coverage_radius(r_y) - 1/2` scatters `S = 1` (the smoothstep's argument is
@@ -15,7 +15,7 @@
 //! (f64 rounding, ~1e-15 relative), which `tests::native_equals_the_reference` checks.
 use rayon::prelude::*;
 
-use super::bounds::{tile_bounds_cpu, tile_window_cpu, EMPTY_WINDOW};
+use super::bounds::{scanned_windows_and_ranges, windows_and_ranges, StackScan, EMPTY_WINDOW};
 use super::cpu::composite_step;
 use super::{math, AperturePath, LensView, Model, Params, TILE};
 use crate::image::{self, Image};
@@ -35,19 +35,25 @@ pub fn supports(lens: &Lens, model: Model) -> bool {
 
 /// Renders `stack` through `lens` under the default model (see [`supports`]): premultiplied
 /// linear RGBA, HDR unclamped, alpha = coverage; equal to `render_cpu` up to f64 rounding.
-pub fn render_native(stack: &LayerStack, lens: &Lens) -> Result<Image> {
+/// `scan`: a [`StackScan`] of `stack` kept from an earlier render (a resident session's),
+/// which bounds the search windows without reading every pixel again (the same windows, bit
+/// for bit); None scans the stack here.
+pub fn render_native(stack: &LayerStack, lens: &Lens, scan: Option<&StackScan>) -> Result<Image> {
     debug_assert!(supports(lens, Model::DrBokeh));
     let params = Params::new(stack, lens, Model::DrBokeh)?;
     let (width, height) = (params.width, params.height);
+    let windows = match scan {
+        Some(scan) => scanned_windows_and_ranges(&params, stack, scan).0,
+        None => windows_and_ranges(&params, stack).0,
+    };
     // The running composite, front to back: premultiplied RGBA and the transmittance.
     let mut composite = vec![[0.0f64; 4]; width * height];
     let mut transmittance = vec![1.0f64; width * height];
     let mut sources = Sources::new(&params);
-    for layer in &stack.layers {
-        let window = tile_window_cpu(&params, &tile_bounds_cpu(&params, layer));
+    for (layer, window) in stack.layers.iter().zip(windows.chunks(params.tiles_x * params.tiles_y)) {
         sources.load(layer);
         let sources = &sources;
-        let scatter_rows = scatter_rows(&params, sources, &window);
+        let scatter_rows = scatter_rows(&params, sources, window);
         composite.par_chunks_mut(width).zip(transmittance.par_chunks_mut(width)).enumerate().for_each(|(y, (out, t))| {
             // The footprint's rows follow the centre's radius: a layer's neighbours share it.
             let mut footprint: Option<(i64, f64, DiskRows)> = None;
@@ -561,7 +567,7 @@ mod tests {
         for (k_px, focus) in [(3.0, 0.5), (12.0, 0.5), (40.0, 0.5), (25.0, 0.95), (20.0, 0.0)] {
             let lens = Lens { coc: CocModel::new(k_px, focus).unwrap(), aperture: Aperture::Disk };
             assert!(supports(&lens, Model::DrBokeh));
-            let ours = render_native(&stack, &lens).unwrap();
+            let ours = render_native(&stack, &lens, None).unwrap();
             let reference = render_cpu(&stack, &lens, Model::DrBokeh).unwrap();
             let mut worst = 0.0f32;
             for (a, b) in ours.pixels.iter().zip(&reference.pixels) {
@@ -572,6 +578,20 @@ mod tests {
             // Another summation order in f64, then rounded to f32: an ulp or two of f32.
             assert!(worst <= 2.5e-7, "k_px {k_px}, focus {focus}: worst relative difference {worst}");
             assert!(reference.pixels.iter().any(|p| p[3] > 0.5), "the frame renders something");
+        }
+    }
+
+    #[test]
+    fn a_kept_scan_renders_the_same_bits() {
+        let stack = stack();
+        let scan = StackScan::new(&stack, 0.5);
+        // Focus where the scan was made, outside every layer, and inside the middle and the
+        // front layers' disparities (their tiles are read again).
+        for (k_px, focus) in [(12.0, 0.5), (25.0, 0.95), (20.0, 0.0), (12.0, 0.505), (8.0, 0.85)] {
+            let lens = Lens { coc: CocModel::new(k_px, focus).unwrap(), aperture: Aperture::Disk };
+            let kept = render_native(&stack, &lens, Some(&scan)).unwrap();
+            let fresh = render_native(&stack, &lens, None).unwrap();
+            assert!(kept.pixels == fresh.pixels, "k_px {k_px}, focus {focus}: a kept scan changed the image");
         }
     }
 
