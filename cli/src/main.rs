@@ -170,22 +170,23 @@ fn quiet_on_closed_pipe() {
 #[cfg(not(unix))]
 fn quiet_on_closed_pipe() {}
 
-/// Buffers up to 32 MiB come from the heap, and freed memory stays with the process up to
-/// 128 MiB, instead of glibc's defaults: a block of 128 KiB or more mapped and unmapped for
-/// every allocation, with the thresholds only growing as blocks are freed. A render allocates
-/// and frees one frame-sized buffer after another (the layering's fills and mattes, each
-/// layer's sources), and the kernel zeroed each one again page by page. Measured with
-/// `farm-bench` (15 pairs, this build against the one before it, same bytes written): a 256^2
-/// flat RGB+Z one-shot render, wall 0.177 -> 0.156 s (A/B 0.88), system time 0.104 -> 0.059 s,
-/// peak 41 -> 55 MiB; the drbokeh CPU render of a five-layer 256^2 stack alone, 44 -> 19 ms; a
-/// 2048x1536 frame's peak 1139 -> 1135 MiB (buffers above 32 MiB are still mapped, and
-/// returned when freed). A resident `lensblur serve` reuses the same memory request after
-/// request.
+/// Blocks up to 4 MiB come from the heap, and freed memory stays with the process up to 128 MiB,
+/// instead of glibc's defaults: a block of 128 KiB or more mapped and unmapped for every
+/// allocation, with the thresholds only growing as blocks are freed. A preview-sized render
+/// allocates and frees one frame-sized buffer after another (the layering's fills and mattes,
+/// each layer's sources on the CPU path), and the kernel zeroed each one again page by page.
+/// Measured with `farm-bench` (15 pairs, same bytes written): a 256^2 flat RGB+Z one-shot
+/// render, wall 0.177 -> 0.156 s (A/B 0.88), system time 0.104 -> 0.059 s, peak 41 -> 55 MiB;
+/// the drbokeh CPU render of a five-layer 256^2 stack alone 44 -> 19 ms. The threshold stays low
+/// because a larger frame's buffers are larger: at 32 MiB a 1024x768 frame's peak rose from 441
+/// to 485-537 MiB (fragments of its 12 MB buffers), at 4 MiB to 447 MiB, with the 256^2 gain
+/// unchanged (A/B 0.99 against 32 MiB). A resident `lensblur serve` reuses the same memory
+/// request after request.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 fn keep_freed_memory_for_reuse() {
     // SAFETY: mallopt only sets allocator parameters; it is called before any thread starts.
     unsafe {
-        libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 4 << 20);
         libc::mallopt(libc::M_TRIM_THRESHOLD, 128 << 20);
     }
 }
