@@ -182,12 +182,23 @@ fn quiet_on_closed_pipe() {}
 /// to 485-537 MiB (fragments of its 12 MB buffers), at 4 MiB to 447 MiB, with the 256^2 gain
 /// unchanged (A/B 0.99 against 32 MiB). A resident `lensblur serve` reuses the same memory
 /// request after request.
+///
+/// The threads also share as many heaps (arenas) as there are cores, where glibc allows eight
+/// per core: the main thread and the thread pool's workers are one more than the cores, so two
+/// of them share a heap and reuse what the other freed, instead of mapping and zeroing fresh
+/// pages. On 2 cores (`farm-bench`, 15 pairs, the same bytes written), the 256^2 flat frame
+/// focused: wall A/B 0.90, system time 0.071 -> 0.047 s, peak 56 -> 43 MiB; defocused A/B 0.93.
+/// One heap for all (14,000 page faults -> 7,200) was as fast on the flat frame but made the
+/// layered five-layer file 17% slower: its parallel decoding takes the one heap's lock for
+/// every chunk.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 fn keep_freed_memory_for_reuse() {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     // SAFETY: mallopt only sets allocator parameters; it is called before any thread starts.
     unsafe {
         libc::mallopt(libc::M_MMAP_THRESHOLD, 4 << 20);
         libc::mallopt(libc::M_TRIM_THRESHOLD, 128 << 20);
+        libc::mallopt(libc::M_ARENA_MAX, libc::c_int::try_from(cores).unwrap_or(libc::c_int::MAX));
     }
 }
 

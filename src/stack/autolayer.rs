@@ -30,7 +30,7 @@
 //!    where it is seen on both sides, not across the sky behind it.
 use rayon::prelude::*;
 use super::fill::{compress, expand, four_neighbours, is_hdr, mirror_sources, nearest_known, push_pull, push_pull_where, run_from, BoxSums};
-use super::matting::{solve_matte, Matte, MatteOptions};
+use super::matting::{solve_matte_of, Matte, MatteImage, MatteOptions};
 use super::spill_depth::{assign_spill_depth, upper_median};
 use super::{Layer, LayerStack};
 use crate::camera::CocModel;
@@ -928,6 +928,12 @@ fn own_range(image: &Image, label: &[usize], pairs: &[Option<(usize, usize)>], p
 fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], options: &AutoLayerOptions) -> Vec<Option<Band>> {
     let (w, h) = (image.width, image.height);
     let matte_options = MatteOptions::default();
+    let shared = MatteImage::new(&image.pixels, w, h);
+    // Each layer's sharpest blur, for the cuts either side of it.
+    let mut sharpest = vec![f32::INFINITY; count];
+    for (&l, c) in label.iter().zip(coc) {
+        sharpest[l] = sharpest[l].min(c.abs());
+    }
     let solve_cut = |f: usize| -> Option<(Matte, Vec<bool>)> {
         let front: Vec<bool> = label.iter().map(|&l| l <= f).collect();
         // Pixels beside a real discontinuity across this cut (not a slice of one slanted surface).
@@ -941,8 +947,7 @@ fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], optio
         // The same test marks the farther pixels the light spilled onto, for the split of
         // their colour (`claim_band`); whether the front is the sharper side is the front
         // pixel's own blur, or for a farther pixel the front layer's sharpest.
-        let blur_of = |l: usize| label.iter().zip(coc).filter(|&(&k, _)| k == l).map(|(_, c)| c.abs()).fold(f32::INFINITY, f32::min);
-        let (front_blur, back_blur) = (blur_of(f), blur_of(f + 1));
+        let (front_blur, back_blur) = (sharpest[f], sharpest[f + 1]);
         let lit_from_behind = |p: usize| {
             let sharp_front = if front[p] { coc[p].abs() } else { front_blur } < back_blur;
             is_hdr(image.pixels[p]) && compact_light_behind(image, label, p, f, sharp_front)
@@ -951,7 +956,7 @@ fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], optio
         // pixels once the band is known (a bright sky is HDR everywhere).
         let mut light_behind: Vec<bool> = (0..w * h).into_par_iter().map(|p| front[p] && lit_from_behind(p)).collect();
         let prior: Vec<bool> = (0..w * h).map(|p| front[p] && !light_behind[p]).collect();
-        let matte = solve_matte(&image.pixels, w, h, &prior, &edge, &matte_options)?;
+        let matte = solve_matte_of(&shared, &prior, &edge, &matte_options)?;
         light_behind.par_iter_mut().enumerate().filter(|&(p, _)| !front[p] && matte.unknown[p]).for_each(|(p, lit)| *lit = lit_from_behind(p));
         Some((matte, light_behind))
     };
@@ -1165,7 +1170,7 @@ fn fill_hidden(
     let n = w * h;
     let mut filled: Vec<[f32; 4]> = rgba.iter().map(|&c| compress(c)).collect();
     push_pull_where(w, h, &mut filled, colour_weight, hidden);
-    push_pull(w, h, coverage, coverage_weight);
+    push_pull_where(w, h, coverage, coverage_weight, hidden);
     // A light cut by a nearer layer's edge continues under it at full strength (mirrored
     // across the edge) instead of fading into the push-pull average: its bokeh ball is then
     // round, not cut (issue 22, failure 1).

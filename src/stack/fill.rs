@@ -58,13 +58,18 @@ struct Level<const N: usize> {
 
 /// The fine pixels that carry weight among the 2x2 block under coarse pixel (x, y) of a level
 /// `width` x `height` with `weights`.
+///
+/// Four calls of one closure, not an array map: the map's closure was left uninlined in the
+/// pull, the fills' widest loop.
+#[inline]
 fn pull_children(width: usize, height: usize, weights: &[f32], x: usize, y: usize) -> [Option<usize>; 4] {
-    [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(dx, dy)| {
+    let child = |dx: usize, dy: usize| {
         let (fx, fy) = (2 * x + dx, 2 * y + dy);
         let i = fy * width + fx;
         // Weightless values are undefined (may be NaN or infinite): never read.
         (fx < width && fy < height && weights[i] > 0.0).then_some(i)
-    })
+    };
+    [child(0, 0), child(1, 0), child(0, 1), child(1, 1)]
 }
 
 /// The next coarser level, row by row on every core (each coarse pixel reads its own 2x2 block):
@@ -113,6 +118,7 @@ fn coarse_corner(v: usize) -> (i64, f32) {
 /// and `m + 1`, fraction 1/4). Integer arithmetic gives the exact floor and fraction the float
 /// form `floor((x + 0.5) * 0.5 - 0.5)` gives, without a `floor` call per pixel (it was a fifth
 /// of the layering's time).
+#[inline]
 fn coarse_taps(width: usize, height: usize, weights: &[f32], x: usize, y: usize) -> ([(usize, f32); 4], usize, usize) {
     let bilinear = full_coarse_taps(width, height, x, y);
     let (mut taps, mut count) = ([(0, 0.0); 4], 0);
@@ -129,6 +135,7 @@ fn coarse_taps(width: usize, height: usize, weights: &[f32], x: usize, y: usize)
 
 /// Bilinear sample of a coarse level at the centre of fine pixel (x, y), using only
 /// coarse pixels that carry weight (so empty regions do not pull values towards zero).
+#[inline]
 fn sample_coarse<const N: usize>(coarse: &Level<N>, x: usize, y: usize) -> [f32; N] {
     let (taps, count, fallback) = coarse_taps(coarse.width, coarse.height, &coarse.weights, x, y);
     let (mut sum, mut total) = ([0.0f32; N], 0.0f32);
@@ -149,6 +156,7 @@ fn sample_coarse<const N: usize>(coarse: &Level<N>, x: usize, y: usize) -> [f32;
 /// has once it is pushed: all four taps count and their bilinear weights (products of 1/4 and
 /// 3/4) sum to exactly 1, so this plain sum adds the same terms in the same order and gives the
 /// same bits, without the per-tap weight tests.
+#[inline]
 fn sample_full_coarse<const N: usize>(coarse: &Level<N>, x: usize, y: usize) -> [f32; N] {
     let mut sum = [0.0f32; N];
     for (i, w) in full_coarse_taps(coarse.width, coarse.height, x, y) {
@@ -162,6 +170,7 @@ fn sample_full_coarse<const N: usize>(coarse: &Level<N>, x: usize, y: usize) -> 
 /// The four bilinear taps (index, weight) of fine pixel (x, y) on the coarse level, clamped at
 /// its edges: [`coarse_taps`] before the level's weights, and all of it on a level whose weights
 /// are all 1.
+#[inline]
 fn full_coarse_taps(width: usize, height: usize, x: usize, y: usize) -> [(usize, f32); 4] {
     let ((x0, tx), (y0, ty)) = (coarse_corner(x), coarse_corner(y));
     let (xa, xb) = (x0.clamp(0, width as i64 - 1) as usize, (x0 + 1).clamp(0, width as i64 - 1) as usize);

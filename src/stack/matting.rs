@@ -145,10 +145,12 @@ fn invert_symmetric(m: [f64; 6]) -> [f64; 6] {
     [ca * inv, cb * inv, cc * inv, (a * f - c * c) * inv, (b * c - a * e) * inv, (a * d - b * b) * inv]
 }
 
+#[inline]
 fn mat_vec(m: &[f64; 6], v: [f64; 3]) -> [f64; 3] {
     [m[0] * v[0] + m[1] * v[1] + m[2] * v[2], m[1] * v[0] + m[3] * v[1] + m[4] * v[2], m[2] * v[0] + m[4] * v[1] + m[5] * v[2]]
 }
 
+#[inline]
 fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -185,13 +187,17 @@ fn windows(guide: &[[f64; 3]], width: usize, height: usize, unknown: &[usize], e
             let pixels = window_pixels(c, width);
             let mut mean = [0.0f64; 3];
             for &q in &pixels {
-                (0..3).for_each(|k| mean[k] += guide[q][k] / 9.0);
+                for k in 0..3 {
+                    mean[k] += guide[q][k] / 9.0;
+                }
             }
             let mut cov = [0.0f64; 6];
             for &q in &pixels {
-                let d = [0, 1, 2].map(|k| guide[q][k] - mean[k]);
+                let d = [guide[q][0] - mean[0], guide[q][1] - mean[1], guide[q][2] - mean[2]];
                 let terms = [d[0] * d[0], d[0] * d[1], d[0] * d[2], d[1] * d[1], d[1] * d[2], d[2] * d[2]];
-                (0..6).for_each(|k| cov[k] += terms[k] / 9.0);
+                for k in 0..6 {
+                    cov[k] += terms[k] / 9.0;
+                }
             }
             let reg = epsilon / 9.0;
             cov[0] += reg;
@@ -253,11 +259,13 @@ impl<'a> Laplacian<'a> {
                 let (mut a, mut s) = (0.0f64, [0.0f64; 3]);
                 for &q in &pixels {
                     a += x[q];
-                    (0..3).for_each(|c| s[c] += guide[q][c] * x[q]);
+                    for c in 0..3 {
+                        s[c] += guide[q][c] * x[q];
+                    }
                 }
-                let (a, s) = (a / 9.0, s.map(|v| v / 9.0));
+                let (a, s) = (a / 9.0, [s[0] / 9.0, s[1] / 9.0, s[2] / 9.0]);
                 let mu = windows.mean[k];
-                let v = mat_vec(&windows.inverse[k], [0, 1, 2].map(|c| s[c] - mu[c] * a));
+                let v = mat_vec(&windows.inverse[k], [s[0] - mu[0] * a, s[1] - mu[1] * a, s[2] - mu[2] * a]);
                 (a - dot3(mu, v), v)
             })
             .collect_into_vec(&mut self.models);
@@ -284,7 +292,8 @@ fn laplacian_diagonal(guide: &[[f64; 3]], width: usize, height: usize, windows: 
         .map(|&p| {
             windows_of(p, width, height, windows)
                 .map(|k| {
-                    let d = [0, 1, 2].map(|c| guide[p][c] - windows.mean[k][c]);
+                    let (g, mu) = (guide[p], windows.mean[k]);
+                    let d = [g[0] - mu[0], g[1] - mu[1], g[2] - mu[2]];
                     1.0 - (1.0 + dot3(d, mat_vec(&windows.inverse[k], d))) / 9.0
                 })
                 .sum()
@@ -306,24 +315,54 @@ fn is_thin(front: &[bool], width: usize, height: usize, p: usize) -> bool {
     run(1, 0).min(run(0, 1)) <= THIN_RUN_PX
 }
 
-/// Whether pixel `p` is on a thin line, not the tip of a wider shape, given `thin`, each
-/// front pixel's [`is_thin`]: it is thin and so are at least two pixels of its 3x3
+/// Whether pixel `p` is on a thin line, not the tip of a wider shape, given `thin`, whether a
+/// pixel is a front pixel and [`is_thin`]: it is thin and so are at least two pixels of its 3x3
 /// neighbourhood (along the line, either way). The top pixels of a disc are as narrow as a
 /// wire, but the pixels below them are wide.
-fn on_thin_line(thin: &[bool], width: usize, height: usize, p: usize) -> bool {
-    if !thin[p] {
+fn on_thin_line(thin: impl Fn(usize) -> bool, width: usize, height: usize, p: usize) -> bool {
+    if !thin(p) {
         return false;
     }
     let (x, y) = (p % width, p / width);
     let rows = y.saturating_sub(1)..=(y + 1).min(height - 1);
     let neighbours = rows.flat_map(|qy| (x.saturating_sub(1)..=(x + 1).min(width - 1)).map(move |qx| qy * width + qx));
-    neighbours.filter(|&q| q != p && thin[q]).count() >= 2
+    neighbours.filter(|&q| q != p && thin(q)).count() >= 2
+}
+
+/// What every matte of one image shares, whatever its cut: the Laplacian's guide and the
+/// range-compressed colours the side fills start from. A flat frame's layering solves one matte
+/// per cut; each computed both again over the whole frame, for a band of a few percent of it.
+pub struct MatteImage<'a> {
+    pixels: &'a [[f32; 4]],
+    width: usize,
+    height: usize,
+    /// Per pixel, the guide colour of the matting Laplacian ([`guide_value`] of the scaled colour).
+    guide: Vec<[f64; 3]>,
+    /// Per pixel, [`compress`] of the colour clamped at 0: what the side fills average.
+    compressed: Vec<[f32; 4]>,
+}
+
+impl<'a> MatteImage<'a> {
+    /// `pixels`: linear RGBA, straight, alpha 1, `width` x `height`.
+    pub fn new(pixels: &'a [[f32; 4]], width: usize, height: usize) -> Self {
+        assert_eq!(pixels.len(), width * height);
+        let scale = guide_scale(pixels);
+        let guide = pixels.par_iter().map(|&c| [0, 1, 2].map(|k| guide_value(f64::from(c[k].max(0.0) * scale)))).collect();
+        let compressed = pixels.par_iter().map(|&c| compress(c.map(|v| v.max(0.0)))).collect();
+        Self { pixels, width, height, guide, compressed }
+    }
 }
 
 /// Solves one binary matte of `image` (linear RGBA, straight, alpha 1) where `front` marks the
 /// pixels whose Z sample hit the nearer side, around the pixels `edge` marks (beside the other
 /// side). Returns None when no pixel is on an edge.
 pub fn solve_matte(image: &[[f32; 4]], width: usize, height: usize, front: &[bool], edge: &[bool], options: &MatteOptions) -> Option<Matte> {
+    solve_matte_of(&MatteImage::new(image, width, height), front, edge, options)
+}
+
+/// [`solve_matte`] on an image's shared data (several mattes of one image).
+pub fn solve_matte_of(shared: &MatteImage, front: &[bool], edge: &[bool], options: &MatteOptions) -> Option<Matte> {
+    let (image, width, height) = (shared.pixels, shared.width, shared.height);
     let n = width * height;
     assert_eq!(front.len(), n);
     assert_eq!(edge.len(), n);
@@ -334,33 +373,33 @@ pub fn solve_matte(image: &[[f32; 4]], width: usize, height: usize, front: &[boo
     }
     let mut unknown = vec![false; n];
     unknown_list.iter().for_each(|&p| unknown[p] = true);
-    let scale = guide_scale(image);
-    let guide: Vec<[f64; 3]> = image.par_iter().map(|&c| [0, 1, 2].map(|k| guide_value(f64::from(c[k].max(0.0) * scale)))).collect();
-    let windows = windows(&guide, width, height, &unknown_list, f64::from(options.epsilon));
+    let guide = &shared.guide;
+    let windows = windows(guide, width, height, &unknown_list, f64::from(options.epsilon));
     let prior: Vec<f64> = front.iter().map(|&f| if f { 1.0 } else { 0.0 }).collect();
     // Pixels next to the edge (distance 1: the edge runs between them) trust Z least, but
-    // those of a thin line (once per pixel: each is read by its neighbours' line test too).
-    let thin: Vec<bool> = (0..n).into_par_iter().map(|p| front[p] && is_thin(front, width, height, p)).collect();
+    // those of a thin line. Whether a pixel is thin is asked of the band's pixels and their
+    // neighbours only.
+    let thin = |p: usize| front[p] && is_thin(front, width, height, p);
     let confidence: Vec<f64> = unknown_list
         .par_iter()
         .map(|&p| {
             let d = distance[p].saturating_sub(1) as f64;
             let base = f64::from(options.edge_confidence) + f64::from(options.confidence_growth) * d * d;
-            if !is_hdr(image[p]) && on_thin_line(&thin, width, height, p) {
+            if !is_hdr(image[p]) && on_thin_line(thin, width, height, p) {
                 base.max(f64::from(options.thin_confidence))
             } else {
                 base
             }
         })
         .collect();
-    let mut laplacian = Laplacian::new(&guide, width, height, &windows, &unknown_list);
+    let mut laplacian = Laplacian::new(guide, width, height, &windows, &unknown_list);
     // Right-hand side: C z - L x_fixed, x_fixed = the labels outside the band, 0 inside.
     let mut fixed: Vec<f64> = prior.clone();
     unknown_list.iter().for_each(|&p| fixed[p] = 0.0);
     let mut lx_fixed = Vec::new();
     laplacian.apply(&fixed, &mut lx_fixed);
     let b: Vec<f64> = (0..unknown_list.len()).map(|i| confidence[i] * prior[unknown_list[i]] - lx_fixed[i]).collect();
-    let diagonal: Vec<f64> = laplacian_diagonal(&guide, width, height, &windows, &unknown_list)
+    let diagonal: Vec<f64> = laplacian_diagonal(guide, width, height, &windows, &unknown_list)
         .iter()
         .zip(&confidence)
         .map(|(d, c)| (d + c).max(1e-6))
@@ -405,7 +444,7 @@ pub fn solve_matte(image: &[[f32; 4]], width: usize, height: usize, front: &[boo
     }
     let mut alpha: Vec<f32> = prior.iter().map(|&v| v as f32).collect();
     unknown_list.iter().zip(&x).for_each(|(&p, &a)| alpha[p] = snap(a as f32));
-    let (foreground, background) = estimate_colours(image, width, height, &alpha, &unknown, &unknown_list, options.colour_sweeps);
+    let (foreground, background) = estimate_colours(shared, &alpha, &unknown, &unknown_list, options.colour_sweeps);
     Some(Matte { unknown, alpha, foreground, background, iterations, residual: residual as f32 })
 }
 
@@ -424,13 +463,19 @@ fn snap(a: f32) -> f32 {
     }
 }
 
-/// Fills one side's colour from its confident pixels (weight 1) at the pixels `read` names (the
-/// others keep their own colour), in the range-compressed space of the layering's fills so
-/// that a light does not smear.
-fn side_fill(image: &[[f32; 4]], width: usize, height: usize, weight: &[f32], read: &[bool]) -> Vec<[f32; 3]> {
-    let mut values: Vec<[f32; 4]> = image.iter().map(|&c| compress(c.map(|v| v.max(0.0)))).collect();
-    push_pull_where(width, height, &mut values, weight, read);
-    values.into_iter().map(expand).map(|c| [c[0], c[1], c[2]]).collect()
+/// One side's colour where the sweeps read it (`read`, listed in `read_list`): the image's own
+/// at the side's confident pixels (weight 1), elsewhere a fill from them, made in the
+/// range-compressed space of the layering's fills so that a light does not smear. Outside
+/// `read` nothing reads the other side's colour, which is left the image's.
+fn side_colours(shared: &MatteImage, weight: &[f32], read: &[bool], read_list: &[usize]) -> Vec<[f32; 3]> {
+    let mut values = shared.compressed.clone();
+    push_pull_where(shared.width, shared.height, &mut values, weight, read);
+    let mut colours: Vec<[f32; 3]> = shared.pixels.iter().map(|c| [c[0], c[1], c[2]]).collect();
+    for &p in read_list.iter().filter(|&&p| weight[p] <= 0.0) {
+        let [r, g, b, _] = expand(values[p]);
+        colours[p] = [r, g, b];
+    }
+    colours
 }
 
 /// Weight of the smoothness term between two neighbours (Germer et al. 2020: regularisation
@@ -438,31 +483,24 @@ fn side_fill(image: &[[f32; 4]], width: usize, height: usize, weight: &[f32], re
 const COLOUR_REGULARISATION: f32 = 1e-3;
 
 /// Foreground and background colours at the unknown pixels (see the module docs).
-fn estimate_colours(
-    image: &[[f32; 4]],
-    width: usize,
-    height: usize,
-    alpha: &[f32],
-    unknown: &[bool],
-    unknown_list: &[usize],
-    sweeps: usize,
-) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+fn estimate_colours(shared: &MatteImage, alpha: &[f32], unknown: &[bool], unknown_list: &[usize], sweeps: usize) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+    let (image, width, height) = (shared.pixels, shared.width, shared.height);
     let known_front: Vec<f32> = (0..alpha.len()).map(|p| if !unknown[p] && alpha[p] >= 0.5 { 1.0 } else { 0.0 }).collect();
     let known_back: Vec<f32> = (0..alpha.len()).map(|p| if !unknown[p] && alpha[p] < 0.5 { 1.0 } else { 0.0 }).collect();
     // The fills are read in the band and, by the sweeps, at its pixels' 4-neighbours only.
-    let read: Vec<bool> =
-        (0..alpha.len()).into_par_iter().map(|p| unknown[p] || four_neighbours(p, width, height).into_iter().flatten().any(|q| unknown[q])).collect();
-    let mut foreground = side_fill(image, width, height, &known_front, &read);
-    let mut background = side_fill(image, width, height, &known_back, &read);
     // Outside the band the pixel is all one side: that side's colour is the pixel's.
-    for p in (0..alpha.len()).filter(|&p| !unknown[p]) {
-        let c = [image[p][0], image[p][1], image[p][2]];
-        if alpha[p] >= 0.5 {
-            foreground[p] = c;
-        } else {
-            background[p] = c;
+    let mut read = vec![false; alpha.len()];
+    let mut read_list = Vec::with_capacity(unknown_list.len() * 2);
+    for &p in unknown_list {
+        for q in std::iter::once(p).chain(four_neighbours(p, width, height).into_iter().flatten()) {
+            if !read[q] {
+                read[q] = true;
+                read_list.push(q);
+            }
         }
     }
+    let mut foreground = side_colours(shared, &known_front, &read, &read_list);
+    let mut background = side_colours(shared, &known_back, &read, &read_list);
     let parity: [Vec<usize>; 2] = [0, 1].map(|k| unknown_list.iter().copied().filter(|&p| (p % width + p / width) % 2 == k).collect());
     // A pixel's 4-neighbours are all of the other parity: each half sweep reads the other
     // half's colours and writes its own, in place, in arrays of the band's pixels alone.
@@ -543,23 +581,32 @@ impl SweepPixel {
 
     /// The pixel's F and B given its neighbours' (the same operations, in the same order, as
     /// solving its system from scratch).
+    ///
+    /// Plain loops over the three channels, not array maps: the sweeps are the matte's hottest
+    /// loop, and the maps' closures were left uninlined there (the same operations either way).
     fn update(&self, image: &[[f32; 4]], swept: &[([f32; 3], [f32; 3])], foreground: &[[f32; 3]], background: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
         let (a, c) = (self.alpha, image[self.pixel as usize]);
-        let mut b0 = [0, 1, 2].map(|k| a * c[k]);
-        let mut b1 = [0, 1, 2].map(|k| (1.0 - a) * c[k]);
+        let (mut b0, mut b1) = ([0.0f32; 3], [0.0f32; 3]);
+        for k in 0..3 {
+            b0[k] = a * c[k];
+            b1[k] = (1.0 - a) * c[k];
+        }
         for &(w, source) in &self.taps[..usize::from(self.count)] {
             let (f, b) = if source & SWEPT != 0 {
                 swept[(source & !SWEPT) as usize]
             } else {
                 (foreground[source as usize], background[source as usize])
             };
-            (0..3).for_each(|k| {
+            for k in 0..3 {
                 b0[k] += w * f[k];
                 b1[k] += w * b[k];
-            });
+            }
         }
-        let f = [0, 1, 2].map(|k| ((self.a11 * b0[k] - self.a01 * b1[k]) * self.inv).max(0.0));
-        let b = [0, 1, 2].map(|k| ((self.a00 * b1[k] - self.a01 * b0[k]) * self.inv).max(0.0));
+        let (mut f, mut b) = ([0.0f32; 3], [0.0f32; 3]);
+        for k in 0..3 {
+            f[k] = ((self.a11 * b0[k] - self.a01 * b1[k]) * self.inv).max(0.0);
+            b[k] = ((self.a00 * b1[k] - self.a01 * b0[k]) * self.inv).max(0.0);
+        }
         (f, b)
     }
 }
@@ -682,12 +729,12 @@ mod tests {
             .collect();
         // Along them, at the frame's edge too where the line goes on beside it (a line's last pixel
         // has one neighbour on it, and is left to the colours, as a tip).
-        let thin: Vec<bool> = (0..w * h).map(|p| front[p] && is_thin(&front, w, h, p)).collect();
+        let thin = |p: usize| front[p] && is_thin(&front, w, h, p);
         for (x, y) in [(4, 10), (4, 1), (24, 4), (30, 30), (40, 31), (47, 30)] {
-            assert!(on_thin_line(&thin, w, h, y * w + x), "({x}, {y}) is on a line");
+            assert!(on_thin_line(thin, w, h, y * w + x), "({x}, {y}) is on a line");
         }
         for p in (0..w * h).filter(|&p| disc(p % w, p / w)) {
-            assert!(!on_thin_line(&thin, w, h, p), "disc pixel ({}, {}) taken for a line", p % w, p / w);
+            assert!(!on_thin_line(thin, w, h, p), "disc pixel ({}, {}) taken for a line", p % w, p / w);
         }
     }
 
