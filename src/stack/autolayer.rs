@@ -1112,7 +1112,7 @@ fn build_layer(k: usize, image: &Image, disparity: &[f32], signed: &[f32], label
     let mut rgba = vec![[0.0f32; 4]; n];
     let mut colour_weight = vec![0.0f32; n];
     // How much of each pixel's colour is the layer's own, before the depth guide: what the
-    // hidden region's nearest colours are judged by (`near_colours`).
+    // hidden region's nearest colours are judged by (`NearColours`).
     let mut seen = vec![0.0f32; n];
     let mut hidden = vec![false; n];
     // Coverage where it is seen (own 1, partial alpha, farther 0), to be extended under the
@@ -1176,23 +1176,34 @@ fn fill_hidden(
     // round, not cut (issue 22, failure 1).
     let own_lights: Vec<bool> = (0..n).map(|p| colour_weight[p] > 0.0 && is_hdr(rgba[p])).collect();
     let lights = mirror_sources(w, h, &own_lights, hidden, |p, q| light_reach(signed[p], signed[q]));
-    let near = near_colours(w, h, rgba, seen, hidden);
-    for p in (0..n).filter(|&p| hidden[p]) {
-        let colour = match (lights[p], near[p]) {
-            (Some(q), _) => rgba[q],
-            (None, Some((c, t))) => {
-                let pulled = expand(filled[p]);
-                [c[0] * (1.0 - t) + pulled[0] * t, c[1] * (1.0 - t) + pulled[1] * t, c[2] * (1.0 - t) + pulled[2] * t, pulled[3]]
-            }
-            (None, None) => expand(filled[p]),
-        };
-        let alpha = coverage[p][0].clamp(0.0, 1.0);
-        rgba[p] = colour.map(|v| v * alpha / colour[3].max(1e-6));
+    let near = NearColours::new(w, h, rgba, seen);
+    // Every colour read here is of a pixel nothing hides (a light's own, a confident one), so
+    // the hidden pixels' new colours are found from `rgba` as it is, then written.
+    let colours: Vec<(usize, [f32; 4])> = (0..n)
+        .into_par_iter()
+        .filter(|&p| hidden[p])
+        .map(|p| {
+            let colour = match lights[p] {
+                Some(q) => rgba[q],
+                None => match near.at(p, rgba) {
+                    Some((c, t)) => {
+                        let pulled = expand(filled[p]);
+                        [c[0] * (1.0 - t) + pulled[0] * t, c[1] * (1.0 - t) + pulled[1] * t, c[2] * (1.0 - t) + pulled[2] * t, pulled[3]]
+                    }
+                    None => expand(filled[p]),
+                },
+            };
+            let alpha = coverage[p][0].clamp(0.0, 1.0);
+            (p, colour.map(|v| v * alpha / colour[3].max(1e-6)))
+        })
+        .collect();
+    for (p, colour) in colours {
+        rgba[p] = colour;
     }
 }
 
 /// Within this distance (px) of a layer's confident pixels, a pixel hidden behind a nearer
-/// layer takes the colour those show nearest ([`near_colours`]); from here to twice as far it
+/// layer takes the colour those show nearest ([`NearColours`]); from here to twice as far it
 /// blends into the push-pull fill. The push-pull's pyramid misses a side that ends at one of
 /// its block edges: behind a tall blurred tower (dev-140 of issue 46, CoC 15 px) the fill 3 px
 /// from the dark surface beside it was the bright sky 40 px above (0.125 against 0.015), and
@@ -1203,13 +1214,13 @@ fn fill_hidden(
 const NEAR_FILL_REACH_PX: f32 = 12.0;
 
 /// Half the side (px) of the square whose confident pixels, around the nearest one, give the
-/// colour of [`near_colours`]: one pixel copied carries the input's noise along the hidden
+/// colour of [`NearColours`]: one pixel copied carries the input's noise along the hidden
 /// region (dev-78, an in-focus fence over a noisy horizon, at 12 px of reach: one pixel -0.41
 /// dB, a mean over 2 px -0.13, 4 px -0.04, 6 px +0.02).
 const NEAR_FILL_MEAN_PX: usize = 6;
 
 /// Fewest share of a pixel's colour that is the layer's own for it to count as confident for
-/// [`near_colours`]: its own pixels, and band pixels at least half of whose colour is the
+/// [`NearColours`]: its own pixels, and band pixels at least half of whose colour is the
 /// layer's. Not weighted by the depth guide of the push-pull, which prefers a layer's farthest
 /// surface: with it, a dark surface at the near end of a layer (weight e^-2) was never
 /// confident, and the hidden region beside it took the mean of a sunlit plane 9 px away, which
@@ -1217,31 +1228,40 @@ const NEAR_FILL_MEAN_PX: usize = 6;
 /// 36.19).
 const NEAR_FILL_CONFIDENT: f32 = 0.5;
 
-/// Per pixel, the colour a layer shows nearest and how much of the push-pull fill to blend in
-/// (0 within [`NEAR_FILL_REACH_PX`] of the nearest confident pixel, 1 at twice that); `None`
+/// The colour a layer shows nearest a hidden pixel and how much of the push-pull fill to blend
+/// in (0 within [`NEAR_FILL_REACH_PX`] of the nearest confident pixel, 1 at twice that); `None`
 /// farther away, or where the nearest pixel is HDR (a light continues only by mirror,
-/// [`LIGHT_REACH_PX`]: extruded, it would streak).
-fn near_colours(w: usize, h: usize, rgba: &[[f32; 4]], seen: &[f32], hidden: &[bool]) -> Vec<Option<([f32; 4], f32)>> {
-    if !hidden.contains(&true) {
-        return vec![None; w * h];
+/// [`LIGHT_REACH_PX`]: extruded, it would streak). Asked of the hidden pixels only, not kept
+/// for the whole frame.
+struct NearColours {
+    width: usize,
+    /// Per pixel, its nearest confident pixel.
+    nearest: Vec<Option<usize>>,
+    /// The confident pixels' colours (straight, range-compressed), weighted by how much of each
+    /// is the layer's own.
+    sums: BoxSums<4>,
+}
+
+impl NearColours {
+    fn new(w: usize, h: usize, rgba: &[[f32; 4]], seen: &[f32]) -> Self {
+        let confident: Vec<bool> = seen.par_iter().map(|&c| c >= NEAR_FILL_CONFIDENT).collect();
+        let weights: Vec<f32> = seen.par_iter().zip(&confident).map(|(&c, &k)| if k { c } else { 0.0 }).collect();
+        let straight: Vec<[f32; 4]> = rgba.par_iter().zip(&confident).map(|(c, &k)| if k { compress(c.map(|v| v / c[3].max(1e-6))) } else { [0.0; 4] }).collect();
+        let sums = BoxSums::new(w, h, &straight, &weights);
+        Self { width: w, nearest: nearest_known(w, h, &confident), sums }
     }
-    let confident: Vec<bool> = seen.par_iter().map(|&c| c >= NEAR_FILL_CONFIDENT).collect();
-    let weights: Vec<f32> = seen.par_iter().zip(&confident).map(|(&c, &k)| if k { c } else { 0.0 }).collect();
-    let straight: Vec<[f32; 4]> = rgba.par_iter().zip(&confident).map(|(c, &k)| if k { compress(c.map(|v| v / c[3].max(1e-6))) } else { [0.0; 4] }).collect();
-    let sums = BoxSums::new(w, h, &straight, &weights);
-    nearest_known(w, h, &confident)
-        .into_par_iter()
-        .enumerate()
-        .map(|(p, q)| {
-            let q = q.filter(|&q| hidden[p] && !is_hdr(rgba[q]))?;
-            let (dx, dy) = ((p % w) as f32 - (q % w) as f32, (p / w) as f32 - (q / w) as f32);
-            let t = ((dx * dx + dy * dy).sqrt() / NEAR_FILL_REACH_PX - 1.0).clamp(0.0, 1.0);
-            if t >= 1.0 {
-                return None;
-            }
-            Some((expand(sums.mean_around(q, NEAR_FILL_MEAN_PX)?), t))
-        })
-        .collect()
+
+    /// At hidden pixel `p`, given the layer's colours before the fill (`rgba`).
+    fn at(&self, p: usize, rgba: &[[f32; 4]]) -> Option<([f32; 4], f32)> {
+        let w = self.width;
+        let q = self.nearest[p].filter(|&q| !is_hdr(rgba[q]))?;
+        let (dx, dy) = ((p % w) as f32 - (q % w) as f32, (p / w) as f32 - (q / w) as f32);
+        let t = ((dx * dx + dy * dy).sqrt() / NEAR_FILL_REACH_PX - 1.0).clamp(0.0, 1.0);
+        if t >= 1.0 {
+            return None;
+        }
+        Some((expand(self.sums.mean_around(q, NEAR_FILL_MEAN_PX)?), t))
+    }
 }
 
 /// Splits one flat image with per-pixel disparity into a front-to-back layer stack whose

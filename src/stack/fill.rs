@@ -349,14 +349,20 @@ impl<const N: usize> BoxSums<N> {
                 let (p, w) = (y * width + x, f64::from(weights[y * width + x].max(0.0)));
                 if w > 0.0 {
                     row_total += w;
-                    (0..N).for_each(|k| row[k] += w * f64::from(values[p][k]));
+                    for k in 0..N {
+                        row[k] += w * f64::from(values[p][k]);
+                    }
                 }
                 (sum[x + 1], total[x + 1]) = (row, row_total);
             }
         });
         for y in 1..=height {
             let (above, here) = sum.split_at_mut(y * stride);
-            here[..stride].iter_mut().zip(&above[(y - 1) * stride..]).for_each(|(s, a)| (0..N).for_each(|k| s[k] += a[k]));
+            for (s, a) in here[..stride].iter_mut().zip(&above[(y - 1) * stride..]) {
+                for k in 0..N {
+                    s[k] += a[k];
+                }
+            }
             let (above, here) = total.split_at_mut(y * stride);
             here[..stride].iter_mut().zip(&above[(y - 1) * stride..]).for_each(|(t, a)| *t += a);
         }
