@@ -928,19 +928,22 @@ fn own_range(image: &Image, label: &[usize], pairs: &[Option<(usize, usize)>], p
 fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], options: &AutoLayerOptions) -> Vec<Option<Band>> {
     let (w, h) = (image.width, image.height);
     let matte_options = MatteOptions::default();
-    let shared = MatteImage::new(&image.pixels, w, h);
     // Each layer's sharpest blur, for the cuts either side of it.
     let mut sharpest = vec![f32::INFINITY; count];
     for (&l, c) in label.iter().zip(coc) {
         sharpest[l] = sharpest[l].min(c.abs());
     }
-    let solve_cut = |f: usize| -> Option<(Matte, Vec<bool>)> {
+    // A cut's sides, and its pixels beside a real discontinuity across it (not a slice of one
+    // slanted surface); None where it has none: no matte to solve.
+    let cut_edges = |f: usize| -> Option<(Vec<bool>, Vec<bool>)> {
         let front: Vec<bool> = label.iter().map(|&l| l <= f).collect();
-        // Pixels beside a real discontinuity across this cut (not a slice of one slanted surface).
         let edge: Vec<bool> = (0..w * h)
             .into_par_iter()
             .map(|p| four_neighbours(p, w, h).into_iter().flatten().any(|q| front[q] != front[p] && (coc[q] - coc[p]).abs() >= options.matte_jump_px))
             .collect();
+        edge.contains(&true).then_some((front, edge))
+    };
+    let solve_cut = |f: usize, (front, edge): (Vec<bool>, Vec<bool>), shared: &MatteImage| -> Option<(Matte, Vec<bool>)> {
         // The Z prior says "front" where the sample hit the front, except for HDR light that
         // comes from behind it: a light seen between wires lights the wire pixels beside it
         // too, and as a front prior they would pull the whole light into the sharp layer.
@@ -956,10 +959,12 @@ fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], optio
         // pixels once the band is known (a bright sky is HDR everywhere).
         let mut light_behind: Vec<bool> = (0..w * h).into_par_iter().map(|p| front[p] && lit_from_behind(p)).collect();
         let prior: Vec<bool> = (0..w * h).map(|p| front[p] && !light_behind[p]).collect();
-        let matte = solve_matte_of(&shared, &prior, &edge, &matte_options)?;
+        let matte = solve_matte_of(shared, &prior, &edge, &matte_options)?;
         light_behind.par_iter_mut().enumerate().filter(|&(p, _)| !front[p] && matte.unknown[p]).for_each(|(p, lit)| *lit = lit_from_behind(p));
         Some((matte, light_behind))
     };
+    // The mattes' shared guide, made once, and only for a frame with a cut to solve.
+    let matte_image = || MatteImage::new(&image.pixels, w, h);
     let cuts = count.saturating_sub(1);
     let mut out: Vec<Option<Band>> = vec![None; w * h];
     // The cuts' mattes are independent; only their claims on pixels go in order (a pixel two
@@ -967,15 +972,21 @@ fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], optio
     // cores busy one cut at a time, so its cuts are solved side by side; a large frame's one
     // at a time, holding one matte (about 30 bytes a pixel) at once.
     if w * h <= CONCURRENT_CUTS_MAX_PIXELS {
-        let mattes: Vec<Option<(Matte, Vec<bool>)>> = (0..cuts).into_par_iter().map(solve_cut).collect();
-        for (f, matte) in mattes.into_iter().enumerate() {
-            if let Some((matte, light_behind)) = matte {
-                claim_band(image, label, f, &matte, &light_behind, matte_options.radius_px, &mut out);
+        let edges: Vec<Option<(Vec<bool>, Vec<bool>)>> = (0..cuts).into_par_iter().map(cut_edges).collect();
+        if edges.iter().any(Option::is_some) {
+            let shared = matte_image();
+            let mattes: Vec<Option<(Matte, Vec<bool>)>> = edges.into_par_iter().enumerate().map(|(f, edges)| solve_cut(f, edges?, &shared)).collect();
+            for (f, matte) in mattes.into_iter().enumerate() {
+                if let Some((matte, light_behind)) = matte {
+                    claim_band(image, label, f, &matte, &light_behind, matte_options.radius_px, &mut out);
+                }
             }
         }
     } else {
+        let mut shared = None;
         for f in 0..cuts {
-            if let Some((matte, light_behind)) = solve_cut(f) {
+            let Some(edges) = cut_edges(f) else { continue };
+            if let Some((matte, light_behind)) = solve_cut(f, edges, shared.get_or_insert_with(matte_image)) {
                 claim_band(image, label, f, &matte, &light_behind, matte_options.radius_px, &mut out);
             }
         }

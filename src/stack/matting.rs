@@ -329,17 +329,15 @@ fn on_thin_line(thin: impl Fn(usize) -> bool, width: usize, height: usize, p: us
     neighbours.filter(|&q| q != p && thin(q)).count() >= 2
 }
 
-/// What every matte of one image shares, whatever its cut: the Laplacian's guide and the
-/// range-compressed colours the side fills start from. A flat frame's layering solves one matte
-/// per cut; each computed both again over the whole frame, for a band of a few percent of it.
+/// What every matte of one image shares, whatever its cut: the image and the Laplacian's
+/// guide. A flat frame's layering solves one matte per cut; each computed the guide again over
+/// the whole frame, for a band of a few percent of it.
 pub struct MatteImage<'a> {
     pixels: &'a [[f32; 4]],
     width: usize,
     height: usize,
     /// Per pixel, the guide colour of the matting Laplacian ([`guide_value`] of the scaled colour).
     guide: Vec<[f64; 3]>,
-    /// Per pixel, [`compress`] of the colour clamped at 0: what the side fills average.
-    compressed: Vec<[f32; 4]>,
 }
 
 impl<'a> MatteImage<'a> {
@@ -348,8 +346,7 @@ impl<'a> MatteImage<'a> {
         assert_eq!(pixels.len(), width * height);
         let scale = guide_scale(pixels);
         let guide = pixels.par_iter().map(|&c| [0, 1, 2].map(|k| guide_value(f64::from(c[k].max(0.0) * scale)))).collect();
-        let compressed = pixels.par_iter().map(|&c| compress(c.map(|v| v.max(0.0)))).collect();
-        Self { pixels, width, height, guide, compressed }
+        Self { pixels, width, height, guide }
     }
 }
 
@@ -468,7 +465,7 @@ fn snap(a: f32) -> f32 {
 /// range-compressed space of the layering's fills so that a light does not smear. Outside
 /// `read` nothing reads the other side's colour, which is left the image's.
 fn side_colours(shared: &MatteImage, weight: &[f32], read: &[bool], read_list: &[usize]) -> Vec<[f32; 3]> {
-    let mut values = shared.compressed.clone();
+    let mut values: Vec<[f32; 4]> = shared.pixels.iter().map(|&c| compress(c.map(|v| v.max(0.0)))).collect();
     push_pull_where(shared.width, shared.height, &mut values, weight, read);
     let mut colours: Vec<[f32; 3]> = shared.pixels.iter().map(|c| [c[0], c[1], c[2]]).collect();
     for &p in read_list.iter().filter(|&&p| weight[p] <= 0.0) {
