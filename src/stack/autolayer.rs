@@ -29,7 +29,7 @@
 //!    way from where it is seen (1 own, 0 farther), so a layer continues under a wire only
 //!    where it is seen on both sides, not across the sky behind it.
 use rayon::prelude::*;
-use super::fill::{compress, expand, four_neighbours, is_hdr, mirror_sources, nearest_known, push_pull, push_pull_where, run_from, BoxSums};
+use super::fill::{compress, expand, four_neighbours, is_hdr, mirror_sources, named_pixel, nearest_known, push_pull, push_pull_where, run_from, BoxSums, PixelIndex};
 use super::matting::{solve_matte_of, Matte, MatteImage, MatteOptions};
 use super::spill_depth::{assign_spill_depth, upper_median};
 use super::{Layer, LayerStack};
@@ -353,6 +353,49 @@ struct Band {
     /// back shows here (1 - alpha; a back wholly covered is an estimate extrapolated from its
     /// neighbours), 1 for the sampled rules, where the back colour is the back's own.
     back_seen: f32,
+}
+
+/// The band pixels' splits, found by pixel: a slot per pixel into a list of the few thousand
+/// splits of a frame (a split kept per pixel of the frame was 64 bytes a pixel, and its first
+/// touch of fresh memory a tenth of a one-shot layering's page faults).
+struct BandMap {
+    slot: Vec<u32>,
+    bands: Vec<Band>,
+}
+
+impl BandMap {
+    const NONE: u32 = u32::MAX;
+
+    /// No band pixel among `pixels`.
+    fn empty(pixels: usize) -> Self {
+        assert!(pixels < Self::NONE as usize, "frame too large for a band map");
+        Self { slot: vec![Self::NONE; pixels], bands: Vec::new() }
+    }
+
+    /// The splits of `pixels` pixels, listed as (pixel, split), each pixel at most once.
+    fn from_list(pixels: usize, list: Vec<(usize, Band)>) -> Self {
+        let mut map = Self::empty(pixels);
+        for (p, band) in list {
+            map.insert(p, band);
+        }
+        map
+    }
+
+    fn get(&self, p: usize) -> Option<Band> {
+        let slot = self.slot[p];
+        (slot != Self::NONE).then(|| self.bands[slot as usize])
+    }
+
+    fn contains(&self, p: usize) -> bool {
+        self.slot[p] != Self::NONE
+    }
+
+    /// Pixel `p`'s split; `p` has none yet.
+    fn insert(&mut self, p: usize, band: Band) {
+        debug_assert!(!self.contains(p));
+        self.slot[p] = self.bands.len() as u32;
+        self.bands.push(band);
+    }
 }
 
 fn sub_scaled(a: [f32; 4], b: [f32; 4], s: f32) -> [f32; 4] {
@@ -832,12 +875,12 @@ fn bands(
     coc: &[f32],
     pairs: &[Option<(usize, usize)>],
     options: &AutoLayerOptions,
-) -> Vec<Option<Band>> {
+) -> BandMap {
     let radius = options.band_px + 2;
     // Each pixel's band reads the image and labels only: pixels in parallel, same result.
-    (0..pairs.len())
+    let found = (0..pairs.len())
         .into_par_iter()
-        .map(|p| {
+        .filter_map(|p| {
             // Mixed with whichever neighbouring layer explains the colour best.
             let (near, far) = pairs[p]?;
             let a = band_with(image, label, pairs, coc, p, near, radius);
@@ -846,9 +889,10 @@ fn bands(
                 (Some(a), Some(b)) => Some(if b.1 < a.1 { b.0 } else { a.0 }),
                 (a, b) => a.or(b).map(|(band, _)| band),
             }?;
-            Some(keep_back_own(image, label, pairs, p, band))
+            Some((p, keep_back_own(image, label, pairs, p, band)))
         })
-        .collect()
+        .collect();
+    BandMap::from_list(pairs.len(), found)
 }
 
 /// The matting's guarantee that no colour of a nearer surface reaches a farther layer: the
@@ -925,7 +969,7 @@ fn own_range(image: &Image, label: &[usize], pairs: &[Option<(usize, usize)>], p
 /// (layers up to `f` against the farther ones), solved where the CoC jumps by at least
 /// `matte_jump_px` across it; a pixel claimed by two cuts keeps the nearer cut's. The front
 /// layer gets `c - (1 - alpha) B` (so "over" gives `c` exactly), the back one `B`.
-fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], options: &AutoLayerOptions) -> Vec<Option<Band>> {
+fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], options: &AutoLayerOptions) -> BandMap {
     let (w, h) = (image.width, image.height);
     let matte_options = MatteOptions::default();
     // Each layer's sharpest blur, for the cuts either side of it.
@@ -960,13 +1004,16 @@ fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], optio
         let mut light_behind: Vec<bool> = (0..w * h).into_par_iter().map(|p| front[p] && lit_from_behind(p)).collect();
         let prior: Vec<bool> = (0..w * h).map(|p| front[p] && !light_behind[p]).collect();
         let matte = solve_matte_of(shared, &prior, &edge, &matte_options)?;
-        light_behind.par_iter_mut().enumerate().filter(|&(p, _)| !front[p] && matte.unknown[p]).for_each(|(p, lit)| *lit = lit_from_behind(p));
+        let lit: Vec<(usize, bool)> = matte.band.par_iter().filter(|&&p| !front[p]).map(|&p| (p, lit_from_behind(p))).collect();
+        for (p, lit) in lit {
+            light_behind[p] = lit;
+        }
         Some((matte, light_behind))
     };
     // The mattes' shared guide, made once, and only for a frame with a cut to solve.
     let matte_image = || MatteImage::new(&image.pixels, w, h);
     let cuts = count.saturating_sub(1);
-    let mut out: Vec<Option<Band>> = vec![None; w * h];
+    let mut out = BandMap::empty(w * h);
     // The cuts' mattes are independent; only their claims on pixels go in order (a pixel two
     // cuts claim keeps the nearer cut's). A small frame's bands are too small to keep both
     // cores busy one cut at a time, so its cuts are solved side by side; a large frame's one
@@ -1020,13 +1067,14 @@ fn opacity_its_colour_needs(c: [f32; 4], background: [f32; 3]) -> f32 {
 /// Gives the unclaimed pixels of cut `f`'s matte their band: front and back layers, colours.
 /// Where `light_behind` marks a pixel lit from behind the cut, its front keeps no more than
 /// the matte's foreground colour explains ([`front_within_its_colour`]).
-fn claim_band(image: &Image, label: &[usize], f: usize, matte: &Matte, light_behind: &[bool], radius_px: usize, out: &mut [Option<Band>]) {
+fn claim_band(image: &Image, label: &[usize], f: usize, matte: &Matte, light_behind: &[bool], radius_px: usize, out: &mut BandMap) {
     let (w, h) = (image.width, image.height);
     let reach = radius_px as i64 + 1;
-    let claimed: Vec<(usize, Band)> = (0..w * h)
+    let claimed: Vec<(usize, Band)> = (0..matte.band.len())
         .into_par_iter()
-        .filter(|&p| matte.unknown[p] && out[p].is_none())
-        .filter_map(|p| {
+        .filter(|&i| !out.contains(matte.band[i]))
+        .filter_map(|i| {
+            let p = matte.band[i];
             // The layers either side: the pixel's own, and the one across the cut whose
             // pixel is nearest (the nearer layer on a tie): a bar passing a few pixels away
             // is not what an edge hides.
@@ -1045,23 +1093,23 @@ fn claim_band(image: &Image, label: &[usize], f: usize, matte: &Matte, light_beh
             }
             let (_, other) = other?;
             let (front, back) = (label[p].min(other), label[p].max(other));
-            let (a, c) = (matte.alpha[p], image.pixels[p]);
+            let (a, c, background) = (matte.alpha[i], image.pixels[p], matte.background[i]);
             // The back's share may not exceed what the pixel shows: "over" stays exact. A
             // pixel none of the front covers is all back.
             let b = [0, 1, 2].map(|k| match a {
                 a if a <= 0.0 => c[k].max(0.0),
-                a if a < 1.0 => matte.background[p][k].min(c[k].max(0.0) / (1.0 - a)),
-                _ => matte.background[p][k],
+                a if a < 1.0 => background[k].min(c[k].max(0.0) / (1.0 - a)),
+                _ => background[k],
             });
             // The back's colour keeps the matte's alpha; the front's coverage may only grow.
-            let a = if a > 0.0 && label[p] == front && inside_front(label, w, h, p, f) { a.max(opacity_its_colour_needs(c, matte.background[p])) } else { a };
+            let a = if a > 0.0 && label[p] == front && inside_front(label, w, h, p, f) { a.max(opacity_its_colour_needs(c, background)) } else { a };
             let mut front_rgba = [0, 1, 2, 3].map(|k| if k == 3 { a } else { (c[k] - (1.0 - a) * b[k]).max(0.0) });
             let mut back_rgba = [b[0], b[1], b[2], 1.0];
             // The background estimate is the dark wall around a lamp seen past a wire, so the
             // lamp's light was all left to the front: the sharp wire layer kept a sharp lamp
             // (dev-24 of issue 46: 21.74 -> 22.79 dB, dev-30 +0.64).
             if light_behind[p] && a > 0.0 && a <= FRONT_ONLY_ALPHA {
-                let [fr, fg, fb] = matte.foreground[p];
+                let [fr, fg, fb] = matte.foreground[i];
                 let [br, bg, bb, _] = front_within_its_colour(c, a, [fr, fg, fb, 1.0], &mut front_rgba);
                 back_rgba = [br, bg, bb, 1.0];
             }
@@ -1069,7 +1117,7 @@ fn claim_band(image: &Image, label: &[usize], f: usize, matte: &Matte, light_beh
         })
         .collect();
     for (p, band) in claimed {
-        out[p] = Some(band);
+        out.insert(p, band);
     }
 }
 
@@ -1082,8 +1130,8 @@ enum Cell {
     Empty,
 }
 
-fn cell(k: usize, p: usize, image: &Image, label: &[usize], bands: &[Option<Band>]) -> Cell {
-    match bands[p] {
+fn cell(k: usize, p: usize, image: &Image, label: &[usize], bands: &BandMap) -> Cell {
+    match bands.get(p) {
         Some(b) if k == b.front => Cell::Partial(b.front_rgba),
         Some(b) if k == b.back => Cell::Own(b.back_rgba, b.back_seen),
         Some(b) if k > b.back => Cell::Hidden,
@@ -1115,7 +1163,7 @@ fn light_reach(occluder: f32, light: f32) -> f32 {
     LIGHT_REACH_PX.min((occluder - light).abs())
 }
 
-fn build_layer(k: usize, image: &Image, disparity: &[f32], signed: &[f32], label: &[usize], bands: &[Option<Band>]) -> Layer {
+fn build_layer(k: usize, image: &Image, disparity: &[f32], signed: &[f32], label: &[usize], bands: &BandMap) -> Layer {
     let (w, h, n) = (image.width, image.height, image.pixels.len());
     let own_disp = (0..n).filter(|&p| label[p] == k).map(|p| disparity[p]);
     let (d_far, d_near) = own_disp.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| (lo.min(d), hi.max(d)));
@@ -1194,7 +1242,7 @@ fn fill_hidden(
         .into_par_iter()
         .filter(|&p| hidden[p])
         .map(|p| {
-            let colour = match lights[p] {
+            let colour = match named_pixel(lights[p]) {
                 Some(q) => rgba[q],
                 None => match near.at(p, rgba) {
                     Some((c, t)) => {
@@ -1247,31 +1295,40 @@ const NEAR_FILL_CONFIDENT: f32 = 0.5;
 struct NearColours {
     width: usize,
     /// Per pixel, its nearest confident pixel.
-    nearest: Vec<Option<usize>>,
-    /// The confident pixels' colours (straight, range-compressed), weighted by how much of each
-    /// is the layer's own.
-    sums: BoxSums<4>,
+    nearest: Vec<PixelIndex>,
+    /// The confident pixels' colours (straight, range-compressed, RGB), weighted by how much of
+    /// each is the layer's own.
+    sums: BoxSums<3>,
 }
 
 impl NearColours {
     fn new(w: usize, h: usize, rgba: &[[f32; 4]], seen: &[f32]) -> Self {
         let confident: Vec<bool> = seen.par_iter().map(|&c| c >= NEAR_FILL_CONFIDENT).collect();
-        let weights: Vec<f32> = seen.par_iter().zip(&confident).map(|(&c, &k)| if k { c } else { 0.0 }).collect();
-        let straight: Vec<[f32; 4]> = rgba.par_iter().zip(&confident).map(|(c, &k)| if k { compress(c.map(|v| v / c[3].max(1e-6))) } else { [0.0; 4] }).collect();
-        let sums = BoxSums::new(w, h, &straight, &weights);
+        let sums = BoxSums::from_fn(w, h, |p| {
+            if confident[p] {
+                let c = rgba[p];
+                let [r, g, b, _] = compress(c.map(|v| v / c[3].max(1e-6)));
+                (seen[p], [r, g, b])
+            } else {
+                (0.0, [0.0; 3])
+            }
+        });
         Self { width: w, nearest: nearest_known(w, h, &confident), sums }
     }
 
-    /// At hidden pixel `p`, given the layer's colours before the fill (`rgba`).
-    fn at(&self, p: usize, rgba: &[[f32; 4]]) -> Option<([f32; 4], f32)> {
+    /// At hidden pixel `p`, given the layer's colours before the fill (`rgba`): the colour (RGB)
+    /// and the share of the fill.
+    fn at(&self, p: usize, rgba: &[[f32; 4]]) -> Option<([f32; 3], f32)> {
         let w = self.width;
-        let q = self.nearest[p].filter(|&q| !is_hdr(rgba[q]))?;
+        let q = named_pixel(self.nearest[p]).filter(|&q| !is_hdr(rgba[q]))?;
         let (dx, dy) = ((p % w) as f32 - (q % w) as f32, (p / w) as f32 - (q / w) as f32);
         let t = ((dx * dx + dy * dy).sqrt() / NEAR_FILL_REACH_PX - 1.0).clamp(0.0, 1.0);
         if t >= 1.0 {
             return None;
         }
-        Some((expand(self.sums.mean_around(q, NEAR_FILL_MEAN_PX)?), t))
+        let [r, g, b] = self.sums.mean_around(q, NEAR_FILL_MEAN_PX)?;
+        let [r, g, b, _] = expand([r, g, b, 1.0]);
+        Some(([r, g, b], t))
     }
 }
 
@@ -1412,7 +1469,7 @@ mod tests {
         });
         let label: Vec<usize> = (0..32 * 8).map(|p| usize::from(p % 32 < 16)).collect();
         let disparity = vec![0.5; 32 * 8];
-        let bands = vec![None; 32 * 8];
+        let bands = BandMap::empty(32 * 8);
         let lamp_at = |occluder_coc: f32, x: usize| {
             let signed: Vec<f32> = label.iter().map(|&l| if l == 0 { occluder_coc } else { -5.0 }).collect();
             build_layer(1, &image, &disparity, &signed, &label, &bands).rgba.get(x, 4)[0]

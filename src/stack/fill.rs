@@ -255,73 +255,129 @@ fn fill_pyramid<const N: usize>(width: usize, height: usize, values: &mut [[f32;
     true
 }
 
+/// A pixel's index in a map of the whole frame, or [`NO_PIXEL`]: four bytes a pixel where an
+/// `Option<usize>` takes sixteen (the auto-layering keeps two such maps per layer).
+pub type PixelIndex = u32;
+
+/// No pixel, in a map of [`PixelIndex`].
+pub const NO_PIXEL: PixelIndex = PixelIndex::MAX;
+
+/// The pixel a [`PixelIndex`] names, if any.
+pub fn named_pixel(index: PixelIndex) -> Option<usize> {
+    (index != NO_PIXEL).then_some(index as usize)
+}
+
 /// For every pixel, the index of (approximately) the nearest pixel with `known` set, by two
 /// raster passes that propagate seeds from the 8 neighbours (sequential distance transform,
-/// Danielsson 1980; off the exact nearest by under a pixel). `None` where nothing is known.
-pub fn nearest_known(width: usize, height: usize, known: &[bool]) -> Vec<Option<usize>> {
+/// Danielsson 1980; off the exact nearest by under a pixel). [`NO_PIXEL`] where nothing is
+/// known.
+pub fn nearest_known(width: usize, height: usize, known: &[bool]) -> Vec<PixelIndex> {
     assert_eq!(known.len(), width * height);
-    assert!(width <= i32::MAX as usize && height <= i32::MAX as usize, "frame too large for nearest_known");
-    // Each pixel's seed as coordinates, with its squared distance kept beside it: the same
-    // comparisons in the same order as measuring both distances at every relaxation, without
-    // a division per candidate (this runs once or twice per layer of every auto-layered
-    // frame). The neighbours are visited in a fixed order, each behind the frame-edge tests
-    // it needs, and ties keep the first seed found, as the sequential transform defines.
-    const NONE: (i32, i32) = (i32::MIN, i32::MIN);
-    let mut seed: Vec<(i32, i32)> = (0..known.len()).map(|i| if known[i] { ((i % width) as i32, (i / width) as i32) } else { NONE }).collect();
+    assert!(known.len() < NO_PIXEL as usize, "frame too large for nearest_known");
+    assert!(width < 1 << 29 && height < 1 << 29, "frame too large for nearest_known");
+    if known.is_empty() {
+        return Vec::new();
+    }
+    // Each pixel's seed as coordinates, with its squared distance kept beside it. The
+    // relaxations are the sequential transform's, in its order, and ties keep the first seed
+    // found ([`nearest_known_reference`] in the tests is that transform written plainly; the
+    // two agree bit for bit). This runs once or twice per layer of every auto-layered frame,
+    // so it is arranged for speed:
+    // - a pixel with no seed yet holds `FAR`, a point so far off the frame that every real seed
+    //   is nearer, in place of a test for "none" before every comparison;
+    // - the three candidates from the row already settled (above in the first pass, below in
+    //   the second) are reduced to their first nearest beforehand, out of the chain of
+    //   dependence along the row, whose scans carry the last seed in a register.
+    const FAR: (i32, i32) = (-(1 << 30), -(1 << 30));
+    let distance = |x: usize, y: usize, s: (i32, i32)| (x as i64 - i64::from(s.0)).pow(2) + (y as i64 - i64::from(s.1)).pow(2);
+    let mut seed: Vec<(i32, i32)> = (0..known.len()).map(|i| if known[i] { ((i % width) as i32, (i / width) as i32) } else { FAR }).collect();
     let mut best: Vec<i64> = known.iter().map(|&k| if k { 0 } else { i64::MAX }).collect();
-    let mut relax = |p: usize, x: usize, y: usize, q: usize| {
-        let s = seed[q];
-        if s != NONE {
-            let d = (x as i64 - i64::from(s.0)).pow(2) + (y as i64 - i64::from(s.1)).pow(2);
-            if d < best[p] {
-                (seed[p], best[p]) = (s, d);
+    let last_x = width - 1;
+    // Per pixel of the row, the first nearest of the settled row's three candidates.
+    let mut across: Vec<((i32, i32), i64)> = vec![(FAR, i64::MAX); width];
+    let nearest_of = |x: usize, y: usize, candidates: [Option<(i32, i32)>; 3]| {
+        let mut found = (FAR, i64::MAX);
+        for s in candidates.into_iter().flatten() {
+            let d = distance(x, y, s);
+            if d < found.1 {
+                found = (s, d);
             }
         }
+        found
     };
-    let last_x = width.saturating_sub(1);
     for y in 0..height {
         let row = y * width;
-        for x in 0..width {
-            let p = row + x;
-            if x > 0 {
-                relax(p, x, y, p - 1);
-            }
-            if y > 0 {
-                if x > 0 {
-                    relax(p, x, y, p - width - 1);
-                }
-                relax(p, x, y, p - width);
-                if x < last_x {
-                    relax(p, x, y, p - width + 1);
-                }
+        if y > 0 {
+            let above = &seed[row - width..row];
+            for (x, slot) in across.iter_mut().enumerate() {
+                // Up-left, up, up-right.
+                *slot = nearest_of(x, y, [(x > 0).then(|| above[x - 1]), Some(above[x]), (x < last_x).then(|| above[x + 1])]);
             }
         }
+        let (seeds, bests) = (&mut seed[row..row + width], &mut best[row..row + width]);
+        // Left to right: the left neighbour (just settled), then the row above.
+        let mut left = FAR;
+        for x in 0..width {
+            let (mut s, mut d) = (seeds[x], bests[x]);
+            if x > 0 {
+                let dl = distance(x, y, left);
+                if dl < d {
+                    (s, d) = (left, dl);
+                }
+            }
+            if y > 0 && across[x].1 < d {
+                (s, d) = across[x];
+            }
+            (seeds[x], bests[x]) = (s, d);
+            left = s;
+        }
+        // Right to left: the right neighbour.
+        let mut right = seeds[last_x];
         for x in (0..last_x).rev() {
-            relax(row + x, x, y, row + x + 1);
+            let dr = distance(x, y, right);
+            if dr < bests[x] {
+                (seeds[x], bests[x]) = (right, dr);
+            }
+            right = seeds[x];
         }
     }
     for y in (0..height).rev() {
         let row = y * width;
-        for x in (0..width).rev() {
-            let p = row + x;
-            if x < last_x {
-                relax(p, x, y, p + 1);
-            }
-            if y + 1 < height {
-                if x < last_x {
-                    relax(p, x, y, p + width + 1);
-                }
-                relax(p, x, y, p + width);
-                if x > 0 {
-                    relax(p, x, y, p + width - 1);
-                }
+        if y + 1 < height {
+            let below = &seed[row + width..row + 2 * width];
+            for (x, slot) in across.iter_mut().enumerate() {
+                // Down-right, down, down-left.
+                *slot = nearest_of(x, y, [(x < last_x).then(|| below[x + 1]), Some(below[x]), (x > 0).then(|| below[x - 1])]);
             }
         }
+        let (seeds, bests) = (&mut seed[row..row + width], &mut best[row..row + width]);
+        // Right to left: the right neighbour (just settled), then the row below.
+        let mut right = FAR;
+        for x in (0..width).rev() {
+            let (mut s, mut d) = (seeds[x], bests[x]);
+            if x < last_x {
+                let dr = distance(x, y, right);
+                if dr < d {
+                    (s, d) = (right, dr);
+                }
+            }
+            if y + 1 < height && across[x].1 < d {
+                (s, d) = across[x];
+            }
+            (seeds[x], bests[x]) = (s, d);
+            right = s;
+        }
+        // Left to right: the left neighbour.
+        let mut left = seeds[0];
         for x in 1..width {
-            relax(row + x, x, y, row + x - 1);
+            let dl = distance(x, y, left);
+            if dl < bests[x] {
+                (seeds[x], bests[x]) = (left, dl);
+            }
+            left = seeds[x];
         }
     }
-    seed.into_iter().map(|s| (s != NONE).then(|| s.1 as usize * width + s.0 as usize)).collect()
+    seed.into_iter().map(|s| if s == FAR { NO_PIXEL } else { s.1 as PixelIndex * width as PixelIndex + s.0 as PixelIndex }).collect()
 }
 
 /// Weighted sums of `values` over any axis-aligned rectangle in constant time: two integral
@@ -338,6 +394,12 @@ impl<const N: usize> BoxSums<N> {
     pub fn new(width: usize, height: usize, values: &[[f32; N]], weights: &[f32]) -> Self {
         assert_eq!(values.len(), width * height);
         assert_eq!(weights.len(), width * height);
+        Self::from_fn(width, height, |p| (weights[p], values[p]))
+    }
+
+    /// [`Self::new`] of the weight and value `pixel(p)` gives at each pixel `p` (read only
+    /// where the weight is above 0), without arrays of them for the whole frame.
+    pub fn from_fn(width: usize, height: usize, pixel: impl Fn(usize) -> (f32, [f32; N]) + Sync) -> Self {
         let stride = width + 1;
         let mut sum = vec![[0.0f64; N]; stride * (height + 1)];
         let mut total = vec![0.0f64; stride * (height + 1)];
@@ -346,11 +408,12 @@ impl<const N: usize> BoxSums<N> {
         sum.par_chunks_mut(stride).zip(total.par_chunks_mut(stride)).skip(1).enumerate().for_each(|(y, (sum, total))| {
             let (mut row, mut row_total) = ([0.0f64; N], 0.0f64);
             for x in 0..width {
-                let (p, w) = (y * width + x, f64::from(weights[y * width + x].max(0.0)));
+                let (weight, value) = pixel(y * width + x);
+                let w = f64::from(weight.max(0.0));
                 if w > 0.0 {
                     row_total += w;
                     for k in 0..N {
-                        row[k] += w * f64::from(values[p][k]);
+                        row[k] += w * f64::from(value[k]);
                     }
                 }
                 (sum[x + 1], total[x + 1]) = (row, row_total);
@@ -383,16 +446,15 @@ impl<const N: usize> BoxSums<N> {
 
 /// For each pixel `p` with `hole` set within `reach(p, q)` pixels of its nearest `known` pixel
 /// `q`: the known pixel mirrored across the hole's edge (`2 q - p`), or `q` itself where the
-/// mirror point is not known. Only `known` pixels are ever named.
-pub fn mirror_sources(width: usize, height: usize, known: &[bool], hole: &[bool], reach: impl Fn(usize, usize) -> f32) -> Vec<Option<usize>> {
+/// mirror point is not known; [`NO_PIXEL`] elsewhere. Only `known` pixels are ever named.
+pub fn mirror_sources(width: usize, height: usize, known: &[bool], hole: &[bool], reach: impl Fn(usize, usize) -> f32) -> Vec<PixelIndex> {
     assert_eq!(hole.len(), width * height);
     if !known.iter().any(|&k| k) {
-        return vec![None; known.len()];
+        return vec![NO_PIXEL; known.len()];
     }
     let nearest = nearest_known(width, height, known);
-    (0..known.len())
-        .map(|p| {
-            let q = nearest[p].filter(|_| hole[p] && !known[p])?;
+    let source = |p: usize| -> Option<usize> {
+            let q = named_pixel(nearest[p]).filter(|_| hole[p] && !known[p])?;
             let (px, py, qx, qy) = ((p % width) as i64, (p / width) as i64, (q % width) as i64, (q / width) as i64);
             let reach = reach(p, q);
             if (((px - qx).pow(2) + (py - qy).pow(2)) as f32) > reach * reach {
@@ -401,8 +463,8 @@ pub fn mirror_sources(width: usize, height: usize, known: &[bool], hole: &[bool]
             let (rx, ry) = (2 * qx - px, 2 * qy - py);
             let inside = rx >= 0 && ry >= 0 && rx < width as i64 && ry < height as i64;
             Some(inside.then(|| ry as usize * width + rx as usize).filter(|&r| known[r]).unwrap_or(q))
-        })
-        .collect()
+    };
+    (0..known.len()).map(|p| source(p).map_or(NO_PIXEL, |q| q as PixelIndex)).collect()
 }
 
 /// The weights of a level after [`push`] ran on it: every pixel it filled is complete.
@@ -583,6 +645,93 @@ mod tests {
         }
     }
 
+    /// The sequential distance transform written plainly: what [`nearest_known`] must equal.
+    fn nearest_known_reference(width: usize, height: usize, known: &[bool]) -> Vec<PixelIndex> {
+        assert_eq!(known.len(), width * height);
+        assert!(known.len() < NO_PIXEL as usize, "frame too large for nearest_known");
+        assert!(width <= i32::MAX as usize && height <= i32::MAX as usize, "frame too large for nearest_known");
+        // The neighbours are visited in a fixed order, each behind the frame-edge tests it
+        // needs, and ties keep the first seed found, as the sequential transform defines.
+        const NONE: (i32, i32) = (i32::MIN, i32::MIN);
+        let mut seed: Vec<(i32, i32)> = (0..known.len()).map(|i| if known[i] { ((i % width) as i32, (i / width) as i32) } else { NONE }).collect();
+        let mut best: Vec<i64> = known.iter().map(|&k| if k { 0 } else { i64::MAX }).collect();
+        let mut relax = |p: usize, x: usize, y: usize, q: usize| {
+            let s = seed[q];
+            if s != NONE {
+                let d = (x as i64 - i64::from(s.0)).pow(2) + (y as i64 - i64::from(s.1)).pow(2);
+                if d < best[p] {
+                    (seed[p], best[p]) = (s, d);
+                }
+            }
+        };
+        let last_x = width.saturating_sub(1);
+        for y in 0..height {
+            let row = y * width;
+            for x in 0..width {
+                let p = row + x;
+                if x > 0 {
+                    relax(p, x, y, p - 1);
+                }
+                if y > 0 {
+                    if x > 0 {
+                        relax(p, x, y, p - width - 1);
+                    }
+                    relax(p, x, y, p - width);
+                    if x < last_x {
+                        relax(p, x, y, p - width + 1);
+                    }
+                }
+            }
+            for x in (0..last_x).rev() {
+                relax(row + x, x, y, row + x + 1);
+            }
+        }
+        for y in (0..height).rev() {
+            let row = y * width;
+            for x in (0..width).rev() {
+                let p = row + x;
+                if x < last_x {
+                    relax(p, x, y, p + 1);
+                }
+                if y + 1 < height {
+                    if x < last_x {
+                        relax(p, x, y, p + width + 1);
+                    }
+                    relax(p, x, y, p + width);
+                    if x > 0 {
+                        relax(p, x, y, p + width - 1);
+                    }
+                }
+            }
+            for x in 1..width {
+                relax(row + x, x, y, row + x - 1);
+            }
+        }
+        seed.into_iter().map(|s| if s == NONE { NO_PIXEL } else { s.1 as PixelIndex * width as PixelIndex + s.0 as PixelIndex }).collect()
+    }
+
+    #[test]
+    fn nearest_known_equals_the_plain_sequential_transform() {
+        // Sparse, dense, clustered and empty seed patterns on frames of odd sizes, one row and
+        // one column among them: the same pixel named everywhere (ties included).
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for (w, h) in [(1, 1), (1, 17), (19, 1), (37, 23), (64, 48), (5, 90)] {
+            for density in [0u64, 1, 3, 20, 60, 100] {
+                let known: Vec<bool> = (0..w * h).map(|_| next() % 100 < density).collect();
+                assert_eq!(nearest_known(w, h, &known), nearest_known_reference(w, h, &known), "{w}x{h}, {density}% known");
+            }
+            // A diagonal line: many ties between equally near seeds.
+            let known: Vec<bool> = (0..w * h).map(|p| p % w == (p / w) % w.max(1)).collect();
+            assert_eq!(nearest_known(w, h, &known), nearest_known_reference(w, h, &known), "{w}x{h}, diagonal");
+        }
+    }
+
     #[test]
     fn nearest_known_is_within_a_pixel_of_the_exact_nearest() {
         let (w, h) = (37, 23);
@@ -591,7 +740,7 @@ mod tests {
         let d = |p: usize, q: usize| (((p % w) as f32 - (q % w) as f32).powi(2) + ((p / w) as f32 - (q / w) as f32).powi(2)).sqrt();
         for p in 0..w * h {
             let exact = (0..w * h).filter(|&q| known[q]).map(|q| d(p, q)).fold(f32::INFINITY, f32::min);
-            let q = nearest[p].expect("some pixel is known");
+            let q = named_pixel(nearest[p]).expect("some pixel is known");
             // Sequential propagation misses the exact nearest seed by under a pixel.
             assert!(known[q] && d(p, q) <= exact + 1.0, "pixel {p}: {} vs exact {exact}", d(p, q));
         }
@@ -630,12 +779,12 @@ mod tests {
         let known: Vec<bool> = (0..w * h).map(|i| i % w < 6).collect();
         let hole: Vec<bool> = known.iter().map(|k| !k).collect();
         let sources = mirror_sources(w, h, &known, &hole, |_, _| 4.0);
-        for (i, s) in sources.iter().enumerate() {
-            let x = i % w;
+        for (i, &s) in sources.iter().enumerate() {
+            let (x, s) = (i % w, named_pixel(s));
             match x {
-                0..=5 => assert_eq!(*s, None, "known pixels are not filled"),
+                0..=5 => assert_eq!(s, None, "known pixels are not filled"),
                 6..=9 => assert_eq!(s.map(|q| (q % w, q / w)), Some((10 - x, i / w)), "column {x}"),
-                _ => assert_eq!(*s, None, "column {x} is beyond reach"),
+                _ => assert_eq!(s, None, "column {x} is beyond reach"),
             }
         }
     }

@@ -71,18 +71,28 @@ impl Default for MatteOptions {
     }
 }
 
-/// One binary matte: a foreground (the pixels whose Z hit the nearer side) against the rest.
+/// One binary matte: a foreground (the pixels whose Z hit the nearer side) against the rest,
+/// kept for its band only: every other pixel keeps its label. (A layering holds the mattes of
+/// all its cuts at once; as whole-frame arrays they were 29 bytes a pixel each, for bands of a
+/// few thousand pixels.)
 pub struct Matte {
-    /// Per pixel, whether it is solved (within the band), else it keeps its label.
-    pub unknown: Vec<bool>,
-    /// Per pixel alpha (the label outside the band).
+    /// The solved pixels (within the band), in ascending order.
+    pub band: Vec<usize>,
+    /// Per band pixel (in `band`'s order): alpha, and the foreground and background colour
+    /// (linear RGB).
     pub alpha: Vec<f32>,
-    /// Per pixel foreground and background colour (linear RGB); only read where `unknown`.
     pub foreground: Vec<[f32; 3]>,
     pub background: Vec<[f32; 3]>,
     /// Conjugate-gradient iterations taken and the final relative residual.
     pub iterations: usize,
     pub residual: f32,
+}
+
+impl Matte {
+    /// Where pixel `p` is in [`Self::band`]; None outside the band.
+    pub fn index_of(&self, p: usize) -> Option<usize> {
+        self.band.binary_search(&p).ok()
+    }
 }
 
 /// Linear colour mixes linearly, so the Laplacian's guide is linear up to the lights; it is
@@ -111,15 +121,17 @@ fn guide_value(v: f64) -> f64 {
 ///
 /// Each edge pixel lowers the distances around it: edges are a percent or two of a frame, and
 /// a search around every pixel of it was the layering's hottest loop.
-fn edge_distance(edge: &[bool], width: usize, height: usize, limit: usize) -> Vec<usize> {
-    let r = limit as i64 - 1;
+fn edge_distance(edge: &[bool], width: usize, height: usize, limit: usize) -> Vec<u16> {
+    // Two bytes a pixel, not eight: one of a cut's arrays of the whole frame.
+    let limit = u16::try_from(limit).ok().filter(|&l| l < u16::MAX).expect("a matte's band radius under 65535 px");
+    let r = i64::from(limit) - 1;
     let mut best = vec![limit + 1; width * height];
     for p in (0..width * height).filter(|&p| edge[p]) {
         let (x, y) = ((p % width) as i64, (p / width) as i64);
         for qy in (y - r).max(0)..=(y + r).min(height as i64 - 1) {
             for qx in (x - r).max(0)..=(x + r).min(width as i64 - 1) {
                 let q = qy as usize * width + qx as usize;
-                best[q] = best[q].min((qx - x).unsigned_abs().max((qy - y).unsigned_abs()) as usize + 1);
+                best[q] = best[q].min((qx - x).unsigned_abs().max((qy - y).unsigned_abs()) as u16 + 1);
             }
         }
     }
@@ -364,7 +376,7 @@ pub fn solve_matte_of(shared: &MatteImage, front: &[bool], edge: &[bool], option
     assert_eq!(front.len(), n);
     assert_eq!(edge.len(), n);
     let distance = edge_distance(edge, width, height, options.radius_px);
-    let unknown_list: Vec<usize> = (0..n).filter(|&p| distance[p] <= options.radius_px).collect();
+    let unknown_list: Vec<usize> = (0..n).filter(|&p| usize::from(distance[p]) <= options.radius_px).collect();
     if unknown_list.is_empty() {
         return None;
     }
@@ -372,7 +384,8 @@ pub fn solve_matte_of(shared: &MatteImage, front: &[bool], edge: &[bool], option
     unknown_list.iter().for_each(|&p| unknown[p] = true);
     let guide = &shared.guide;
     let windows = windows(guide, width, height, &unknown_list, f64::from(options.epsilon));
-    let prior: Vec<f64> = front.iter().map(|&f| if f { 1.0 } else { 0.0 }).collect();
+    // The Z prior: 1 on the front, 0 behind.
+    let prior = |p: usize| if front[p] { 1.0f64 } else { 0.0 };
     // Pixels next to the edge (distance 1: the edge runs between them) trust Z least, but
     // those of a thin line. Whether a pixel is thin is asked of the band's pixels and their
     // neighbours only.
@@ -380,7 +393,7 @@ pub fn solve_matte_of(shared: &MatteImage, front: &[bool], edge: &[bool], option
     let confidence: Vec<f64> = unknown_list
         .par_iter()
         .map(|&p| {
-            let d = distance[p].saturating_sub(1) as f64;
+            let d = f64::from(distance[p].saturating_sub(1));
             let base = f64::from(options.edge_confidence) + f64::from(options.confidence_growth) * d * d;
             if !is_hdr(image[p]) && on_thin_line(thin, width, height, p) {
                 base.max(f64::from(options.thin_confidence))
@@ -391,26 +404,27 @@ pub fn solve_matte_of(shared: &MatteImage, front: &[bool], edge: &[bool], option
         .collect();
     let mut laplacian = Laplacian::new(guide, width, height, &windows, &unknown_list);
     // Right-hand side: C z - L x_fixed, x_fixed = the labels outside the band, 0 inside.
-    let mut fixed: Vec<f64> = prior.clone();
+    let mut fixed: Vec<f64> = (0..n).map(prior).collect();
     unknown_list.iter().for_each(|&p| fixed[p] = 0.0);
     let mut lx_fixed = Vec::new();
     laplacian.apply(&fixed, &mut lx_fixed);
-    let b: Vec<f64> = (0..unknown_list.len()).map(|i| confidence[i] * prior[unknown_list[i]] - lx_fixed[i]).collect();
+    let b: Vec<f64> = (0..unknown_list.len()).map(|i| confidence[i] * prior(unknown_list[i]) - lx_fixed[i]).collect();
     let diagonal: Vec<f64> = laplacian_diagonal(guide, width, height, &windows, &unknown_list)
         .iter()
         .zip(&confidence)
         .map(|(d, c)| (d + c).max(1e-6))
         .collect();
     // Operator on the unknowns: (L + C) restricted to the band, into `out` (every buffer of
-    // the iterations is allocated once).
-    let mut scratch = vec![0.0f64; n];
+    // the iterations is allocated once: the frame-long one is x_fixed's, cleared).
+    let mut scratch = fixed;
+    scratch.fill(0.0);
     let mut apply = |v: &[f64], out: &mut Vec<f64>| {
         unknown_list.iter().zip(v).for_each(|(&p, &x)| scratch[p] = x);
         laplacian.apply(&scratch, out);
         out.iter_mut().zip(v).zip(&confidence).for_each(|((l, x), c)| *l += c * x);
     };
     // Preconditioned conjugate gradients from the prior.
-    let mut x: Vec<f64> = unknown_list.iter().map(|&p| prior[p]).collect();
+    let mut x: Vec<f64> = unknown_list.iter().map(|&p| prior(p)).collect();
     let mut ap = Vec::with_capacity(x.len());
     apply(&x, &mut ap);
     let mut r: Vec<f64> = b.iter().zip(&ap).map(|(b, a)| b - a).collect();
@@ -439,10 +453,17 @@ pub fn solve_matte_of(shared: &MatteImage, front: &[bool], edge: &[bool], option
         iterations += 1;
         residual = norm(&r) / b_norm;
     }
-    let mut alpha: Vec<f32> = prior.iter().map(|&v| v as f32).collect();
+    let mut alpha: Vec<f32> = (0..n).map(|p| prior(p) as f32).collect();
     unknown_list.iter().zip(&x).for_each(|(&p, &a)| alpha[p] = snap(a as f32));
     let (foreground, background) = estimate_colours(shared, &alpha, &unknown, &unknown_list, options.colour_sweeps);
-    Some(Matte { unknown, alpha, foreground, background, iterations, residual: residual as f32 })
+    Some(Matte {
+        alpha: unknown_list.iter().map(|&p| alpha[p]).collect(),
+        foreground: unknown_list.iter().map(|&p| foreground[p]).collect(),
+        background: unknown_list.iter().map(|&p| background[p]).collect(),
+        band: unknown_list,
+        iterations,
+        residual: residual as f32,
+    })
 }
 
 /// Within this of 0 or 1, alpha is 0 or 1: the smoothness of the solution leaves a few
@@ -745,7 +766,8 @@ mod tests {
         let mut worst: f32 = 0.0;
         let mut prior_worst: f32 = 0.0;
         for p in (0..48 * 48).filter(|&p| coverage[p] > 0.0 && coverage[p] < 1.0) {
-            worst = worst.max((matte.alpha[p] - coverage[p]).abs());
+            let i = matte.index_of(p).expect("every mixed pixel is in the band");
+            worst = worst.max((matte.alpha[i] - coverage[p]).abs());
             prior_worst = prior_worst.max(((front[p] as u8 as f32) - coverage[p]).abs());
         }
         assert!(prior_worst > 0.4, "the prior alone is wrong at the edge: {prior_worst}");
@@ -769,14 +791,15 @@ mod tests {
         assert!(mixed.iter().any(|&p| p % 48 > 32), "some mixed pixels over the light");
         for p in mixed {
             let truth = back(p % 48, p / 48);
+            let i = matte.index_of(p).expect("every mixed pixel is in the band");
             for k in 0..3 {
-                let (f, b) = (matte.foreground[p][k], matte.background[p][k]);
+                let (f, b) = (matte.foreground[i][k], matte.background[i][k]);
                 // Over the light an alpha error e moves F by e * 20 / alpha, so F is judged over
                 // the display-range background only (the layering uses B: front = c - (1 - a) B).
                 if truth[0] <= 1.0 {
-                    assert!((f - disc[k]).abs() <= 0.1 * disc[k] + 0.05, "pixel {p}: F {:?}, disc {disc:?}", matte.foreground[p]);
+                    assert!((f - disc[k]).abs() <= 0.1 * disc[k] + 0.05, "pixel {p}: F {:?}, disc {disc:?}", matte.foreground[i]);
                 }
-                assert!((b - truth[k]).abs() <= 0.1 * truth[k] + 0.05, "pixel {p}: B {:?}, truth {truth:?}", matte.background[p]);
+                assert!((b - truth[k]).abs() <= 0.1 * truth[k] + 0.05, "pixel {p}: B {:?}, truth {truth:?}", matte.background[i]);
             }
         }
     }
