@@ -274,110 +274,68 @@ pub fn named_pixel(index: PixelIndex) -> Option<usize> {
 pub fn nearest_known(width: usize, height: usize, known: &[bool]) -> Vec<PixelIndex> {
     assert_eq!(known.len(), width * height);
     assert!(known.len() < NO_PIXEL as usize, "frame too large for nearest_known");
-    assert!(width < 1 << 29 && height < 1 << 29, "frame too large for nearest_known");
-    if known.is_empty() {
-        return Vec::new();
-    }
-    // Each pixel's seed as coordinates, with its squared distance kept beside it. The
-    // relaxations are the sequential transform's, in its order, and ties keep the first seed
-    // found ([`nearest_known_reference`] in the tests is that transform written plainly; the
-    // two agree bit for bit). This runs once or twice per layer of every auto-layered frame,
-    // so it is arranged for speed:
-    // - a pixel with no seed yet holds `FAR`, a point so far off the frame that every real seed
-    //   is nearer, in place of a test for "none" before every comparison;
-    // - the three candidates from the row already settled (above in the first pass, below in
-    //   the second) are reduced to their first nearest beforehand, out of the chain of
-    //   dependence along the row, whose scans carry the last seed in a register.
-    const FAR: (i32, i32) = (-(1 << 30), -(1 << 30));
-    let distance = |x: usize, y: usize, s: (i32, i32)| (x as i64 - i64::from(s.0)).pow(2) + (y as i64 - i64::from(s.1)).pow(2);
-    let mut seed: Vec<(i32, i32)> = (0..known.len()).map(|i| if known[i] { ((i % width) as i32, (i / width) as i32) } else { FAR }).collect();
+    assert!(width <= i32::MAX as usize && height <= i32::MAX as usize, "frame too large for nearest_known");
+    // Each pixel's seed as coordinates, with its squared distance kept beside it: the same
+    // comparisons in the same order as measuring both distances at every relaxation, without
+    // a division per candidate (this runs once or twice per layer of every auto-layered
+    // frame). The neighbours are visited in a fixed order, each behind the frame-edge tests
+    // it needs, and ties keep the first seed found, as the sequential transform defines.
+    const NONE: (i32, i32) = (i32::MIN, i32::MIN);
+    let mut seed: Vec<(i32, i32)> = (0..known.len()).map(|i| if known[i] { ((i % width) as i32, (i / width) as i32) } else { NONE }).collect();
     let mut best: Vec<i64> = known.iter().map(|&k| if k { 0 } else { i64::MAX }).collect();
-    let last_x = width - 1;
-    // Per pixel of the row, the first nearest of the settled row's three candidates.
-    let mut across: Vec<((i32, i32), i64)> = vec![(FAR, i64::MAX); width];
-    let nearest_of = |x: usize, y: usize, candidates: [Option<(i32, i32)>; 3]| {
-        let mut found = (FAR, i64::MAX);
-        for s in candidates.into_iter().flatten() {
-            let d = distance(x, y, s);
-            if d < found.1 {
-                found = (s, d);
+    let mut relax = |p: usize, x: usize, y: usize, q: usize| {
+        let s = seed[q];
+        if s != NONE {
+            let d = (x as i64 - i64::from(s.0)).pow(2) + (y as i64 - i64::from(s.1)).pow(2);
+            if d < best[p] {
+                (seed[p], best[p]) = (s, d);
             }
         }
-        found
     };
+    let last_x = width.saturating_sub(1);
     for y in 0..height {
         let row = y * width;
-        if y > 0 {
-            let above = &seed[row - width..row];
-            for (x, slot) in across.iter_mut().enumerate() {
-                // Up-left, up, up-right.
-                *slot = nearest_of(x, y, [(x > 0).then(|| above[x - 1]), Some(above[x]), (x < last_x).then(|| above[x + 1])]);
-            }
-        }
-        let (seeds, bests) = (&mut seed[row..row + width], &mut best[row..row + width]);
-        // Left to right: the left neighbour (just settled), then the row above.
-        let mut left = FAR;
         for x in 0..width {
-            let (mut s, mut d) = (seeds[x], bests[x]);
+            let p = row + x;
             if x > 0 {
-                let dl = distance(x, y, left);
-                if dl < d {
-                    (s, d) = (left, dl);
+                relax(p, x, y, p - 1);
+            }
+            if y > 0 {
+                if x > 0 {
+                    relax(p, x, y, p - width - 1);
+                }
+                relax(p, x, y, p - width);
+                if x < last_x {
+                    relax(p, x, y, p - width + 1);
                 }
             }
-            if y > 0 && across[x].1 < d {
-                (s, d) = across[x];
-            }
-            (seeds[x], bests[x]) = (s, d);
-            left = s;
         }
-        // Right to left: the right neighbour.
-        let mut right = seeds[last_x];
         for x in (0..last_x).rev() {
-            let dr = distance(x, y, right);
-            if dr < bests[x] {
-                (seeds[x], bests[x]) = (right, dr);
-            }
-            right = seeds[x];
+            relax(row + x, x, y, row + x + 1);
         }
     }
     for y in (0..height).rev() {
         let row = y * width;
-        if y + 1 < height {
-            let below = &seed[row + width..row + 2 * width];
-            for (x, slot) in across.iter_mut().enumerate() {
-                // Down-right, down, down-left.
-                *slot = nearest_of(x, y, [(x < last_x).then(|| below[x + 1]), Some(below[x]), (x > 0).then(|| below[x - 1])]);
-            }
-        }
-        let (seeds, bests) = (&mut seed[row..row + width], &mut best[row..row + width]);
-        // Right to left: the right neighbour (just settled), then the row below.
-        let mut right = FAR;
         for x in (0..width).rev() {
-            let (mut s, mut d) = (seeds[x], bests[x]);
+            let p = row + x;
             if x < last_x {
-                let dr = distance(x, y, right);
-                if dr < d {
-                    (s, d) = (right, dr);
+                relax(p, x, y, p + 1);
+            }
+            if y + 1 < height {
+                if x < last_x {
+                    relax(p, x, y, p + width + 1);
+                }
+                relax(p, x, y, p + width);
+                if x > 0 {
+                    relax(p, x, y, p + width - 1);
                 }
             }
-            if y + 1 < height && across[x].1 < d {
-                (s, d) = across[x];
-            }
-            (seeds[x], bests[x]) = (s, d);
-            right = s;
         }
-        // Left to right: the left neighbour.
-        let mut left = seeds[0];
         for x in 1..width {
-            let dl = distance(x, y, left);
-            if dl < bests[x] {
-                (seeds[x], bests[x]) = (left, dl);
-            }
-            left = seeds[x];
+            relax(row + x, x, y, row + x - 1);
         }
     }
-    seed.into_iter().map(|s| if s == FAR { NO_PIXEL } else { s.1 as PixelIndex * width as PixelIndex + s.0 as PixelIndex }).collect()
+    seed.into_iter().map(|s| if s == NONE { NO_PIXEL } else { s.1 as PixelIndex * width as PixelIndex + s.0 as PixelIndex }).collect()
 }
 
 /// Weighted sums of `values` over any axis-aligned rectangle in constant time: two integral
@@ -454,15 +412,15 @@ pub fn mirror_sources(width: usize, height: usize, known: &[bool], hole: &[bool]
     }
     let nearest = nearest_known(width, height, known);
     let source = |p: usize| -> Option<usize> {
-            let q = named_pixel(nearest[p]).filter(|_| hole[p] && !known[p])?;
-            let (px, py, qx, qy) = ((p % width) as i64, (p / width) as i64, (q % width) as i64, (q / width) as i64);
-            let reach = reach(p, q);
-            if (((px - qx).pow(2) + (py - qy).pow(2)) as f32) > reach * reach {
-                return None;
-            }
-            let (rx, ry) = (2 * qx - px, 2 * qy - py);
-            let inside = rx >= 0 && ry >= 0 && rx < width as i64 && ry < height as i64;
-            Some(inside.then(|| ry as usize * width + rx as usize).filter(|&r| known[r]).unwrap_or(q))
+        let q = named_pixel(nearest[p]).filter(|_| hole[p] && !known[p])?;
+        let (px, py, qx, qy) = ((p % width) as i64, (p / width) as i64, (q % width) as i64, (q / width) as i64);
+        let reach = reach(p, q);
+        if (((px - qx).pow(2) + (py - qy).pow(2)) as f32) > reach * reach {
+            return None;
+        }
+        let (rx, ry) = (2 * qx - px, 2 * qy - py);
+        let inside = rx >= 0 && ry >= 0 && rx < width as i64 && ry < height as i64;
+        Some(inside.then(|| ry as usize * width + rx as usize).filter(|&r| known[r]).unwrap_or(q))
     };
     (0..known.len()).map(|p| source(p).map_or(NO_PIXEL, |q| q as PixelIndex)).collect()
 }
@@ -642,93 +600,6 @@ mod tests {
         assert!(push_pull(w, h, &mut values, &weights));
         for v in &values {
             assert!((v[0] - 3.0).abs() < 1e-5 && (v[1] + 1.0).abs() < 1e-5, "{v:?}");
-        }
-    }
-
-    /// The sequential distance transform written plainly: what [`nearest_known`] must equal.
-    fn nearest_known_reference(width: usize, height: usize, known: &[bool]) -> Vec<PixelIndex> {
-        assert_eq!(known.len(), width * height);
-        assert!(known.len() < NO_PIXEL as usize, "frame too large for nearest_known");
-        assert!(width <= i32::MAX as usize && height <= i32::MAX as usize, "frame too large for nearest_known");
-        // The neighbours are visited in a fixed order, each behind the frame-edge tests it
-        // needs, and ties keep the first seed found, as the sequential transform defines.
-        const NONE: (i32, i32) = (i32::MIN, i32::MIN);
-        let mut seed: Vec<(i32, i32)> = (0..known.len()).map(|i| if known[i] { ((i % width) as i32, (i / width) as i32) } else { NONE }).collect();
-        let mut best: Vec<i64> = known.iter().map(|&k| if k { 0 } else { i64::MAX }).collect();
-        let mut relax = |p: usize, x: usize, y: usize, q: usize| {
-            let s = seed[q];
-            if s != NONE {
-                let d = (x as i64 - i64::from(s.0)).pow(2) + (y as i64 - i64::from(s.1)).pow(2);
-                if d < best[p] {
-                    (seed[p], best[p]) = (s, d);
-                }
-            }
-        };
-        let last_x = width.saturating_sub(1);
-        for y in 0..height {
-            let row = y * width;
-            for x in 0..width {
-                let p = row + x;
-                if x > 0 {
-                    relax(p, x, y, p - 1);
-                }
-                if y > 0 {
-                    if x > 0 {
-                        relax(p, x, y, p - width - 1);
-                    }
-                    relax(p, x, y, p - width);
-                    if x < last_x {
-                        relax(p, x, y, p - width + 1);
-                    }
-                }
-            }
-            for x in (0..last_x).rev() {
-                relax(row + x, x, y, row + x + 1);
-            }
-        }
-        for y in (0..height).rev() {
-            let row = y * width;
-            for x in (0..width).rev() {
-                let p = row + x;
-                if x < last_x {
-                    relax(p, x, y, p + 1);
-                }
-                if y + 1 < height {
-                    if x < last_x {
-                        relax(p, x, y, p + width + 1);
-                    }
-                    relax(p, x, y, p + width);
-                    if x > 0 {
-                        relax(p, x, y, p + width - 1);
-                    }
-                }
-            }
-            for x in 1..width {
-                relax(row + x, x, y, row + x - 1);
-            }
-        }
-        seed.into_iter().map(|s| if s == NONE { NO_PIXEL } else { s.1 as PixelIndex * width as PixelIndex + s.0 as PixelIndex }).collect()
-    }
-
-    #[test]
-    fn nearest_known_equals_the_plain_sequential_transform() {
-        // Sparse, dense, clustered and empty seed patterns on frames of odd sizes, one row and
-        // one column among them: the same pixel named everywhere (ties included).
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
-        for (w, h) in [(1, 1), (1, 17), (19, 1), (37, 23), (64, 48), (5, 90)] {
-            for density in [0u64, 1, 3, 20, 60, 100] {
-                let known: Vec<bool> = (0..w * h).map(|_| next() % 100 < density).collect();
-                assert_eq!(nearest_known(w, h, &known), nearest_known_reference(w, h, &known), "{w}x{h}, {density}% known");
-            }
-            // A diagonal line: many ties between equally near seeds.
-            let known: Vec<bool> = (0..w * h).map(|p| p % w == (p / w) % w.max(1)).collect();
-            assert_eq!(nearest_known(w, h, &known), nearest_known_reference(w, h, &known), "{w}x{h}, diagonal");
         }
     }
 
