@@ -981,10 +981,16 @@ fn solved_bands(image: &Image, label: &[usize], count: usize, coc: &[f32], optio
     // slanted surface); None where it has none: no matte to solve.
     let cut_edges = |f: usize| -> Option<(Vec<bool>, Vec<bool>)> {
         let front: Vec<bool> = label.iter().map(|&l| l <= f).collect();
-        let edge: Vec<bool> = (0..w * h)
-            .into_par_iter()
-            .map(|p| four_neighbours(p, w, h).into_iter().flatten().any(|q| front[q] != front[p] && (coc[q] - coc[p]).abs() >= options.matte_jump_px))
-            .collect();
+        // Row by row: a pixel's 4-neighbours from its row and column, not from its index
+        // divided by the width at every pixel of every cut.
+        let mut edge = vec![false; w * h];
+        edge.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, edge) in row.iter_mut().enumerate() {
+                let p = y * w + x;
+                let across = |q: usize| front[q] != front[p] && (coc[q] - coc[p]).abs() >= options.matte_jump_px;
+                *edge = (x > 0 && across(p - 1)) || (x + 1 < w && across(p + 1)) || (y > 0 && across(p - w)) || (y + 1 < h && across(p + w));
+            }
+        });
         edge.contains(&true).then_some((front, edge))
     };
     let solve_cut = |f: usize, (front, edge): (Vec<bool>, Vec<bool>), shared: &MatteImage| -> Option<(Matte, Vec<bool>)> {
@@ -1168,6 +1174,17 @@ fn build_layer(k: usize, image: &Image, disparity: &[f32], signed: &[f32], label
     let own_disp = (0..n).filter(|&p| label[p] == k).map(|p| disparity[p]);
     let (d_far, d_near) = own_disp.fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), d| (lo.min(d), hi.max(d)));
     let guide = |d: f32| (-2.0 * (d - d_far) / (d_near - d_far).max(1e-6)).exp();
+    // A layer's disparity runs in long stretches of one value (a plane): its guide is worked
+    // out once per stretch, not an exponential per pixel.
+    let mut last_guide: Option<(u32, f32)> = None;
+    let mut guide = |d: f32| match last_guide {
+        Some((bits, g)) if bits == d.to_bits() => g,
+        _ => {
+            let g = guide(d);
+            last_guide = Some((d.to_bits(), g));
+            g
+        }
+    };
     let mut rgba = vec![[0.0f32; 4]; n];
     let mut colour_weight = vec![0.0f32; n];
     // How much of each pixel's colour is the layer's own, before the depth guide: what the
@@ -1238,10 +1255,10 @@ fn fill_hidden(
     let near = NearColours::new(w, h, rgba, seen);
     // Every colour read here is of a pixel nothing hides (a light's own, a confident one), so
     // the hidden pixels' new colours are found from `rgba` as it is, then written.
-    let colours: Vec<(usize, [f32; 4])> = (0..n)
-        .into_par_iter()
-        .filter(|&p| hidden[p])
-        .map(|p| {
+    let hidden_list: Vec<usize> = (0..n).filter(|&p| hidden[p]).collect();
+    let colours: Vec<[f32; 4]> = hidden_list
+        .par_iter()
+        .map(|&p| {
             let colour = match named_pixel(lights[p]) {
                 Some(q) => rgba[q],
                 None => match near.at(p, rgba) {
@@ -1253,10 +1270,10 @@ fn fill_hidden(
                 },
             };
             let alpha = coverage[p][0].clamp(0.0, 1.0);
-            (p, colour.map(|v| v * alpha / colour[3].max(1e-6)))
+            colour.map(|v| v * alpha / colour[3].max(1e-6))
         })
         .collect();
-    for (p, colour) in colours {
+    for (&p, colour) in hidden_list.iter().zip(colours) {
         rgba[p] = colour;
     }
 }
