@@ -187,48 +187,53 @@ fn sample_full_coarse<const N: usize>(coarse: &Level<N>, bilinear: [(usize, f32)
 /// are all 1.
 #[inline]
 fn full_coarse_taps(width: usize, height: usize, x: usize, y: usize) -> [(usize, f32); 4] {
-    let ((x0, tx), (y0, ty)) = (coarse_corner(x), coarse_corner(y));
-    let (xa, xb) = (x0.clamp(0, width as i64 - 1) as usize, (x0 + 1).clamp(0, width as i64 - 1) as usize);
-    let (ya, yb) = (y0.clamp(0, height as i64 - 1) as usize * width, (y0 + 1).clamp(0, height as i64 - 1) as usize * width);
+    bilinear_taps(CoarseSpan::of(x, width, 1), CoarseSpan::of(y, height, width))
+}
+
+/// One axis of a fine pixel's bilinear taps: its two coarse neighbours along the axis (clamped
+/// to the level's `size` along it, times `stride`: 1 for a column, the level's width for a row)
+/// and the fraction towards the second.
+#[derive(Clone, Copy)]
+struct CoarseSpan(usize, usize, f32);
+
+impl CoarseSpan {
+    fn of(v: usize, size: usize, stride: usize) -> Self {
+        let (v0, t) = coarse_corner(v);
+        let clamp = |v: i64| v.clamp(0, size as i64 - 1) as usize * stride;
+        Self(clamp(v0), clamp(v0 + 1), t)
+    }
+}
+
+/// The four bilinear taps of a fine pixel from its column's and its row's [`CoarseSpan`].
+#[inline]
+fn bilinear_taps(CoarseSpan(xa, xb, tx): CoarseSpan, CoarseSpan(ya, yb, ty): CoarseSpan) -> [(usize, f32); 4] {
     [(ya + xa, (1.0 - tx) * (1.0 - ty)), (ya + xb, tx * (1.0 - ty)), (yb + xa, (1.0 - tx) * ty), (yb + xb, tx * ty)]
 }
 
-/// [`full_coarse_taps`] of every pixel of a fine level, its columns' halves worked out once per
+/// [`full_coarse_taps`] of every pixel of a fine level, its columns' spans worked out once per
 /// push and its rows' once per row: the same numbers, without the corner, the clamps and the
 /// fractions computed again at every pixel of the fills' largest loops.
 struct CoarseTaps {
     coarse_width: usize,
     coarse_height: usize,
-    /// Per fine column: the two coarse columns (clamped) and the fraction towards the second.
-    columns: Vec<(usize, usize, f32)>,
+    /// Per fine column, its span.
+    columns: Vec<CoarseSpan>,
 }
-
-/// A fine row's half of [`CoarseTaps`]: the two coarse rows' first pixels and the fraction.
-#[derive(Clone, Copy)]
-struct CoarseRow(usize, usize, f32);
 
 impl CoarseTaps {
     fn new(fine_width: usize, coarse_width: usize, coarse_height: usize) -> Self {
-        let clamp = |v: i64| v.clamp(0, coarse_width as i64 - 1) as usize;
-        let columns = (0..fine_width)
-            .map(|x| {
-                let (x0, tx) = coarse_corner(x);
-                (clamp(x0), clamp(x0 + 1), tx)
-            })
-            .collect();
+        let columns = (0..fine_width).map(|x| CoarseSpan::of(x, coarse_width, 1)).collect();
         Self { coarse_width, coarse_height, columns }
     }
 
-    fn row(&self, y: usize) -> CoarseRow {
-        let (y0, ty) = coarse_corner(y);
-        let clamp = |v: i64| v.clamp(0, self.coarse_height as i64 - 1) as usize * self.coarse_width;
-        CoarseRow(clamp(y0), clamp(y0 + 1), ty)
+    /// Fine row `y`'s span.
+    fn row(&self, y: usize) -> CoarseSpan {
+        CoarseSpan::of(y, self.coarse_height, self.coarse_width)
     }
 
     #[inline]
-    fn at(&self, row: CoarseRow, x: usize) -> [(usize, f32); 4] {
-        let ((xa, xb, tx), CoarseRow(ya, yb, ty)) = (self.columns[x], row);
-        [(ya + xa, (1.0 - tx) * (1.0 - ty)), (ya + xb, tx * (1.0 - ty)), (yb + xa, (1.0 - tx) * ty), (yb + xb, tx * ty)]
+    fn at(&self, row: CoarseSpan, x: usize) -> [(usize, f32); 4] {
+        bilinear_taps(self.columns[x], row)
     }
 }
 
