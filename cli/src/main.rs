@@ -14,6 +14,7 @@ mod gpu_kit;
 mod grad;
 mod info;
 mod input_args;
+mod memory;
 mod method_args;
 mod methods;
 mod progress;
@@ -98,8 +99,14 @@ enum Command {
 
 fn main() -> std::process::ExitCode {
     quiet_on_closed_pipe();
-    keep_freed_memory_for_reuse();
+    memory::keep_freed_memory_for_reuse();
     let cli = version::parse();
+    // Before any other thread starts: the thread pool's workers make their heaps as advised.
+    if let Command::Render(args) = &cli.command {
+        if args.frames.is_none() {
+            memory::advise_huge_pages_for_preview(lensblur::input::declared_frame_size(&args.input));
+        }
+    }
     // Ctrl-C, SIGTERM, SIGHUP: outputs appear by rename only when complete; remove any
     // temporary being written, and keep every writer from renaming until the process exits.
     let _ = ctrlc::set_handler(|| {
@@ -169,38 +176,3 @@ fn quiet_on_closed_pipe() {
 
 #[cfg(not(unix))]
 fn quiet_on_closed_pipe() {}
-
-/// Blocks up to 4 MiB come from the heap, and freed memory stays with the process up to 128 MiB,
-/// instead of glibc's defaults: a block of 128 KiB or more mapped and unmapped for every
-/// allocation, with the thresholds only growing as blocks are freed. A preview-sized render
-/// allocates and frees one frame-sized buffer after another (the layering's fills and mattes,
-/// each layer's sources on the CPU path), and the kernel zeroed each one again page by page.
-/// Measured with `farm-bench` (15 pairs, same bytes written): a 256^2 flat RGB+Z one-shot
-/// render, wall 0.177 -> 0.156 s (A/B 0.88), system time 0.104 -> 0.059 s, peak 41 -> 55 MiB;
-/// the drbokeh CPU render of a five-layer 256^2 stack alone 44 -> 19 ms. The threshold stays low
-/// because a larger frame's buffers are larger: at 32 MiB a 1024x768 frame's peak rose from 441
-/// to 485-537 MiB (fragments of its 12 MB buffers), at 4 MiB to 447 MiB, with the 256^2 gain
-/// unchanged (A/B 0.99 against 32 MiB). A resident `lensblur serve` reuses the same memory
-/// request after request.
-///
-/// The threads also share as many heaps (arenas) as there are cores, where glibc allows eight
-/// per core: the main thread and the thread pool's workers are one more than the cores, so two
-/// of them share a heap and reuse what the other freed, instead of mapping and zeroing fresh
-/// pages. On 2 cores (`farm-bench`, 15 pairs, the same bytes written), the 256^2 flat frame
-/// focused: wall A/B 0.90, system time 0.071 -> 0.047 s, peak 56 -> 43 MiB; defocused A/B 0.93.
-/// One heap for all (14,000 page faults -> 7,200) was as fast on the flat frame but made the
-/// layered five-layer file 17% slower: its parallel decoding takes the one heap's lock for
-/// every chunk.
-#[cfg(all(target_os = "linux", target_env = "gnu"))]
-fn keep_freed_memory_for_reuse() {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    // SAFETY: mallopt only sets allocator parameters; it is called before any thread starts.
-    unsafe {
-        libc::mallopt(libc::M_MMAP_THRESHOLD, 4 << 20);
-        libc::mallopt(libc::M_TRIM_THRESHOLD, 128 << 20);
-        libc::mallopt(libc::M_ARENA_MAX, libc::c_int::try_from(cores).unwrap_or(libc::c_int::MAX));
-    }
-}
-
-#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
-fn keep_freed_memory_for_reuse() {}
