@@ -61,9 +61,13 @@ const PREVIEW_PIXELS: usize = 512 * 512;
 /// compaction. Best effort: where the kernel gives no huge pages, or the process's map cannot be
 /// read, pages stay 4 KiB.
 pub fn advise_huge_pages_for_preview(frame: Option<(usize, usize)>) {
-    if frame.is_some_and(|(width, height)| width * height <= PREVIEW_PIXELS) {
+    if is_preview(frame) {
         heaps_in_huge_pages();
     }
+}
+
+fn is_preview(frame: Option<(usize, usize)>) -> bool {
+    frame.is_some_and(|(width, height)| width * height <= PREVIEW_PIXELS)
 }
 
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
@@ -120,4 +124,24 @@ fn mapping_containing(address: usize) -> Option<(usize, usize)> {
         let range = (usize::from_str_radix(start, 16).ok()?, usize::from_str_radix(end, 16).ok()?);
         (range.0..range.1).contains(&address).then_some(range)
     })
+}
+
+#[cfg(all(test, target_os = "linux", target_env = "gnu"))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn previews_are_frames_up_to_512_squared() {
+        assert!(is_preview(Some((256, 256))) && is_preview(Some((512, 512))) && is_preview(Some((1024, 200))));
+        assert!(!is_preview(Some((513, 512))) && !is_preview(Some((1024, 1024))) && !is_preview(None));
+    }
+
+    #[test]
+    fn the_mapping_of_a_heap_block_is_found_and_holds_it() {
+        let block = Box::new([7u8; 4096]);
+        let address = block.as_ptr() as usize;
+        let (start, end) = mapping_containing(address).expect("a heap block is mapped");
+        assert!(start <= address && address + 4096 <= end);
+        assert!(mapping_containing(0).is_none(), "nothing is mapped at 0");
+    }
 }
