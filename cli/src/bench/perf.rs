@@ -186,6 +186,12 @@ fn blender_group(focuses: &[Focus], out: &Path, side: usize, repeats: usize) -> 
             let steps: Vec<String> = names.iter().map(|&step| format!("{step} {:.1}", steps[step].as_f64().unwrap_or(f64::NAN))).collect();
             println!("  inside the {what} process, medians (ms; the device opens beside read and layering): {}", steps.join(", "));
         }
+        let usage = |field: &str| r.flat_process.get(field).and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+        println!(
+            "  the flat process, medians: peak resident {:.1} MiB, page faults {:.0}",
+            usage("peak_resident_mib"),
+            usage("page_faults")
+        );
         for b in &r.blenders {
             println!(
                 "  Blender {} Defocus ({:?}) compositing median {:.3} s (process {:.1} s); ratio {:.3} (goal <= 0.5), \

@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-use super::end_to_end::{median_steps, run_render_process};
+use super::end_to_end::{median_fields, median_steps, run_render_process};
 use super::large::{layered_stack, Focus};
 use super::perf::median;
 use lensblur::camera::PhysicalCamera;
@@ -201,6 +201,9 @@ pub struct BlenderComparison {
     pub flat_median_seconds: f64,
     /// The same steps for those: where a one-shot process of one image goes (issue 43).
     pub flat_steps_ms: serde_json::Map<String, serde_json::Value>,
+    /// The medians of the flat file's processes' peak resident memory and page faults (their
+    /// `--json` `process`).
+    pub flat_process: serde_json::Map<String, serde_json::Value>,
     pub lensblur_png: PathBuf,
 }
 
@@ -350,6 +353,7 @@ pub fn compare_with_blender(exe: &Path, dir: &Path, focus: Focus, side: usize, r
         flat_seconds,
         flat_median_seconds,
         flat_steps_ms: median_steps(&flat_reports),
+        flat_process: median_fields(&flat_reports, "process"),
         lensblur_png: ours_png,
     })
 }

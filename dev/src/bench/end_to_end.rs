@@ -87,13 +87,19 @@ pub fn time_render_process(exe: &Path, input: &Path, args: &[String], output: &P
 /// The median over `reports` of each step of their `timings_ms` (read, layering, device_open,
 /// ...), in the first report's order.
 pub fn median_steps(reports: &[serde_json::Value]) -> serde_json::Map<String, serde_json::Value> {
-    let steps = reports.first().and_then(|r| r["timings_ms"].as_object()).map(|o| o.keys().cloned().collect::<Vec<_>>());
-    steps
+    median_fields(reports, "timings_ms")
+}
+
+/// The median over `reports` of each number in their object `key` (`timings_ms`, or `process`:
+/// peak resident memory and page faults), in the first report's order.
+pub fn median_fields(reports: &[serde_json::Value], key: &str) -> serde_json::Map<String, serde_json::Value> {
+    let fields = reports.first().and_then(|r| r[key].as_object()).map(|o| o.keys().cloned().collect::<Vec<_>>());
+    fields
         .unwrap_or_default()
         .into_iter()
-        .map(|key| {
-            let mut values: Vec<f64> = reports.iter().filter_map(|r| r["timings_ms"][&key].as_f64()).collect();
-            (key, serde_json::Value::from(median(&mut values)))
+        .map(|field| {
+            let mut values: Vec<f64> = reports.iter().filter_map(|r| r[key][&field].as_f64()).collect();
+            (field, serde_json::Value::from(median(&mut values)))
         })
         .collect()
 }
