@@ -141,15 +141,12 @@ pub fn usage() -> Option<ProcessUsage> {
     let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
     // SAFETY: getrusage fills the structure it is given, which is read only when it succeeded.
     let usage = unsafe { (libc::getrusage(libc::RUSAGE_SELF, usage.as_mut_ptr()) == 0).then(|| usage.assume_init())? };
-    // The peak from the kernel's high-water mark of this program's memory: Linux carries
-    // `ru_maxrss` over from the process that started it (a benchmark's 87 MiB for a render that
-    // peaked at 40). Elsewhere `ru_maxrss`, in KiB on the BSDs.
-    let peak_kib = std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|status| status.lines().find_map(|l| l.strip_prefix("VmHWM:")?.trim().strip_suffix("kB")?.trim().parse::<f64>().ok()))
-        .unwrap_or(usage.ru_maxrss as f64);
+    // The peak from the kernel's high-water mark of this program's memory (VmHWM, as the
+    // benchmarks read it): Linux carries `ru_maxrss` over from the process that started it (a
+    // benchmark's 87 MiB for a render that peaked at 40). Elsewhere `ru_maxrss`, in KiB on the BSDs.
+    let peak_bytes = lensblur_dev::bench::large::peak_resident_bytes().map_or(usage.ru_maxrss as f64 * 1024.0, |b| b as f64);
     Some(ProcessUsage {
-        peak_resident_mib: peak_kib / 1024.0,
+        peak_resident_mib: peak_bytes / (1024.0 * 1024.0),
         page_faults: u64::try_from(usage.ru_minflt + usage.ru_majflt).unwrap_or(0),
     })
 }
