@@ -101,12 +101,14 @@ fn main() -> std::process::ExitCode {
     quiet_on_closed_pipe();
     memory::keep_freed_memory_for_reuse();
     let cli = version::parse();
-    // Before any other thread starts: the thread pool's workers make their heaps as advised.
-    if let Command::Render(args) = &cli.command {
-        if args.frames.is_none() {
-            memory::advise_huge_pages_for_preview(lensblur::input::declared_frame_size(&args.input));
-        }
-    }
+    // A one-file render's frame size, read from its header once: the memory advice takes it
+    // before any other thread starts (the pool's workers make their heaps as advised), and the
+    // render places its work by it.
+    let render_frame = match &cli.command {
+        Command::Render(args) if args.frames.is_none() => lensblur::input::declared_frame_size(&args.input),
+        _ => None,
+    };
+    memory::advise_huge_pages_for_preview(render_frame);
     // Ctrl-C, SIGTERM, SIGHUP: outputs appear by rename only when complete; remove any
     // temporary being written, and keep every writer from renaming until the process exits.
     let _ = ctrlc::set_handler(|| {
@@ -127,7 +129,7 @@ fn main() -> std::process::ExitCode {
         // A frame range renders a shot (render_sequence builds on render's steps), else one file.
         Command::Render(args) => match args.frames.clone() {
             Some(frames) => render_sequence::run(&args, &frames),
-            None => render::run(*args),
+            None => render::run(*args, render_frame),
         },
         Command::Example(args) => example::run(args),
         Command::Grad(args) => grad::run(args),

@@ -182,7 +182,9 @@ struct Timings {
 }
 
 /// Renders one file (`render_sequence::run` renders a frame range with the same steps).
-pub fn run(args: Args) -> anyhow::Result<()> {
+/// `declared_frame`: the input's frame size from its header (`input::declared_frame_size`), as
+/// `main` read it.
+pub fn run(args: Args, declared_frame: Option<(usize, usize)>) -> anyhow::Result<()> {
     refuse_frame_pattern_without_frames(&args.input)?;
     let total = Instant::now();
     let inputs = input_files(&args.input, &args.input_args, &args.camera);
@@ -200,7 +202,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let opening = scope.spawn(|| {
             let start = Instant::now();
             // A small frame may render on the CPU without a device (`RenderJob::place_frame`).
-            let ctx = open_device(&job, lensblur::input::declared_frame_size(&args.input));
+            let ctx = open_device(&job, declared_frame);
             let device_open = start.elapsed();
             if let Ok(Some(ctx)) = &ctx {
                 // A failure here is the render's to report, in its own words: it compiles
